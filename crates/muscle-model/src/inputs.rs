@@ -1,0 +1,232 @@
+//! Trial inputs (ankle angle and normalised EMG envelopes on a uniform grid) and their
+//! interpolation between samples.
+//!
+//! Between samples the angle is a cubic Hermite interpolant whose node slopes are central
+//! differences (one-sided at the ends), so `q(t)` is C¹ and `q̇(t)` is its exact derivative;
+//! envelopes are interpolated linearly. Times outside the trial are clamped to its ends.
+
+use crate::error::ModelError;
+use crate::params::Muscle;
+
+/// Half-width of the central second difference used for `q̈` (inertia effect), in seconds.
+pub const ACCEL_HALF_WINDOW_S: f64 = 0.005;
+
+/// Validated inputs of one trial, with derived velocity and acceleration at the samples.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TrialInputs {
+    fs: f64,
+    t0: f64,
+    times: Vec<f64>,
+    angle: Vec<f64>,
+    velocity: Vec<f64>,
+    acceleration: Vec<f64>,
+    env: [Vec<f64>; 3],
+    env_ta: Option<Vec<f64>>,
+}
+
+impl TrialInputs {
+    /// Builds validated inputs.
+    ///
+    /// * `fs`: sampling rate (Hz), positive;
+    /// * `t0`: time of the first sample (s);
+    /// * `angle_rad`: ankle angle (rad, dorsiflexion > 0), at least 2 finite samples;
+    /// * `env`: normalised envelopes of `sol`, `gm`, `gl` (same length; clamped to `[0, 1]`);
+    /// * `env_ta`: optional normalised tibialis-anterior envelope (for
+    ///   `antagonist_coactivation`).
+    pub fn new(
+        fs: f64,
+        t0: f64,
+        angle_rad: Vec<f64>,
+        env: [Vec<f64>; 3],
+        env_ta: Option<Vec<f64>>,
+    ) -> Result<Self, ModelError> {
+        if !(fs.is_finite() && fs > 0.0) {
+            return Err(ModelError::input("fs", format!("{fs} must be positive")));
+        }
+        if !t0.is_finite() {
+            return Err(ModelError::input("t0", "must be finite"));
+        }
+        let n = angle_rad.len();
+        if n < 2 {
+            return Err(ModelError::input("angle_rad", "needs at least 2 samples"));
+        }
+        if let Some(i) = angle_rad.iter().position(|x| !x.is_finite()) {
+            return Err(ModelError::input(
+                "angle_rad",
+                format!("non-finite value at sample {i}"),
+            ));
+        }
+        let mut env = env;
+        for m in Muscle::ALL {
+            check_env(&mut env[m.index()], n, &format!("env[{}]", m.name()))?;
+        }
+        let mut env_ta = env_ta;
+        if let Some(e) = env_ta.as_mut() {
+            check_env(e, n, "env_ta")?;
+        }
+        let times = (0..n).map(|i| t0 + i as f64 / fs).collect();
+        let mut velocity = vec![0.0; n];
+        for i in 0..n {
+            velocity[i] = if i == 0 {
+                (angle_rad[1] - angle_rad[0]) * fs
+            } else if i == n - 1 {
+                (angle_rad[n - 1] - angle_rad[n - 2]) * fs
+            } else {
+                0.5 * (angle_rad[i + 1] - angle_rad[i - 1]) * fs
+            };
+        }
+        let kmax = ((ACCEL_HALF_WINDOW_S * fs).round() as usize).max(1);
+        let mut acceleration = vec![0.0; n];
+        for i in 0..n {
+            let k = kmax.min(i).min(n - 1 - i);
+            if k > 0 {
+                let h = k as f64 / fs;
+                acceleration[i] =
+                    (angle_rad[i + k] - 2.0 * angle_rad[i] + angle_rad[i - k]) / (h * h);
+            }
+        }
+        // ends: copy the nearest interior value
+        if n > 2 {
+            acceleration[0] = acceleration[1];
+            acceleration[n - 1] = acceleration[n - 2];
+        }
+        Ok(TrialInputs {
+            fs,
+            t0,
+            times,
+            angle: angle_rad,
+            velocity,
+            acceleration,
+            env,
+            env_ta,
+        })
+    }
+
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.angle.len()
+    }
+
+    /// Always `false` (at least 2 samples are required).
+    pub fn is_empty(&self) -> bool {
+        self.angle.is_empty()
+    }
+
+    /// Sampling rate (Hz).
+    pub fn fs(&self) -> f64 {
+        self.fs
+    }
+
+    /// Time of the first sample (s).
+    pub fn t0(&self) -> f64 {
+        self.t0
+    }
+
+    /// Sample times `t0 + i/fs` (s).
+    pub fn times(&self) -> &[f64] {
+        &self.times
+    }
+
+    /// Ankle angle at the samples (rad).
+    pub fn angle(&self) -> &[f64] {
+        &self.angle
+    }
+
+    /// Angular velocity at the samples (rad/s; central differences).
+    pub fn velocity(&self) -> &[f64] {
+        &self.velocity
+    }
+
+    /// Angular acceleration at the samples (rad/s², central second difference over
+    /// ±[`ACCEL_HALF_WINDOW_S`]).
+    pub fn acceleration(&self) -> &[f64] {
+        &self.acceleration
+    }
+
+    /// Normalised envelope of muscle `m` at the samples.
+    pub fn envelope(&self, m: Muscle) -> &[f64] {
+        &self.env[m.index()]
+    }
+
+    /// Normalised tibialis-anterior envelope, if given.
+    pub fn envelope_ta(&self) -> Option<&[f64]> {
+        self.env_ta.as_deref()
+    }
+
+    #[inline]
+    fn locate(&self, t: f64) -> (usize, f64) {
+        let n = self.angle.len();
+        let x = ((t - self.t0) * self.fs).clamp(0.0, (n - 1) as f64);
+        let i = (x.floor() as usize).min(n - 2);
+        (i, x - i as f64)
+    }
+
+    /// Angle and angular velocity at time `t` (cubic Hermite interpolation).
+    #[inline]
+    pub fn angle_at(&self, t: f64) -> (f64, f64) {
+        let (i, s) = self.locate(t);
+        let dt = 1.0 / self.fs;
+        let (q0, q1) = (self.angle[i], self.angle[i + 1]);
+        let (m0, m1) = (self.velocity[i], self.velocity[i + 1]);
+        let s2 = s * s;
+        let s3 = s2 * s;
+        let q = (2.0 * s3 - 3.0 * s2 + 1.0) * q0
+            + (s3 - 2.0 * s2 + s) * dt * m0
+            + (-2.0 * s3 + 3.0 * s2) * q1
+            + (s3 - s2) * dt * m1;
+        let qd = (6.0 * s2 - 6.0 * s) * (q0 - q1) * self.fs
+            + (3.0 * s2 - 4.0 * s + 1.0) * m0
+            + (3.0 * s2 - 2.0 * s) * m1;
+        (q, qd)
+    }
+
+    /// Angle at time `t` (cubic Hermite interpolation; cheaper than [`TrialInputs::angle_at`]).
+    #[inline]
+    pub fn angle_value_at(&self, t: f64) -> f64 {
+        let (i, s) = self.locate(t);
+        let dt = 1.0 / self.fs;
+        let s2 = s * s;
+        let s3 = s2 * s;
+        (2.0 * s3 - 3.0 * s2 + 1.0) * self.angle[i]
+            + (s3 - 2.0 * s2 + s) * dt * self.velocity[i]
+            + (-2.0 * s3 + 3.0 * s2) * self.angle[i + 1]
+            + (s3 - s2) * dt * self.velocity[i + 1]
+    }
+
+    /// Envelope of muscle index `j` (0..3) at time `t` (linear interpolation).
+    #[inline]
+    pub fn envelope_at(&self, j: usize, t: f64) -> f64 {
+        lerp(&self.env[j], self.locate(t))
+    }
+
+    /// TA envelope at time `t`, if given.
+    #[inline]
+    pub fn envelope_ta_at(&self, t: f64) -> Option<f64> {
+        self.env_ta.as_ref().map(|e| lerp(e, self.locate(t)))
+    }
+}
+
+#[inline]
+fn lerp(v: &[f64], (i, s): (usize, f64)) -> f64 {
+    v[i] + s * (v[i + 1] - v[i])
+}
+
+fn check_env(e: &mut [f64], n: usize, what: &str) -> Result<(), ModelError> {
+    if e.len() != n {
+        return Err(ModelError::Length {
+            what: what.to_string(),
+            expected: n,
+            got: e.len(),
+        });
+    }
+    for (i, x) in e.iter_mut().enumerate() {
+        if !x.is_finite() {
+            return Err(ModelError::input(
+                what,
+                format!("non-finite value at sample {i}"),
+            ));
+        }
+        *x = x.clamp(0.0, 1.0);
+    }
+    Ok(())
+}

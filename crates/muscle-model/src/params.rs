@@ -1,0 +1,450 @@
+//! Model parameters (SPEC §5 JSON), nominal values (SPEC §3), strict merge and validation.
+
+use crate::error::ModelError;
+use serde::{Deserialize, Serialize};
+use serde_json::{Map, Value};
+
+/// The three muscles of the triceps surae.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Muscle {
+    /// Soleus.
+    Sol,
+    /// Gastrocnemius medialis.
+    Gm,
+    /// Gastrocnemius lateralis.
+    Gl,
+}
+
+impl Muscle {
+    /// All muscles in array order (`sol`, `gm`, `gl`).
+    pub const ALL: [Muscle; 3] = [Muscle::Sol, Muscle::Gm, Muscle::Gl];
+
+    /// Short name used in files: `sol`, `gm`, `gl`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Muscle::Sol => "sol",
+            Muscle::Gm => "gm",
+            Muscle::Gl => "gl",
+        }
+    }
+
+    /// Index into per-muscle arrays.
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
+    /// Parses `sol`, `gm` or `gl`.
+    pub fn from_name(s: &str) -> Option<Muscle> {
+        Muscle::ALL.into_iter().find(|m| m.name() == s)
+    }
+}
+
+impl std::fmt::Display for Muscle {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Parameters of one musculotendon unit.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct MuscleParams {
+    /// Maximum isometric force `F0` (N).
+    pub fom_n: f64,
+    /// Optimal fibre length `LOM` (m).
+    pub lom_m: f64,
+    /// Tendon slack length `LST` (m).
+    pub lst_m: f64,
+    /// Pennation angle at optimal fibre length `α0` (degrees).
+    pub alpha_deg: f64,
+    /// Maximum shortening velocity in optimal lengths per second (`vmax = this·LOM`).
+    pub vmax_lom_per_s: f64,
+    /// Musculotendon length polynomial `c0 + c1 q + c2 q² + c3 q³` (m, q in rad).
+    pub lmt_poly_m: [f64; 4],
+}
+
+/// Activation dynamics and nonlinearity parameters.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct ActivationParams {
+    /// Activation time constant τact (s).
+    pub tau_act_s: f64,
+    /// Deactivation time constant τdeact (s).
+    pub tau_deact_s: f64,
+    /// Manal–Buchanan shape `A` in `[0, 0.12]` (0 = identity).
+    pub shape_a: f64,
+}
+
+/// Normalised curve parameters shared by the three muscles.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct CurveParams {
+    /// Force–velocity concentric curvature `Af`.
+    pub af: f64,
+    /// Eccentric force plateau `Flen` (≥ 1).
+    pub flen: f64,
+    /// Active force–length width `γ`.
+    pub gamma: f64,
+    /// Passive fibre exponential shape `kPE`.
+    pub kpe: f64,
+    /// Passive fibre strain at unit force `e0M`.
+    pub e0m: f64,
+    /// Tendon strain at unit force `ε0`.
+    pub e0t: f64,
+    /// Fibre damping `β` (> 0).
+    pub damping: f64,
+}
+
+impl Default for ActivationParams {
+    fn default() -> Self {
+        ActivationParams {
+            tau_act_s: 0.015,
+            tau_deact_s: 0.050,
+            shape_a: 0.08,
+        }
+    }
+}
+
+impl Default for CurveParams {
+    fn default() -> Self {
+        CurveParams {
+            af: 0.25,
+            flen: 1.4,
+            gamma: 0.45,
+            kpe: 5.0,
+            e0m: 0.6,
+            e0t: 0.04,
+            damping: 0.1,
+        }
+    }
+}
+
+impl MuscleParams {
+    /// Nominal values of SPEC §3 for `m`.
+    pub fn nominal(m: Muscle) -> Self {
+        let (fom_n, lom_m, lst_m, alpha_deg, lmt_poly_m) = match m {
+            Muscle::Sol => (
+                3549.0,
+                0.050,
+                0.250,
+                25.0,
+                [0.29139, 0.04535, -0.00752, -0.00633],
+            ),
+            Muscle::Gm => (
+                1558.0,
+                0.060,
+                0.390,
+                17.0,
+                [0.45070, 0.04628, -0.00514, -0.00708],
+            ),
+            Muscle::Gl => (
+                683.0,
+                0.064,
+                0.380,
+                8.0,
+                [0.44706, 0.04720, -0.00564, -0.00717],
+            ),
+        };
+        MuscleParams {
+            fom_n,
+            lom_m,
+            lst_m,
+            alpha_deg,
+            vmax_lom_per_s: 10.0,
+            lmt_poly_m,
+        }
+    }
+
+    /// Musculotendon length `LMT(q)` (m).
+    #[inline]
+    pub fn lmt(&self, q: f64) -> f64 {
+        crate::geometry::lmt(&self.lmt_poly_m, q)
+    }
+
+    /// Moment arm `r(q) = dLMT/dq` (m).
+    #[inline]
+    pub fn moment_arm(&self, q: f64) -> f64 {
+        crate::geometry::moment_arm(&self.lmt_poly_m, q)
+    }
+
+    fn validate(&self, m: Muscle) -> Result<(), ModelError> {
+        let key = |k: &str| format!("muscles.{}.{k}", m.name());
+        for (k, v) in [
+            ("fom_n", self.fom_n),
+            ("lom_m", self.lom_m),
+            ("lst_m", self.lst_m),
+            ("vmax_lom_per_s", self.vmax_lom_per_s),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(ModelError::invalid(
+                    key(k),
+                    format!("{v} must be positive and finite"),
+                ));
+            }
+        }
+        let a = self.alpha_deg;
+        if !(a.is_finite() && (0.0..60.0).contains(&a)) {
+            return Err(ModelError::invalid(
+                key("alpha_deg"),
+                format!("{a} is outside [0, 60) degrees"),
+            ));
+        }
+        for (i, c) in self.lmt_poly_m.iter().enumerate() {
+            if !c.is_finite() {
+                return Err(ModelError::invalid(
+                    key(&format!("lmt_poly_m[{i}]")),
+                    "must be finite",
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+fn positive(key: &str, v: f64) -> Result<(), ModelError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(ModelError::invalid(
+            key,
+            format!("{v} must be positive and finite"),
+        ))
+    }
+}
+
+/// All parameters of the triceps-surae model.
+///
+/// Serialises to the SPEC §5 JSON. Deserialising accepts any subset of that JSON and merges it
+/// over the nominal values (same as [`ModelParams::from_json_str`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ModelParams {
+    /// Per muscle, indexed by [`Muscle::index`] (`sol`, `gm`, `gl`).
+    pub muscles: [MuscleParams; 3],
+    /// Activation parameters.
+    pub activation: ActivationParams,
+    /// Curve parameters.
+    pub curves: CurveParams,
+}
+
+impl Default for ModelParams {
+    fn default() -> Self {
+        Self::nominal()
+    }
+}
+
+const MUSCLE_KEYS: [&str; 6] = [
+    "fom_n",
+    "lom_m",
+    "lst_m",
+    "alpha_deg",
+    "vmax_lom_per_s",
+    "lmt_poly_m",
+];
+const ACTIVATION_KEYS: [&str; 3] = ["tau_act_s", "tau_deact_s", "shape_a"];
+const CURVE_KEYS: [&str; 7] = ["af", "flen", "gamma", "kpe", "e0m", "e0t", "damping"];
+
+impl ModelParams {
+    /// The nominal parameters of SPEC §3.
+    pub fn nominal() -> Self {
+        ModelParams {
+            muscles: Muscle::ALL.map(MuscleParams::nominal),
+            activation: ActivationParams::default(),
+            curves: CurveParams::default(),
+        }
+    }
+
+    /// The parameters of muscle `m`.
+    pub fn muscle(&self, m: Muscle) -> &MuscleParams {
+        &self.muscles[m.index()]
+    }
+
+    /// Mutable parameters of muscle `m`.
+    pub fn muscle_mut(&mut self, m: Muscle) -> &mut MuscleParams {
+        &mut self.muscles[m.index()]
+    }
+
+    /// Parses a (partial) parameters JSON document and merges it over the nominal values.
+    pub fn from_json_str(s: &str) -> Result<Self, ModelError> {
+        Self::nominal().merged_json_str(s)
+    }
+
+    /// Merges a (partial) parameters JSON document over `self`, then validates.
+    pub fn merged_json_str(&self, s: &str) -> Result<Self, ModelError> {
+        let v: Value = serde_json::from_str(s).map_err(|e| ModelError::Json {
+            message: e.to_string(),
+        })?;
+        self.merged_json(&v)
+    }
+
+    /// Merges a (partial) parameters JSON value over `self`, then validates.
+    ///
+    /// Unknown keys, unknown muscles, non-numbers and non-physical values are errors naming
+    /// the key (e.g. `muscles.sol.lst_m`).
+    pub fn merged_json(&self, v: &Value) -> Result<Self, ModelError> {
+        let mut out = *self;
+        let top = as_object(v, "(top level)")?;
+        for (k, val) in top {
+            match k.as_str() {
+                "muscles" => {
+                    let ms = as_object(val, "muscles")?;
+                    for (mk, mv) in ms {
+                        let m = Muscle::from_name(mk).ok_or_else(|| ModelError::UnknownKey {
+                            key: format!("muscles.{mk}"),
+                            expected: "sol, gm, gl".into(),
+                        })?;
+                        let prefix = format!("muscles.{mk}");
+                        let fields = as_object(mv, &prefix)?;
+                        let mp = &mut out.muscles[m.index()];
+                        for (fk, fv) in fields {
+                            let key = format!("{prefix}.{fk}");
+                            match fk.as_str() {
+                                "fom_n" => mp.fom_n = number(fv, &key)?,
+                                "lom_m" => mp.lom_m = number(fv, &key)?,
+                                "lst_m" => mp.lst_m = number(fv, &key)?,
+                                "alpha_deg" => mp.alpha_deg = number(fv, &key)?,
+                                "vmax_lom_per_s" => mp.vmax_lom_per_s = number(fv, &key)?,
+                                "lmt_poly_m" => {
+                                    let arr = fv.as_array().ok_or_else(|| {
+                                        ModelError::invalid(&key, "expected an array of 4 numbers")
+                                    })?;
+                                    if arr.len() != 4 {
+                                        return Err(ModelError::invalid(
+                                            &key,
+                                            format!("expected 4 coefficients, got {}", arr.len()),
+                                        ));
+                                    }
+                                    for (i, c) in arr.iter().enumerate() {
+                                        mp.lmt_poly_m[i] = number(c, &format!("{key}[{i}]"))?;
+                                    }
+                                }
+                                _ => return Err(unknown(&key, &MUSCLE_KEYS)),
+                            }
+                        }
+                    }
+                }
+                "activation" => {
+                    let fields = as_object(val, "activation")?;
+                    for (fk, fv) in fields {
+                        let key = format!("activation.{fk}");
+                        let slot = match fk.as_str() {
+                            "tau_act_s" => &mut out.activation.tau_act_s,
+                            "tau_deact_s" => &mut out.activation.tau_deact_s,
+                            "shape_a" => &mut out.activation.shape_a,
+                            _ => return Err(unknown(&key, &ACTIVATION_KEYS)),
+                        };
+                        *slot = number(fv, &key)?;
+                    }
+                }
+                "curves" => {
+                    let fields = as_object(val, "curves")?;
+                    for (fk, fv) in fields {
+                        let key = format!("curves.{fk}");
+                        let slot = match fk.as_str() {
+                            "af" => &mut out.curves.af,
+                            "flen" => &mut out.curves.flen,
+                            "gamma" => &mut out.curves.gamma,
+                            "kpe" => &mut out.curves.kpe,
+                            "e0m" => &mut out.curves.e0m,
+                            "e0t" => &mut out.curves.e0t,
+                            "damping" => &mut out.curves.damping,
+                            _ => return Err(unknown(&key, &CURVE_KEYS)),
+                        };
+                        *slot = number(fv, &key)?;
+                    }
+                }
+                _ => return Err(unknown(k, &["muscles", "activation", "curves"])),
+            }
+        }
+        out.validate()?;
+        Ok(out)
+    }
+
+    /// Checks every value is physical; the error names the first offending key.
+    ///
+    /// Rules: forces, lengths, `vmax`, time constants, `Af`, `γ`, `kPE`, `e0M`, `ε0` and the
+    /// damping `β` are positive; `α0 ∈ [0°, 60°)`; `A ∈ [0, 0.12]`; `Flen ∈ [1, 10]`.
+    pub fn validate(&self) -> Result<(), ModelError> {
+        for m in Muscle::ALL {
+            self.muscles[m.index()].validate(m)?;
+        }
+        positive("activation.tau_act_s", self.activation.tau_act_s)?;
+        positive("activation.tau_deact_s", self.activation.tau_deact_s)?;
+        let a = self.activation.shape_a;
+        if !(a.is_finite() && (0.0..=0.12).contains(&a)) {
+            return Err(ModelError::invalid(
+                "activation.shape_a",
+                format!("{a} is outside [0, 0.12]"),
+            ));
+        }
+        let c = &self.curves;
+        positive("curves.af", c.af)?;
+        positive("curves.gamma", c.gamma)?;
+        positive("curves.kpe", c.kpe)?;
+        positive("curves.e0m", c.e0m)?;
+        positive("curves.e0t", c.e0t)?;
+        positive("curves.damping", c.damping)?;
+        if !(c.flen.is_finite() && (1.0..=10.0).contains(&c.flen)) {
+            return Err(ModelError::invalid(
+                "curves.flen",
+                format!("{} is outside [1, 10]", c.flen),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The SPEC §5 JSON value of these parameters (all keys).
+    pub fn to_json_value(&self) -> Value {
+        serde_json::to_value(self).unwrap_or(Value::Null)
+    }
+}
+
+impl Serialize for ModelParams {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        #[derive(Serialize)]
+        struct Muscles<'a> {
+            sol: &'a MuscleParams,
+            gm: &'a MuscleParams,
+            gl: &'a MuscleParams,
+        }
+        #[derive(Serialize)]
+        struct Out<'a> {
+            muscles: Muscles<'a>,
+            activation: &'a ActivationParams,
+            curves: &'a CurveParams,
+        }
+        Out {
+            muscles: Muscles {
+                sol: &self.muscles[0],
+                gm: &self.muscles[1],
+                gl: &self.muscles[2],
+            },
+            activation: &self.activation,
+            curves: &self.curves,
+        }
+        .serialize(s)
+    }
+}
+
+impl<'de> Deserialize<'de> for ModelParams {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let v = Value::deserialize(d)?;
+        ModelParams::nominal()
+            .merged_json(&v)
+            .map_err(serde::de::Error::custom)
+    }
+}
+
+fn as_object<'a>(v: &'a Value, key: &str) -> Result<&'a Map<String, Value>, ModelError> {
+    v.as_object()
+        .ok_or_else(|| ModelError::invalid(key, "expected a JSON object"))
+}
+
+fn number(v: &Value, key: &str) -> Result<f64, ModelError> {
+    v.as_f64()
+        .ok_or_else(|| ModelError::invalid(key, format!("expected a number, got {v}")))
+}
+
+fn unknown(key: &str, expected: &[&str]) -> ModelError {
+    ModelError::UnknownKey {
+        key: key.to_string(),
+        expected: expected.join(", "),
+    }
+}

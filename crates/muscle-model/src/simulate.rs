@@ -1,0 +1,487 @@
+//! Simulation of a trial: each muscle's ODE integrated with Dormand–Prince 5(4), torque at every
+//! sample (dissertation eq. 7) plus the SPEC §6 joint-level effects.
+
+use crate::effects::Effects;
+use crate::error::ModelError;
+use crate::inputs::TrialInputs;
+use crate::params::{ModelParams, Muscle};
+use crate::unit::{MuscleUnit, IX_FT, STATE_DIM};
+use ode::{AdaptiveSettings, OdeSystem};
+use serde::{Deserialize, Serialize};
+
+/// Integration settings of a simulation.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SimSettings {
+    /// Relative tolerance of the Dormand–Prince error control.
+    pub rtol: f64,
+    /// Absolute tolerance (state units: activation, normalised force, metres).
+    pub atol: f64,
+    /// Largest step (s).
+    pub h_max: f64,
+    /// Step limit per muscle.
+    pub max_steps: usize,
+    /// Keep the per-sample states in [`SimOutput::states`].
+    pub record_states: bool,
+    /// Which (mathematically equivalent) form of the ODE is integrated.
+    pub formulation: Formulation,
+}
+
+/// How the SPEC §3 system is integrated. Both have the same exact solution; they differ in
+/// how integration error behaves.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Formulation {
+    /// The four states `[a, F̃T, LM, LMT]` integrated as written in SPEC §3, driven by
+    /// `vMT = r(q)·q̇`. Integration error makes `LMT` drift from `LMT(q)` and `F̃T` from
+    /// `fT(ε)`, and a step that misses a fast feature of `q̇` (quantised or noisy angle data)
+    /// leaves a lasting error.
+    FourState,
+    /// Only `a` and `LM` are integrated; `LMT = LMT(q(t))` and `F̃T = fT(ε(LMT, LM))` are
+    /// evaluated from the invariants, so they hold exactly and `q̇` is not needed. Robust to
+    /// quantised or noisy angles (default).
+    #[default]
+    Reduced,
+}
+
+impl Default for SimSettings {
+    /// `rtol = 1e-6`, `atol = 1e-8`, `h_max = 10 ms`, reduced formulation: 2e-4 … 6e-4 N·m RMS
+    /// from a `rtol = 1e-10` run on the seed-like trial (see `docs/model.md`).
+    fn default() -> Self {
+        SimSettings {
+            rtol: 1e-6,
+            atol: 1e-8,
+            h_max: 0.01,
+            max_steps: 1_000_000,
+            record_states: false,
+            formulation: Formulation::Reduced,
+        }
+    }
+}
+
+impl SimSettings {
+    /// Tight settings for reference runs (`rtol = 1e-10`, `atol = 1e-12`).
+    pub fn tight() -> Self {
+        SimSettings {
+            rtol: 1e-10,
+            atol: 1e-12,
+            ..SimSettings::default()
+        }
+    }
+
+    /// The same settings with states recorded.
+    #[must_use]
+    pub fn with_states(mut self) -> Self {
+        self.record_states = true;
+        self
+    }
+
+    fn adaptive(&self) -> AdaptiveSettings {
+        AdaptiveSettings {
+            rtol: self.rtol,
+            atol: self.atol,
+            h_max: self.h_max,
+            max_steps: self.max_steps,
+            ..AdaptiveSettings::default()
+        }
+    }
+}
+
+/// Integrator work of one muscle.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SimStats {
+    /// Accepted steps.
+    pub accepted: usize,
+    /// Rejected steps.
+    pub rejected: usize,
+    /// Right-hand-side evaluations.
+    pub rhs_calls: usize,
+}
+
+impl From<ode::Stats> for SimStats {
+    fn from(s: ode::Stats) -> Self {
+        SimStats {
+            accepted: s.accepted,
+            rejected: s.rejected,
+            rhs_calls: s.rhs_calls,
+        }
+    }
+}
+
+/// Result of a simulation, one value per input sample.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SimOutput {
+    /// Sample times (s).
+    pub time: Vec<f64>,
+    /// Total joint torque including effects (N·m, plantarflexion > 0).
+    pub torque: Vec<f64>,
+    /// Torque of each muscle `F̃T·F0·r(q)` (N·m), indexed by [`Muscle::index`].
+    pub torque_muscle: [Vec<f64>; 3],
+    /// Sum of the joint-level effect torques (offset, passive, gravity, damping, inertia,
+    /// antagonist) (N·m).
+    pub torque_effects: Vec<f64>,
+    /// Per muscle, per sample state `[a, F̃T, LM, LMT, ∫â]` (with
+    /// [`SimSettings::record_states`]).
+    pub states: Option<[Vec<[f64; STATE_DIM]>; 3]>,
+    /// TA activation `a_TA` at the samples when `antagonist_coactivation` is active.
+    pub activation_ta: Option<Vec<f64>>,
+    /// Integrator statistics per muscle.
+    pub stats: [SimStats; 3],
+}
+
+impl SimOutput {
+    /// Total integrator statistics.
+    pub fn total_stats(&self) -> SimStats {
+        let mut t = SimStats::default();
+        for s in &self.stats {
+            t.accepted += s.accepted;
+            t.rejected += s.rejected;
+            t.rhs_calls += s.rhs_calls;
+        }
+        t
+    }
+}
+
+/// Reusable scratch memory for [`simulate_into`] (one per thread).
+#[derive(Clone, Debug, Default)]
+pub struct Workspace {
+    torque_muscle: [Vec<f64>; 3],
+    ta: Vec<f64>,
+}
+
+impl Workspace {
+    /// An empty workspace (grows on first use).
+    pub fn new() -> Self {
+        Workspace::default()
+    }
+
+    /// Per-muscle torques of the last [`simulate_into`] call.
+    pub fn torque_muscle(&self) -> &[Vec<f64>; 3] {
+        &self.torque_muscle
+    }
+}
+
+struct UnitSystem<'a> {
+    unit: &'a MuscleUnit,
+    inputs: &'a TrialInputs,
+    j: usize,
+    delay: f64,
+    reduced: bool,
+}
+
+impl OdeSystem<STATE_DIM> for UnitSystem<'_> {
+    #[inline]
+    fn rhs(&mut self, t: f64, y: &[f64; STATE_DIM], dydt: &mut [f64; STATE_DIM]) {
+        let u = self.inputs.envelope_at(self.j, t - self.delay);
+        if self.reduced {
+            let q = self.inputs.angle_value_at(t);
+            self.unit.derivative_reduced(u, q, y, dydt);
+        } else {
+            let (q, qd) = self.inputs.angle_at(t);
+            self.unit.derivative(u, q, qd, y, dydt);
+        }
+    }
+}
+
+struct TaSystem<'a> {
+    inputs: &'a TrialInputs,
+    k1: f64,
+    k2: f64,
+    delay: f64,
+}
+
+impl OdeSystem<1> for TaSystem<'_> {
+    #[inline]
+    fn rhs(&mut self, t: f64, y: &[f64; 1], dydt: &mut [f64; 1]) {
+        let u = self
+            .inputs
+            .envelope_ta_at(t - self.delay)
+            .unwrap_or(0.0)
+            .clamp(0.0, 1.0);
+        dydt[0] = (u - y[0]) * (self.k1 * u + self.k2);
+    }
+}
+
+fn delay_s(effects: &Effects) -> f64 {
+    effects
+        .electromechanical_delay
+        .map_or(0.0, |d| d.delay_ms * 1e-3)
+}
+
+/// Integrates muscle `m` and writes its torque at every sample into `torque`; calls `state`
+/// with every sample's state.
+fn run_muscle(
+    inputs: &TrialInputs,
+    params: &ModelParams,
+    effects: &Effects,
+    settings: &SimSettings,
+    m: Muscle,
+    torque: &mut [f64],
+    mut state: impl FnMut(usize, &[f64; STATE_DIM]),
+) -> Result<SimStats, ModelError> {
+    let unit = MuscleUnit::new(params, m, effects);
+    let delay = delay_s(effects);
+    let t = inputs.times();
+    let j = m.index();
+    let y0 = unit.equilibrium_state(inputs.envelope_at(j, t[0] - delay), inputs.angle()[0]);
+    let reduced = settings.formulation == Formulation::Reduced;
+    let mut sys = UnitSystem {
+        unit: &unit,
+        inputs,
+        j,
+        delay,
+        reduced,
+    };
+    let q = inputs.angle();
+    let stats = ode::dopri5_dense(&mut sys, y0, t, &settings.adaptive(), |i, y| {
+        if reduced {
+            let mut yp = *y;
+            unit.project(q[i], &mut yp);
+            torque[i] = yp[IX_FT] * unit.f0 * unit.moment_arm(q[i]);
+            state(i, &yp);
+        } else {
+            torque[i] = y[IX_FT] * unit.f0 * unit.moment_arm(q[i]);
+            state(i, y);
+        }
+    })
+    .map_err(|source| ModelError::Integration {
+        muscle: m.name(),
+        source,
+    })?;
+    Ok(stats.into())
+}
+
+fn run_ta(
+    inputs: &TrialInputs,
+    params: &ModelParams,
+    effects: &Effects,
+    settings: &SimSettings,
+    out: &mut [f64],
+) -> Result<(), ModelError> {
+    let delay = delay_s(effects);
+    let t = inputs.times();
+    let u0 = inputs
+        .envelope_ta_at(t[0] - delay)
+        .ok_or_else(|| {
+            ModelError::input(
+                "env_ta",
+                "the antagonist_coactivation effect needs a TA envelope (emg_ta)",
+            )
+        })?
+        .clamp(0.0, 1.0);
+    let act = crate::activation::Activation::new(&params.activation);
+    let mut sys = TaSystem {
+        inputs,
+        k1: act.k1,
+        k2: act.k2,
+        delay,
+    };
+    ode::dopri5_dense(&mut sys, [u0], t, &settings.adaptive(), |i, y| {
+        out[i] = y[0]
+    })
+    .map_err(|source| ModelError::Integration {
+        muscle: "ta",
+        source,
+    })?;
+    Ok(())
+}
+
+/// Adds the joint-level effects to `torque` (and returns nothing): offset, passive joint
+/// torque, gravity, viscous damping, inertia and antagonist co-activation (`ta` = `a_TA`).
+fn add_joint_effects(inputs: &TrialInputs, effects: &Effects, ta: &[f64], torque: &mut [f64]) {
+    let q = inputs.angle();
+    let qd = inputs.velocity();
+    let qdd = inputs.acceleration();
+    if let Some(e) = effects.torque_offset {
+        torque.iter_mut().for_each(|t| *t += e.offset_nm);
+    }
+    if let Some(e) = effects.passive_joint_torque {
+        if e.scale_nm != 0.0 {
+            for (t, &qi) in torque.iter_mut().zip(q) {
+                *t += e.scale_nm * (e.stiffness_per_rad * qi).exp_m1();
+            }
+        }
+    }
+    if let Some(e) = effects.gravity {
+        if e.moment_nm != 0.0 {
+            let phi = e.phase_deg.to_radians();
+            for (t, &qi) in torque.iter_mut().zip(q) {
+                *t += e.moment_nm * (qi - phi).sin();
+            }
+        }
+    }
+    if let Some(e) = effects.viscous_damping {
+        if e.b_nm_s_per_rad != 0.0 {
+            for (t, &v) in torque.iter_mut().zip(qd) {
+                *t += e.b_nm_s_per_rad * v;
+            }
+        }
+    }
+    if let Some(e) = effects.inertia {
+        if e.i_kg_m2 != 0.0 {
+            for (t, &acc) in torque.iter_mut().zip(qdd) {
+                *t -= e.i_kg_m2 * acc;
+            }
+        }
+    }
+    if let Some(e) = effects.antagonist_coactivation {
+        if e.gain_nm != 0.0 {
+            for (t, &a) in torque.iter_mut().zip(ta) {
+                *t -= e.gain_nm * a;
+            }
+        }
+    }
+}
+
+fn needs_ta(effects: &Effects) -> bool {
+    effects
+        .antagonist_coactivation
+        .is_some_and(|e| e.gain_nm != 0.0)
+}
+
+fn check(
+    params: &ModelParams,
+    effects: &Effects,
+    settings: &SimSettings,
+) -> Result<(), ModelError> {
+    params.validate()?;
+    effects.validate()?;
+    if !(settings.rtol > 0.0 && settings.atol > 0.0 && settings.h_max > 0.0) {
+        return Err(ModelError::invalid(
+            "settings",
+            "rtol, atol and h_max must be positive",
+        ));
+    }
+    Ok(())
+}
+
+/// Simulates a trial and returns torques (and states with [`SimSettings::record_states`]).
+///
+/// Fails with [`ModelError::InvalidValue`] for invalid parameters or effects, with
+/// [`ModelError::InvalidInput`] when `antagonist_coactivation` is active without a TA envelope,
+/// and with [`ModelError::Integration`] / [`ModelError::NonFinite`] when the simulation fails.
+pub fn simulate(
+    inputs: &TrialInputs,
+    params: &ModelParams,
+    effects: &Effects,
+    settings: &SimSettings,
+) -> Result<SimOutput, ModelError> {
+    check(params, effects, settings)?;
+    let n = inputs.len();
+    let mut torque_muscle: [Vec<f64>; 3] = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+    let mut states: Option<[Vec<[f64; STATE_DIM]>; 3]> = settings
+        .record_states
+        .then(|| std::array::from_fn(|_| vec![[0.0; STATE_DIM]; n]));
+    let mut stats = [SimStats::default(); 3];
+    for m in Muscle::ALL {
+        let j = m.index();
+        let st = states.as_mut().map(|s| &mut s[j]);
+        stats[j] = match st {
+            Some(st) => run_muscle(
+                inputs,
+                params,
+                effects,
+                settings,
+                m,
+                &mut torque_muscle[j],
+                |i, y| st[i] = *y,
+            )?,
+            None => run_muscle(
+                inputs,
+                params,
+                effects,
+                settings,
+                m,
+                &mut torque_muscle[j],
+                |_, _| {},
+            )?,
+        };
+    }
+    let activation_ta = if needs_ta(effects) {
+        let mut ta = vec![0.0; n];
+        run_ta(inputs, params, effects, settings, &mut ta)?;
+        Some(ta)
+    } else {
+        None
+    };
+    let mut torque_effects = vec![0.0; n];
+    add_joint_effects(
+        inputs,
+        effects,
+        activation_ta.as_deref().unwrap_or(&[]),
+        &mut torque_effects,
+    );
+    let torque: Vec<f64> = (0..n)
+        .map(|i| {
+            torque_effects[i] + torque_muscle[0][i] + torque_muscle[1][i] + torque_muscle[2][i]
+        })
+        .collect();
+    if let Some(i) = torque.iter().position(|x| !x.is_finite()) {
+        return Err(ModelError::NonFinite {
+            what: "torque",
+            index: i,
+        });
+    }
+    Ok(SimOutput {
+        time: inputs.times().to_vec(),
+        torque,
+        torque_muscle,
+        torque_effects,
+        states,
+        activation_ta,
+        stats,
+    })
+}
+
+/// Allocation-free (after the first call) simulation for hot loops: writes the total torque at
+/// every sample into `torque` (length = number of samples) and returns the summed integrator
+/// statistics. The per-muscle torques stay available in [`Workspace::torque_muscle`].
+pub fn simulate_into(
+    ws: &mut Workspace,
+    inputs: &TrialInputs,
+    params: &ModelParams,
+    effects: &Effects,
+    settings: &SimSettings,
+    torque: &mut [f64],
+) -> Result<SimStats, ModelError> {
+    check(params, effects, settings)?;
+    let n = inputs.len();
+    if torque.len() != n {
+        return Err(ModelError::Length {
+            what: "torque".into(),
+            expected: n,
+            got: torque.len(),
+        });
+    }
+    let mut total = SimStats::default();
+    for m in Muscle::ALL {
+        let buf = &mut ws.torque_muscle[m.index()];
+        buf.resize(n, 0.0);
+        let s = run_muscle(inputs, params, effects, settings, m, buf, |_, _| {})?;
+        total.accepted += s.accepted;
+        total.rejected += s.rejected;
+        total.rhs_calls += s.rhs_calls;
+    }
+    let ta_active = needs_ta(effects);
+    if ta_active {
+        ws.ta.resize(n, 0.0);
+        run_ta(inputs, params, effects, settings, &mut ws.ta)?;
+    }
+    torque.fill(0.0);
+    add_joint_effects(
+        inputs,
+        effects,
+        if ta_active { &ws.ta } else { &[] },
+        torque,
+    );
+    let [t0, t1, t2] = &ws.torque_muscle;
+    for (i, t) in torque.iter_mut().enumerate() {
+        *t += t0[i] + t1[i] + t2[i];
+        if !t.is_finite() {
+            return Err(ModelError::NonFinite {
+                what: "torque",
+                index: i,
+            });
+        }
+    }
+    Ok(total)
+}
