@@ -1,0 +1,161 @@
+//! One module per `surae` subcommand.
+
+pub mod envelope;
+pub mod sensitivity;
+pub mod simulate;
+
+use crate::bundled;
+use crate::error::{CmdResult, Failure};
+use experiment::{Trial, Unloaded};
+use std::path::{Path, PathBuf};
+
+/// A trial and where it came from (for messages and output checks).
+pub struct LoadedTrial {
+    /// The parsed trial.
+    pub trial: Trial,
+    /// Name used in messages: the path, or `bundled:fixtures/seed/trial.csv`.
+    pub name: String,
+    /// The file, when it came from disk.
+    pub path: Option<PathBuf>,
+}
+
+/// Reads `--trial`, or the bundled seed trial when it is not given.
+pub fn load_trial(path: Option<&Path>) -> CmdResult<LoadedTrial> {
+    match path {
+        Some(p) => {
+            let trial = experiment::read_trial(p).map_err(Failure::bad)?;
+            warn_ignored(&p.display().to_string(), &trial.ignored_columns);
+            Ok(LoadedTrial {
+                trial,
+                name: p.display().to_string(),
+                path: Some(p.to_path_buf()),
+            })
+        }
+        None => Ok(LoadedTrial {
+            trial: bundled::seed_trial().map_err(Failure::internal)?,
+            name: bundled::SEED_TRIAL_NAME.to_string(),
+            path: None,
+        }),
+    }
+}
+
+/// Reads `--unloaded` when given; with no `--trial` the bundled seed unloaded
+/// run is the default, with a user's `--trial` it is never defaulted.
+pub fn load_unloaded(
+    path: Option<&Path>,
+    trial_given: bool,
+) -> CmdResult<Option<(Unloaded, String)>> {
+    match (path, trial_given) {
+        (Some(p), _) => {
+            let u = experiment::read_unloaded(p).map_err(Failure::bad)?;
+            warn_ignored(&p.display().to_string(), &u.ignored_columns);
+            Ok(Some((u, p.display().to_string())))
+        }
+        (None, false) => Ok(Some((
+            bundled::seed_unloaded().map_err(Failure::internal)?,
+            bundled::SEED_UNLOADED_NAME.to_string(),
+        ))),
+        (None, true) => Ok(None),
+    }
+}
+
+fn warn_ignored(name: &str, cols: &[String]) {
+    if !cols.is_empty() {
+        eprintln!(
+            "warning: {name}: ignored unknown columns: {}",
+            cols.join(", ")
+        );
+    }
+}
+
+/// Resolves an `--out` that may name a file (`*.csv`) or a folder; returns the
+/// file to write. `default_file` is used inside a folder.
+pub fn out_file(out: Option<&Path>, command: &str, default_file: &str) -> PathBuf {
+    match out {
+        Some(p) if p.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv")) => p.to_path_buf(),
+        Some(p) => p.join(default_file),
+        None => crate::default_out(command).join(default_file),
+    }
+}
+
+/// Model options shared by the commands that simulate.
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct ModelArgs {
+    /// Parameters JSON (SPEC §5; any subset, the rest is nominal).
+    #[arg(long)]
+    pub params: Option<PathBuf>,
+    /// Effects JSON (SPEC §6): `{"<effect>": {"<param>": value}}`.
+    #[arg(long)]
+    pub effects: Option<PathBuf>,
+    /// The EMG columns are already normalised envelopes in [0, 1] (skip the
+    /// SPEC §2 filtering).
+    #[arg(long)]
+    pub emg_is_envelope: bool,
+}
+
+fn read_text(path: &Path) -> CmdResult<String> {
+    let bytes = std::fs::read(path).map_err(|e| {
+        Failure::bad(format!(
+            "{}: {}",
+            path.display(),
+            match e.kind() {
+                std::io::ErrorKind::NotFound => "no such file".to_string(),
+                _ => e.to_string(),
+            }
+        ))
+    })?;
+    String::from_utf8(bytes)
+        .map_err(|_| Failure::bad(format!("{}: not UTF-8 text", path.display())))
+}
+
+/// Reads `--params` and `--effects` (nominal / none when absent); also returns
+/// the paths read, so outputs never overwrite them.
+pub fn load_model_config(
+    args: &ModelArgs,
+) -> CmdResult<(
+    muscle_model::ModelParams,
+    muscle_model::Effects,
+    Vec<PathBuf>,
+)> {
+    let mut read = Vec::new();
+    let params = match &args.params {
+        Some(p) => {
+            let text = read_text(p)?;
+            read.push(p.clone());
+            muscle_model::ModelParams::nominal()
+                .merged_json_str(&text)
+                .map_err(|e| Failure::bad(format!("{}: {e}", p.display())))?
+        }
+        None => muscle_model::ModelParams::nominal(),
+    };
+    let effects = match &args.effects {
+        Some(p) => {
+            let text = read_text(p)?;
+            read.push(p.clone());
+            muscle_model::Effects::from_json_str(&text)
+                .map_err(|e| Failure::bad(format!("{}: {e}", p.display())))?
+        }
+        None => muscle_model::Effects::none(),
+    };
+    Ok((params, effects, read))
+}
+
+/// The model inputs of a loaded trial (angle in rad, normalised envelopes).
+pub fn trial_inputs(
+    loaded: &LoadedTrial,
+    args: &ModelArgs,
+) -> CmdResult<muscle_model::TrialInputs> {
+    let opts = experiment::InputOptions {
+        emg_is_envelope: args.emg_is_envelope,
+        ..experiment::InputOptions::default()
+    };
+    experiment::model_inputs(&loaded.trial, &opts).map_err(|e| {
+        let msg = e.to_string();
+        // errors from a bundled trial are ours, not the user's
+        if loaded.path.is_some() {
+            Failure::bad(msg)
+        } else {
+            Failure::internal(msg)
+        }
+    })
+}

@@ -1,0 +1,108 @@
+//! `surae sensitivity`: one-at-a-time ±20 % sweeps (the dissertation's Fig. 6).
+
+use super::{load_model_config, load_trial, trial_inputs, ModelArgs};
+use crate::error::{CmdResult, Failure};
+use crate::output::OutDir;
+use muscle_model::{sensitivity, SensitivitySettings};
+use std::path::{Path, PathBuf};
+
+/// Arguments of `surae sensitivity`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Trial CSV (SPEC §5); the bundled seed trial when omitted.
+    #[arg(long)]
+    pub trial: Option<PathBuf>,
+    #[command(flatten)]
+    pub model: ModelArgs,
+    /// Largest relative change in percent (the sweep goes from −MAX to +MAX).
+    #[arg(long, default_value_t = 20.0)]
+    pub max_change: f64,
+    /// Step of the sweep in percent.
+    #[arg(long, default_value_t = 5.0)]
+    pub step: f64,
+    /// Output folder (default `out/sensitivity`): `sensitivity.csv`, `sensitivity.json`.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// Runs the command.
+pub fn run(args: Args) -> CmdResult {
+    if !(args.step.is_finite() && args.step > 0.0) {
+        return Err(Failure::bad(format!(
+            "--step {}: must be positive",
+            args.step
+        )));
+    }
+    if !(args.max_change.is_finite() && args.max_change > 0.0 && args.max_change < 100.0) {
+        return Err(Failure::bad(format!(
+            "--max-change {}: must be in (0, 100)",
+            args.max_change
+        )));
+    }
+    let n_steps = (args.max_change / args.step).floor() as i64;
+    if n_steps < 1 || n_steps > 1000 {
+        return Err(Failure::bad(
+            "--step must be at most --max-change, and not tiny",
+        ));
+    }
+    let (params, effects, cfg_inputs) = load_model_config(&args.model)?;
+    let loaded = load_trial(args.trial.as_deref())?;
+    let inputs = trial_inputs(&loaded, &args.model)?;
+    let changes: Vec<f64> = (-n_steps..=n_steps)
+        .filter(|&k| k != 0)
+        .map(|k| k as f64 * args.step)
+        .collect();
+    let settings = SensitivitySettings {
+        changes_pct: changes,
+        ..SensitivitySettings::default()
+    };
+    let table = sensitivity(&inputs, &params, &effects, &settings)
+        .map_err(|e| Failure::bad(format!("{}: nominal simulation failed: {e}", loaded.name)))?;
+
+    let out_dir = args
+        .out
+        .clone()
+        .unwrap_or_else(|| crate::default_out("sensitivity"));
+    let mut input_paths: Vec<&Path> = loaded.path.iter().map(|p| p.as_path()).collect();
+    input_paths.extend(cfg_inputs.iter().map(|p| p.as_path()));
+    let out = OutDir::prepare(&out_dir, &input_paths)?;
+    let csv = out.write("sensitivity.csv", table.to_csv().as_bytes())?;
+    let json = out.write("sensitivity.json", table.to_json_string().as_bytes())?;
+
+    println!(
+        "sensitivity: {} ({} samples), nominal RMS torque {:.2} N·m, changes ±{}% in {}% steps",
+        loaded.name,
+        loaded.trial.len(),
+        table.nominal_rms_torque_nm,
+        args.max_change,
+        args.step
+    );
+    println!("  parameter        max RMS change   (% of nominal RMS)");
+    for r in &table.ranking {
+        println!(
+            "  {:<16} {:8.2} N·m      {:6.1} %{}",
+            r.param,
+            r.max_rms_change_nm,
+            r.max_rms_change_pct,
+            if r.matters { "   matters" } else { "" }
+        );
+    }
+    let important = table.important();
+    println!(
+        "parameters that matter (≥ {}% of the nominal RMS torque): {}",
+        table.threshold_pct,
+        if important.is_empty() {
+            "none".to_string()
+        } else {
+            important.join(", ")
+        }
+    );
+    if table.failures() > 0 {
+        println!(
+            "  {} variations failed to simulate (see the table)",
+            table.failures()
+        );
+    }
+    println!("wrote {} and {}", csv.display(), json.display());
+    Ok(())
+}

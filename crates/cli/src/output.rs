@@ -1,0 +1,99 @@
+//! Safe output: `--out` checks and atomic writes (no half-written files).
+
+use crate::error::{CmdResult, Failure};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// Where a command writes its results.
+#[derive(Debug, Clone)]
+pub struct OutDir {
+    dir: PathBuf,
+    inputs: Vec<PathBuf>,
+}
+
+fn canonical_or_self(p: &Path) -> PathBuf {
+    std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf())
+}
+
+impl OutDir {
+    /// Checks that `dir` can be used as an output folder that none of
+    /// `inputs` lives in under the same name, and creates it.
+    pub fn prepare(dir: &Path, inputs: &[&Path]) -> CmdResult<Self> {
+        if dir.exists() && !dir.is_dir() {
+            return Err(Failure::bad(format!(
+                "--out {}: exists and is not a folder",
+                dir.display()
+            )));
+        }
+        std::fs::create_dir_all(dir).map_err(|e| {
+            Failure::bad(format!(
+                "--out {}: cannot create folder: {e}",
+                dir.display()
+            ))
+        })?;
+        Ok(Self {
+            dir: dir.to_path_buf(),
+            inputs: inputs.iter().map(|p| canonical_or_self(p)).collect(),
+        })
+    }
+
+    /// The folder.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// Path of a file in the folder.
+    pub fn path(&self, name: &str) -> PathBuf {
+        self.dir.join(name)
+    }
+
+    /// Writes `name` in the folder atomically, refusing to overwrite an input.
+    pub fn write(&self, name: &str, bytes: &[u8]) -> CmdResult<PathBuf> {
+        let target = self.path(name);
+        write_file_checked(&target, bytes, &self.inputs)?;
+        Ok(target)
+    }
+}
+
+/// Writes `bytes` to `target` through a temporary file in the same folder and
+/// a rename, refusing to overwrite any of `inputs`.
+pub fn write_file_checked(target: &Path, bytes: &[u8], inputs: &[PathBuf]) -> CmdResult<()> {
+    let canon_target = canonical_or_self(target);
+    if inputs.iter().any(|i| *i == canon_target) {
+        return Err(Failure::bad(format!(
+            "refusing to overwrite the input file {}",
+            target.display()
+        )));
+    }
+    if target.is_dir() {
+        return Err(Failure::bad(format!(
+            "{}: is a folder, expected a file",
+            target.display()
+        )));
+    }
+    let parent = target
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    std::fs::create_dir_all(parent)
+        .map_err(|e| Failure::bad(format!("{}: cannot create folder: {e}", parent.display())))?;
+    let file_name = target
+        .file_name()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "out".into());
+    let tmp = parent.join(format!(".{file_name}.tmp{}", std::process::id()));
+    let result = (|| -> std::io::Result<()> {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, target)
+    })();
+    if let Err(e) = result {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(Failure::bad(format!(
+            "{}: cannot write: {e}",
+            target.display()
+        )));
+    }
+    Ok(())
+}

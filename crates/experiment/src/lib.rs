@@ -1,0 +1,66 @@
+//! The isokinetic experiment (SPEC §1, §4, §5): trial files, protocols, dynamometer error
+//! and synthetic EMG.
+//!
+//! * [`files`]: trial / unloaded CSV reading with validation (every error is one line naming
+//!   the file, the line and the column) and round-trip-exact, atomic writing.
+//! * [`protocol`]: `seed`, `relaxed+N`, `cycles+N` sampled at 2048 Hz. A sweep of range
+//!   `D = 35°` at speed `v = 30 °/s` with ramps of `t_r = 0.05 s` (acceleration `a = v/t_r`)
+//!   lasts `T = D/v + t_r`; its displacement at time `τ` is `½aτ²` (τ < t_r),
+//!   `½a t_r² + v(τ − t_r)` (cruise) and `D − ½a(T − τ)²` (last ramp).
+//! * [`dynamometer`]: the error
+//!   `ε(t) = offset + Σ_e A·e^{−(t−e)/τr}·sin(2πf(t−e)) + x_t + w_t`, the sum over every
+//!   motion start, reversal and stop `e ≤ t`, `x_t = φx_{t−1} + σ√(1−φ²)ξ_t` with
+//!   `φ = e^{−dt/τc}` (stationary start), `w_t ~ N(0, σ_w²)`; then the 12-bit ADC
+//!   `step·round(x/step)`, `step = 1356/4096 N·m`, clamped to the codes −2048…2047.
+//! * [`emg`]: raw EMG `x_c(t) = g_c·d_c(t)·c_c(t)`, `c_c` unit-RMS Gaussian noise
+//!   band-limited to 20–450 Hz, `d_c ∈ [rest, 1]` the drive.
+//! * [`seeds`]: every random part is a `ChaCha8Rng` on its own stream of one seed.
+//! * [`mod@model_inputs`]: a trial → the model's inputs (angle in rad, SPEC §2 envelopes).
+//! * [`synth`]: a whole synthetic experiment (trial, unloaded run, truth) from one seed.
+//!
+//! ```
+//! use experiment::{
+//!     dynamometer_error, format_trial, parse_trial, quantise_in_place, synthetic_emg,
+//!     DynamometerSettings, EmgSettings, Protocol, Recording,
+//! };
+//!
+//! let trace: Protocol = "seed".parse()?;
+//! let trace = trace.trace()?;
+//! assert_eq!(trace.events.starts, vec![0.5]);
+//! let dyn_settings = DynamometerSettings::default();
+//! // The measured torque would be model torque + error; here the model torque is 0.
+//! let mut torque = dynamometer_error(&trace, &dyn_settings, 7, Recording::Trial)?;
+//! quantise_in_place(&mut torque, &dyn_settings);
+//! let emg = synthetic_emg(&trace, &EmgSettings::default(), 7)?;
+//! let trial = emg.to_trial(&trace, torque)?;
+//! let text = format_trial(&trial)?;
+//! let back = parse_trial(&text, "trial.csv")?;
+//! assert_eq!(back, trial);
+//! assert!((back.sample_rate_hz() - 2048.0).abs() < 1e-9);
+//! # Ok::<(), experiment::ExperimentError>(())
+//! ```
+
+pub mod dynamometer;
+pub mod emg;
+pub mod error;
+pub mod files;
+pub mod model_inputs;
+pub mod protocol;
+pub mod seeds;
+pub mod synth;
+
+pub use dynamometer::{
+    dynamometer_error, quantise, quantise_in_place, random_error, random_error_with,
+    systematic_error, systematic_error_at, unloaded_run, DynamometerSettings, Recording,
+};
+pub use emg::{synthetic_emg, EmgChannel, EmgMuscle, EmgSettings, SyntheticEmg};
+pub use error::{ErrorKind, ExperimentError, Result};
+pub use files::{
+    format_f64, format_trial, format_unloaded, parse_trial, parse_trial_bytes, parse_trial_with,
+    parse_unloaded, parse_unloaded_bytes, parse_unloaded_with, read_trial, read_unloaded,
+    write_f64, write_trial, write_unloaded, ReadOptions, Trial, Unloaded,
+};
+pub use model_inputs::{model_inputs, model_inputs_named, InputOptions};
+pub use protocol::{Events, MotionSettings, Phase, Protocol, ProtocolTrace, Segment};
+pub use seeds::{rng, Stream};
+pub use synth::{random_params, round_decimals, sorted_json, synthesize, SynthConfig, Synthetic};

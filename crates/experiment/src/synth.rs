@@ -1,0 +1,259 @@
+//! A complete synthetic experiment in memory (SPEC §4): trial with "measured" torque, unloaded run, truth.
+//!
+//! [`synthesize`] does what `cargo xtask gen-fixtures` writes to disk, and what the
+//! identification and diagnosis tests use to make trials with known (random) parameters:
+//!
+//! 1. sample the protocol ([`Protocol::trace`]);
+//! 2. synthesise raw EMG ([`synthetic_emg`]; `emg_ta` too when the effects need it);
+//! 3. round every raw EMG sample to `emg_decimals` decimals (`k / 10^d`, so the file holds
+//!    at most `d` decimals: short lines, small fixtures; the default 4 decimals = 1e-4 in the
+//!    EMG unit, a rounding noise of 3e-5 RMS against a rest-level RMS of 3e-3 to 1e-2, which
+//!    changes the normalised envelopes by well under 1 %) and the angle to `angle_decimals` decimals of a
+//!    degree (7: 1e-7°);
+//! 4. build the [`Trial`] (torque zeros) and turn it into model inputs with
+//!    [`model_inputs`], so the truth is computed from exactly what a user's program reads;
+//! 5. simulate the true parameters and effects ([`muscle_model::simulate()`]);
+//! 6. add the dynamometer error ([`dynamometer_error`], [`Recording::Trial`] streams of the
+//!    seed) and quantise with the 12-bit ADC: the trial's torque;
+//! 7. the unloaded run: [`unloaded_run`] with the same seed (independent noise streams).
+//!
+//! Everything is sequential and seeded: the result depends only on the configuration.
+//!
+//! ```
+//! use experiment::{random_params, synthesize, Protocol, SynthConfig};
+//! use muscle_model::ModelParams;
+//! use rand::SeedableRng;
+//!
+//! let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
+//! let truth = random_params(&mut rng, &ModelParams::nominal());
+//! let syn = synthesize(&SynthConfig::new(Protocol::Seed, 42).with_params(truth))?;
+//! let residual: Vec<f64> = syn.trial.torque_nm.iter().zip(&syn.model_torque)
+//!     .map(|(m, t)| m - t).collect();
+//! let mean = residual.iter().sum::<f64>() / residual.len() as f64;
+//! assert!(mean > -4.0 && mean < 1.0); // the −1.5 N·m dynamometer offset
+//! assert_eq!(syn.truth_json["seed"], 42);
+//! # Ok::<(), experiment::ExperimentError>(())
+//! ```
+
+use muscle_model::{simulate, Effects, ModelParams, ParamId, SimSettings, TrialInputs};
+use rand::Rng;
+use serde_json::{json, Map, Value};
+
+use crate::dynamometer::{
+    dynamometer_error, quantise_in_place, unloaded_run, DynamometerSettings, Recording,
+};
+use crate::emg::{synthetic_emg, EmgSettings};
+use crate::error::{ErrorKind, ExperimentError, Result};
+use crate::files::{Trial, Unloaded};
+use crate::model_inputs::{model_inputs, InputOptions};
+use crate::protocol::Protocol;
+
+/// Decimals of the raw EMG columns written by the synthesis (1e-4 in the EMG unit).
+pub const DEFAULT_EMG_DECIMALS: u32 = 4;
+/// Decimals of a degree of the angle column written by the synthesis (1e-7°).
+pub const DEFAULT_ANGLE_DECIMALS: u32 = 7;
+
+/// Everything that defines a synthetic experiment.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SynthConfig {
+    /// The protocol of the trial (the unloaded run is always [`Protocol::unloaded`]).
+    pub protocol: Protocol,
+    /// The true model parameters.
+    pub params: ModelParams,
+    /// The true model extensions (SPEC §6).
+    pub effects: Effects,
+    /// The dynamometer error (SPEC §4).
+    pub dynamometer: DynamometerSettings,
+    /// The synthetic EMG. `include_ta` is forced on when `antagonist_coactivation` is present.
+    pub emg: EmgSettings,
+    /// The seed of every random part (EMG carriers and wobble, dynamometer noise).
+    pub seed: u64,
+    /// Raw EMG is rounded to this many decimals (in its own unit). At most 15.
+    pub emg_decimals: u32,
+    /// The angle is rounded to this many decimals of a degree. At most 15.
+    pub angle_decimals: u32,
+    /// Integration settings of the true simulation.
+    pub sim: SimSettings,
+}
+
+impl SynthConfig {
+    /// Nominal parameters, no effect, SPEC §4 dynamometer, default EMG, default rounding,
+    /// [`SimSettings::default`].
+    #[must_use]
+    pub fn new(protocol: Protocol, seed: u64) -> Self {
+        Self {
+            protocol,
+            params: ModelParams::nominal(),
+            effects: Effects::none(),
+            dynamometer: DynamometerSettings::default(),
+            emg: EmgSettings::default(),
+            seed,
+            emg_decimals: DEFAULT_EMG_DECIMALS,
+            angle_decimals: DEFAULT_ANGLE_DECIMALS,
+            sim: SimSettings::default(),
+        }
+    }
+
+    /// The same configuration with other true parameters.
+    #[must_use]
+    pub fn with_params(mut self, params: ModelParams) -> Self {
+        self.params = params;
+        self
+    }
+
+    /// The same configuration with other true effects.
+    #[must_use]
+    pub fn with_effects(mut self, effects: Effects) -> Self {
+        self.effects = effects;
+        self
+    }
+
+    /// The EMG settings actually used: `include_ta` forced on when the effects need `emg_ta`.
+    #[must_use]
+    pub fn effective_emg(&self) -> EmgSettings {
+        let mut e = self.emg;
+        if needs_ta(&self.effects) {
+            e.include_ta = true;
+        }
+        e
+    }
+
+    /// The truth as JSON (keys sorted at every level):
+    /// `{"angle_decimals", "dynamometer", "effects", "emg", "emg_decimals", "params",
+    /// "protocol", "seed", "sim"}` with `params` the full SPEC §5 parameters JSON and
+    /// `effects` the SPEC §5 effects JSON.
+    #[must_use]
+    pub fn truth_json(&self) -> Value {
+        let v = json!({
+            "params": self.params.to_json_value(),
+            "effects": self.effects.to_json_value(),
+            "protocol": self.protocol.to_string(),
+            "dynamometer": serde_json::to_value(self.dynamometer).unwrap_or(Value::Null),
+            "emg": serde_json::to_value(self.effective_emg()).unwrap_or(Value::Null),
+            "seed": self.seed,
+            "emg_decimals": self.emg_decimals,
+            "angle_decimals": self.angle_decimals,
+            "sim": serde_json::to_value(self.sim).unwrap_or(Value::Null),
+        });
+        sorted_json(&v)
+    }
+}
+
+fn needs_ta(effects: &Effects) -> bool {
+    effects.antagonist_coactivation.is_some()
+}
+
+/// A synthetic experiment.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Synthetic {
+    /// The trial: rounded raw EMG, rounded angle, measured (quantised) torque. No comments.
+    pub trial: Trial,
+    /// The unloaded run (3 cycles), quantised dynamometer error. No comments.
+    pub unloaded: Unloaded,
+    /// The noise-free torque of the true model on the trial's own inputs (N·m).
+    pub model_torque: Vec<f64>,
+    /// The model inputs of the trial (what [`model_inputs`] gives with default options).
+    pub inputs: TrialInputs,
+    /// [`SynthConfig::truth_json`].
+    pub truth_json: Value,
+}
+
+/// `x` rounded to `d` decimals as `round(x·10^d)/10^d`: the nearest `f64` to a number with at
+/// most `d` decimals, so it prints with at most `d` decimals.
+#[must_use]
+pub fn round_decimals(x: f64, d: u32) -> f64 {
+    let s = 10f64.powi(d as i32);
+    let r = (x * s).round() / s;
+    if r == 0.0 {
+        0.0 // no "-0" in the files
+    } else {
+        r
+    }
+}
+
+/// Generates the experiment described by `cfg` (see the module documentation).
+///
+/// # Errors
+/// Invalid protocol, EMG or dynamometer settings, more than 15 decimals, invalid parameters or
+/// effects, or a failed simulation ([`ErrorKind::InvalidSettings`], naming the cause).
+pub fn synthesize(cfg: &SynthConfig) -> Result<Synthetic> {
+    if cfg.emg_decimals > 15 || cfg.angle_decimals > 15 {
+        return Err(ExperimentError::invalid(
+            "synthesis settings",
+            ErrorKind::InvalidSettings,
+            "emg_decimals and angle_decimals must be at most 15",
+        ));
+    }
+    let trace = cfg.protocol.trace()?;
+    let emg = synthetic_emg(&trace, &cfg.effective_emg(), cfg.seed)?;
+    let mut emg = emg;
+    for ch in &mut emg.channels {
+        for x in &mut ch.raw {
+            *x = round_decimals(*x, cfg.emg_decimals);
+        }
+    }
+    let mut trial = emg.to_trial(&trace, vec![0.0; trace.len()])?;
+    for a in &mut trial.ankle_angle_deg {
+        *a = round_decimals(*a, cfg.angle_decimals);
+    }
+    let inputs = model_inputs(&trial, &InputOptions::default())?;
+    let out = simulate(&inputs, &cfg.params, &cfg.effects, &cfg.sim).map_err(|e| {
+        ExperimentError::invalid(
+            "true model",
+            ErrorKind::InvalidSettings,
+            format!("the simulation of the truth failed: {e}"),
+        )
+    })?;
+    let model_torque = out.torque;
+    let mut torque = dynamometer_error(&trace, &cfg.dynamometer, cfg.seed, Recording::Trial)?;
+    for (t, m) in torque.iter_mut().zip(&model_torque) {
+        *t += m;
+    }
+    quantise_in_place(&mut torque, &cfg.dynamometer);
+    trial.torque_nm = torque;
+    trial.validate("<synthetic trial>")?;
+    let mut unloaded = unloaded_run(&cfg.dynamometer, cfg.seed)?;
+    for a in &mut unloaded.ankle_angle_deg {
+        *a = round_decimals(*a, cfg.angle_decimals);
+    }
+    Ok(Synthetic {
+        trial,
+        unloaded,
+        model_torque,
+        inputs,
+        truth_json: cfg.truth_json(),
+    })
+}
+
+/// Draws the 9 identified parameters (SPEC §8: LST, F0, α0 of each muscle) uniformly inside
+/// their bounds around `nominal` (LST ±5 %, F0 ±20 %, α0 ±20 %, the bounds of
+/// [`ParamId::default_bounds`]); every other parameter is `nominal`'s.
+pub fn random_params(rng: &mut impl Rng, nominal: &ModelParams) -> ModelParams {
+    let mut p = *nominal;
+    let mut effects = Effects::none();
+    for id in ParamId::identified() {
+        let (lo, hi) = id.default_bounds(nominal, &Effects::none());
+        let u: f64 = rng.random();
+        id.set(&mut p, &mut effects, lo + (hi - lo) * u);
+    }
+    p
+}
+
+/// A copy of `v` whose objects are rebuilt with their keys in sorted order, at every level
+/// (stable output whether or not `serde_json` keeps insertion order).
+#[must_use]
+pub fn sorted_json(v: &Value) -> Value {
+    match v {
+        Value::Object(m) => {
+            let mut keys: Vec<&String> = m.keys().collect();
+            keys.sort();
+            let mut out = Map::new();
+            for k in keys {
+                out.insert(k.clone(), sorted_json(&m[k]));
+            }
+            Value::Object(out)
+        }
+        Value::Array(a) => Value::Array(a.iter().map(sorted_json).collect()),
+        other => other.clone(),
+    }
+}

@@ -1,0 +1,1 @@
+//! End-to-end tests across the surae crates live in `tests/tests/`.

@@ -1,0 +1,379 @@
+//! Project automation. `cargo xtask gen-fixtures [--check] [--out DIR]` writes the synthetic
+//! fixtures of SPEC §4 deterministically from fixed seeds.
+//!
+//! Folders (under `fixtures/` by default), each with `trial.csv`, `unloaded.csv` (3 cycles)
+//! and `truth.json`:
+//!
+//! | folder | protocol | truth | seed |
+//! |---|---|---|---|
+//! | `seed` | `seed` | nominal parameters, no effect | 2016 |
+//! | `relaxed2` | `relaxed+2` | nominal parameters, no effect | 2017 |
+//! | `<effect>` (9 folders, SPEC §6 names) | `relaxed+2` | nominal parameters + that effect | 3001…3009 |
+//!
+//! The effect magnitudes ([`EFFECTS`]) are moderate, physiologically plausible values, each
+//! with its reason. `truth.json` holds the full SPEC §5 parameters, the effects JSON, the
+//! protocol, the dynamometer and EMG settings, the rounding, the simulation settings and the
+//! seed, with keys sorted and a trailing newline. `--check` regenerates into a temporary folder
+//! and fails (exit 1) on any byte difference and on missing or extra files.
+//!
+//! Generation is sequential and uses only seeded ChaCha8 streams, so it does not depend on the
+//! machine's thread count.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::{bail, Context, Result};
+use experiment::{format_trial, format_unloaded, sorted_json, synthesize, Protocol, SynthConfig};
+use muscle_model::{EffectKind, Effects};
+use serde_json::Value;
+
+/// The generator's name, written into every `truth.json` and comment line.
+const GENERATOR: &str = "cargo xtask gen-fixtures";
+
+/// Seed of `fixtures/seed`.
+const SEED_SEED: u64 = 2016;
+/// Seed of `fixtures/relaxed2`.
+const SEED_RELAXED2: u64 = 2017;
+/// Seed of the effect folders: this + 1-based catalogue index (3001 … 3009).
+const SEED_EFFECTS_BASE: u64 = 3000;
+
+/// One effect fixture: the SPEC §6 effect, its parameter values (in
+/// `EffectKind::params` order) and why that magnitude.
+struct EffectFixture {
+    kind: EffectKind,
+    values: [f64; 2],
+    why: &'static str,
+}
+
+/// The true magnitude of each effect fixture: moderate and realistic, well inside the
+/// muscle-model crate's bounds (`EffectKind::params`).
+const EFFECTS: [EffectFixture; 9] = [
+    EffectFixture {
+        kind: EffectKind::TorqueOffset,
+        values: [5.0, 0.0],
+        why: "5 N·m: a gravity/zeroing error of a poorly compensated limb, a few % of the peak torque",
+    },
+    EffectFixture {
+        kind: EffectKind::PassiveJointTorque,
+        values: [1.0, 8.0],
+        why: "s = 1 N·m, k = 8 /rad: about 7 N·m of non-muscular resistance at +15° dorsiflexion, -0.9 N·m at -20°",
+    },
+    EffectFixture {
+        kind: EffectKind::Gravity,
+        values: [6.0, 10.0],
+        why: "m = 6 N·m (foot plus attachment, ~3 kg at 0.2 m), phase 10°: +0.5 N·m at +15°, -3 N·m at -20°",
+    },
+    EffectFixture {
+        kind: EffectKind::ElectromechanicalDelay,
+        values: [40.0, 0.0],
+        why: "40 ms: the middle of the 30-50 ms usually measured for the triceps surae",
+    },
+    EffectFixture {
+        kind: EffectKind::Fatigue,
+        values: [0.03, 0.0],
+        why: "0.03 /s: about 12 % loss of active force by the end of two maximal cycles (~4 s of full activation)",
+    },
+    EffectFixture {
+        kind: EffectKind::AntagonistCoactivation,
+        values: [6.0, 0.0],
+        why: "6 N·m at the trial-maximum TA envelope (about 10 % of a ~50 N·m TA MVC), so -1 to -6 N·m",
+    },
+    EffectFixture {
+        kind: EffectKind::EccentricEnhancement,
+        values: [1.7, 0.0],
+        why: "Flen = 1.7 instead of 1.4: a stronger eccentric plateau, within the 1.5-1.8 reported in vivo",
+    },
+    EffectFixture {
+        kind: EffectKind::ViscousDamping,
+        values: [3.0, 0.0],
+        why: "3 N·m·s/rad: about 1.6 N·m at the 30 °/s cruise speed (ankle plus attachment damping)",
+    },
+    EffectFixture {
+        kind: EffectKind::Inertia,
+        values: [0.15, 0.0],
+        why: "0.15 kg·m²: foot plus footplate; about 1.6 N·m during the 600 °/s² ramps",
+    },
+];
+
+/// One fixture folder.
+struct Fixture {
+    name: String,
+    config: SynthConfig,
+    description: String,
+}
+
+fn fixtures() -> Result<Vec<Fixture>> {
+    let mut out = vec![
+        Fixture {
+            name: "seed".into(),
+            config: SynthConfig::new(Protocol::Seed, SEED_SEED),
+            description:
+                "the dissertation's experiment: seed protocol, nominal parameters, no effect".into(),
+        },
+        Fixture {
+            name: "relaxed2".into(),
+            config: SynthConfig::new(Protocol::Relaxed { cycles: 2 }, SEED_RELAXED2),
+            description: "relaxed+2 protocol, nominal parameters, no effect".into(),
+        },
+    ];
+    for (i, e) in EFFECTS.iter().enumerate() {
+        let mut effects = Effects::none();
+        effects.set_values(e.kind, e.values);
+        effects
+            .validate()
+            .with_context(|| format!("fixture effect {}", e.kind.name()))?;
+        out.push(Fixture {
+            name: e.kind.name().into(),
+            config: SynthConfig::new(
+                Protocol::Relaxed { cycles: 2 },
+                SEED_EFFECTS_BASE + i as u64 + 1,
+            )
+            .with_effects(effects),
+            description: format!(
+                "relaxed+2 protocol, nominal parameters, effect {} ({})",
+                e.kind.name(),
+                e.why
+            ),
+        });
+    }
+    Ok(out)
+}
+
+/// Canonical JSON text: keys sorted, two-space indentation, trailing newline.
+fn json_text(v: &Value) -> Result<String> {
+    let mut s = serde_json::to_string_pretty(&sorted_json(v))?;
+    s.push('\n');
+    Ok(s)
+}
+
+/// The files of one fixture folder, as (file name, bytes).
+fn render(f: &Fixture) -> Result<Vec<(String, String)>> {
+    let syn = synthesize(&f.config).with_context(|| format!("synthesising fixture {}", f.name))?;
+    let mut trial = syn.trial;
+    let effects = serde_json::to_string(&sorted_json(&f.config.effects.to_json_value()))?;
+    trial.comments = vec![format!(
+        " surae synthetic trial `{}` made by `{GENERATOR}`: protocol {}, seed {}, nominal parameters, effects {effects}; truth in truth.json",
+        f.name, f.config.protocol, f.config.seed
+    )];
+    let mut unloaded = syn.unloaded;
+    unloaded.comments = vec![format!(
+        " surae synthetic unloaded run (protocol cycles+3) made by `{GENERATOR}` for fixture `{}`, seed {}",
+        f.name, f.config.seed
+    )];
+    let mut truth = syn.truth_json;
+    if let Value::Object(m) = &mut truth {
+        m.insert("generator".into(), Value::from(GENERATOR));
+        m.insert("fixture".into(), Value::from(f.name.clone()));
+        m.insert("description".into(), Value::from(f.description.clone()));
+    }
+    Ok(vec![
+        ("trial.csv".into(), format_trial(&trial)?),
+        ("unloaded.csv".into(), format_unloaded(&unloaded)?),
+        ("truth.json".into(), json_text(&truth)?),
+    ])
+}
+
+fn readme(list: &[Fixture]) -> String {
+    let mut s = String::from(
+        "# Fixtures\n\nGenerated by `cargo xtask gen-fixtures` (xtask/src/main.rs); do not edit by hand.\n\
+         `cargo xtask gen-fixtures --check` regenerates them and fails on any byte difference.\n\n\
+         Every folder holds `trial.csv` (raw EMG rounded to 1e-4, angle to 1e-7 deg, torque = true model\n\
+         + synthetic dynamometer error, 12-bit quantised), `unloaded.csv` (3 cycles, same seed,\n\
+         independent noise) and `truth.json` (full parameters, effects, settings, seed).\n\n\
+         | folder | protocol | seed | truth |\n|---|---|---|---|\n",
+    );
+    for f in list {
+        s.push_str(&format!(
+            "| `{}` | `{}` | {} | {} |\n",
+            f.name, f.config.protocol, f.config.seed, f.description
+        ));
+    }
+    s
+}
+
+/// Generates every fixture file into `dir` (created if needed).
+fn generate(dir: &Path) -> Result<Vec<PathBuf>> {
+    let list = fixtures()?;
+    let mut written = Vec::new();
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let path = dir.join("README.md");
+    std::fs::write(&path, readme(&list)).with_context(|| format!("writing {}", path.display()))?;
+    written.push(path);
+    for f in &list {
+        let sub = dir.join(&f.name);
+        std::fs::create_dir_all(&sub).with_context(|| format!("creating {}", sub.display()))?;
+        for (name, text) in render(f)? {
+            let path = sub.join(name);
+            std::fs::write(&path, text).with_context(|| format!("writing {}", path.display()))?;
+            written.push(path);
+        }
+        eprintln!("  {}", f.name);
+    }
+    Ok(written)
+}
+
+/// Every file under `root`, by path relative to it.
+fn tree(root: &Path) -> Result<BTreeMap<PathBuf, PathBuf>> {
+    fn walk(root: &Path, dir: &Path, out: &mut BTreeMap<PathBuf, PathBuf>) -> Result<()> {
+        let entries =
+            std::fs::read_dir(dir).with_context(|| format!("reading {}", dir.display()))?;
+        for entry in entries {
+            let p = entry?.path();
+            if p.is_dir() {
+                walk(root, &p, out)?;
+            } else {
+                let rel = p.strip_prefix(root)?.to_path_buf();
+                out.insert(rel, p);
+            }
+        }
+        Ok(())
+    }
+    let mut out = BTreeMap::new();
+    if root.is_dir() {
+        walk(root, root, &mut out)?;
+    }
+    Ok(out)
+}
+
+/// First differing line of two texts (1-based), for the report.
+fn first_difference(a: &[u8], b: &[u8]) -> String {
+    let (ta, tb) = (String::from_utf8_lossy(a), String::from_utf8_lossy(b));
+    for (i, (x, y)) in ta.lines().zip(tb.lines()).enumerate() {
+        if x != y {
+            let cut = |s: &str| s.chars().take(120).collect::<String>();
+            return format!(
+                "line {}: committed `{}`, regenerated `{}`",
+                i + 1,
+                cut(x),
+                cut(y)
+            );
+        }
+    }
+    format!(
+        "lengths differ: committed {} lines, regenerated {}",
+        ta.lines().count(),
+        tb.lines().count()
+    )
+}
+
+/// Regenerates into a temporary folder and compares with `dir`; returns the differences.
+fn check(dir: &Path) -> Result<Vec<String>> {
+    let tmp = tempfile::tempdir().context("creating a temporary folder")?;
+    generate(tmp.path())?;
+    let fresh = tree(tmp.path())?;
+    let committed = tree(dir)?;
+    let mut problems = Vec::new();
+    for (rel, path) in &fresh {
+        match committed.get(rel) {
+            None => problems.push(format!("missing: {}", rel.display())),
+            Some(old) => {
+                let a = std::fs::read(old).with_context(|| format!("reading {}", old.display()))?;
+                let b = std::fs::read(path)?;
+                if a != b {
+                    problems.push(format!(
+                        "differs: {} ({})",
+                        rel.display(),
+                        first_difference(&a, &b)
+                    ));
+                }
+            }
+        }
+    }
+    for rel in committed.keys() {
+        if !fresh.contains_key(rel) {
+            problems.push(format!("extra (not generated): {}", rel.display()));
+        }
+    }
+    Ok(problems)
+}
+
+fn default_dir() -> PathBuf {
+    let xtask = Path::new(env!("CARGO_MANIFEST_DIR"));
+    xtask.parent().unwrap_or(xtask).join("fixtures")
+}
+
+const USAGE: &str = "usage: cargo xtask gen-fixtures [--check] [--out DIR]\n\
+  gen-fixtures          write the synthetic fixtures (default folder: <workspace>/fixtures)\n\
+  --check               regenerate into a temporary folder and fail on any difference\n\
+  --out DIR             use DIR instead of <workspace>/fixtures";
+
+fn run() -> Result<bool> {
+    let mut args = std::env::args().skip(1);
+    match args.next().as_deref() {
+        Some("gen-fixtures") => {}
+        Some("-h" | "--help") | None => {
+            println!("{USAGE}");
+            return Ok(true);
+        }
+        Some(other) => bail!("unknown task `{other}`\n{USAGE}"),
+    }
+    let mut check_only = false;
+    let mut out = None;
+    while let Some(a) = args.next() {
+        match a.as_str() {
+            "--check" => check_only = true,
+            "--out" => out = Some(PathBuf::from(args.next().context("--out needs a folder")?)),
+            "-h" | "--help" => {
+                println!("{USAGE}");
+                return Ok(true);
+            }
+            other => bail!("unknown argument `{other}`\n{USAGE}"),
+        }
+    }
+    let dir = out.unwrap_or_else(default_dir);
+    let start = std::time::Instant::now();
+    if check_only {
+        eprintln!(
+            "regenerating the fixtures to compare with {}",
+            dir.display()
+        );
+        let problems = check(&dir)?;
+        if problems.is_empty() {
+            eprintln!(
+                "fixtures in {} are up to date ({:.1} s)",
+                dir.display(),
+                start.elapsed().as_secs_f64()
+            );
+            Ok(true)
+        } else {
+            for p in &problems {
+                eprintln!("{p}");
+            }
+            eprintln!(
+                "{} difference(s): run `cargo xtask gen-fixtures` and commit the result",
+                problems.len()
+            );
+            Ok(false)
+        }
+    } else {
+        eprintln!("writing the fixtures into {}", dir.display());
+        // Remove stale generated files first so that the folder matches exactly.
+        let list = fixtures()?;
+        for f in &list {
+            let sub = dir.join(&f.name);
+            if sub.is_dir() {
+                std::fs::remove_dir_all(&sub)
+                    .with_context(|| format!("removing {}", sub.display()))?;
+            }
+        }
+        let files = generate(&dir)?;
+        eprintln!(
+            "wrote {} files ({:.1} s)",
+            files.len(),
+            start.elapsed().as_secs_f64()
+        );
+        Ok(true)
+    }
+}
+
+fn main() -> ExitCode {
+    match run() {
+        Ok(true) => ExitCode::SUCCESS,
+        Ok(false) => ExitCode::FAILURE,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(2)
+        }
+    }
+}
