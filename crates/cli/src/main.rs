@@ -37,9 +37,20 @@ fn main() {
         Ok(c) => c,
         Err(e) => {
             // --help and --version are not failures
-            let code = if e.use_stderr() { 2 } else { 0 };
-            let _ = e.print();
-            std::process::exit(code);
+            if !e.use_stderr() {
+                let _ = e.print();
+                std::process::exit(0);
+            }
+            // a usage error: one line, exit code 2
+            let text = e.render().to_string();
+            let first = text
+                .lines()
+                .find(|l| !l.trim().is_empty())
+                .unwrap_or("invalid arguments")
+                .trim()
+                .trim_start_matches("error: ");
+            eprintln!("error: {first} (see 'surae --help')");
+            std::process::exit(2);
         }
     };
     let result = match cli.command {
