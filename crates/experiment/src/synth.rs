@@ -78,7 +78,8 @@ pub struct SynthConfig {
 
 impl SynthConfig {
     /// Nominal parameters, no effect, SPEC §4 dynamometer, default EMG, default rounding,
-    /// [`SimSettings::default`].
+    /// [`SimSettings::tight`] (the "true" torque is the model solved to rtol 1e-10, so it does
+    /// not move when the fast default integration settings are tuned).
     #[must_use]
     pub fn new(protocol: Protocol, seed: u64) -> Self {
         Self {
@@ -90,7 +91,7 @@ impl SynthConfig {
             seed,
             emg_decimals: DEFAULT_EMG_DECIMALS,
             angle_decimals: DEFAULT_ANGLE_DECIMALS,
-            sim: SimSettings::default(),
+            sim: SimSettings::tight(),
         }
     }
 
