@@ -1,0 +1,316 @@
+//! Diagnosis and sensitivity figures: candidate-effect ranking and the sensitivity curves.
+
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+
+use super::{
+    draw_err, draw_line, legend_strip, mesh_colours, min_max, padded, render, style, text_width,
+    tick_text, titled, Area, Mark, DESC_PX, FONT, SMALL_PX, TICK_PX,
+};
+use crate::error::{ReportError, Result};
+use crate::labels::format_sig;
+use crate::palette::{SeriesStyle, BLUE, GREY, VERMILLION};
+
+/// One candidate effect scored by the diagnosis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Candidate<'a> {
+    /// Effect name (e.g. `electromechanical_delay`).
+    pub name: &'a str,
+    /// Evidence for the effect (score-test `LM − p ln n`, about the BIC gain; may be negative).
+    pub evidence: f64,
+    /// Held-out RMS torque error of the model extended by this effect (N·m).
+    pub heldout_rms_nm: f64,
+    /// Whether the diagnosis kept it as a cause (drawn in vermillion).
+    pub selected: bool,
+}
+
+/// One point of a one-at-a-time sensitivity sweep.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SensitivityPoint<'a> {
+    /// Parameter label (with its unit if wanted).
+    pub param: &'a str,
+    /// Relative change of the parameter (%).
+    pub change_pct: f64,
+    /// RMS torque change against the nominal run (N·m); `None` when that simulation failed
+    /// (the point is left out).
+    pub rms_change_nm: Option<f64>,
+}
+
+fn check_value(figure: &'static str, what: String, v: f64, index: usize) -> Result<()> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(ReportError::NonFinite {
+            figure,
+            series: what,
+            index,
+            value: v,
+        })
+    }
+}
+
+/// Candidate effects as horizontal bars, in the order given (put the best first): their
+/// evidence on the left, the held-out RMS error of the extended model on the right, with the
+/// baseline's held-out RMS as a dashed line when given. Selected causes are vermillion, the
+/// others blue.
+pub fn candidate_ranking(
+    rows: &[Candidate<'_>],
+    baseline_heldout_rms_nm: Option<f64>,
+) -> Result<String> {
+    const FIG: &str = "candidate_ranking";
+    if rows.is_empty() {
+        return Err(ReportError::Empty {
+            figure: FIG,
+            series: "candidates".into(),
+        });
+    }
+    for (i, r) in rows.iter().enumerate() {
+        check_value(FIG, format!("{} evidence", r.name), r.evidence, i)?;
+        check_value(
+            FIG,
+            format!("{} heldout_rms_nm", r.name),
+            r.heldout_rms_nm,
+            i,
+        )?;
+    }
+    if let Some(b) = baseline_heldout_rms_nm {
+        check_value(FIG, "baseline_heldout_rms_nm".into(), b, 0)?;
+    }
+    let n = rows.len();
+    let label_w = rows
+        .iter()
+        .map(|r| text_width(r.name, TICK_PX))
+        .max()
+        .unwrap_or(100)
+        .clamp(80, 320) as u32
+        + 20;
+    let height = 170 + 46 * n as u32;
+    render(FIG, (1100, height), |root| {
+        let body = titled(FIG, root, "Candidate effects ranked by evidence")?;
+        let mut entries = vec![
+            ("kept as a cause".to_string(), Mark::Swatch(VERMILLION, 1.0)),
+            ("not kept".to_string(), Mark::Swatch(BLUE, 1.0)),
+        ];
+        if let Some(b) = baseline_heldout_rms_nm {
+            entries.push((
+                format!("baseline held-out RMS {b:.2} N·m"),
+                Mark::Line(
+                    SeriesStyle {
+                        colour: GREY,
+                        dashed: true,
+                    },
+                    2,
+                ),
+            ));
+        }
+        let body = legend_strip(FIG, &body, &entries)?;
+        let (w, _) = body.dim_in_pixel();
+        let (l, r) = body.split_horizontally(label_w + (w - label_w) * 55 / 100);
+        let ev = min_max(rows.iter().map(|r| r.evidence).chain([0.0])).unwrap_or((0.0, 1.0));
+        let ev = padded(ev, 0.12);
+        let ev = (if ev.0 > 0.0 { 0.0 } else { ev.0 }, ev.1);
+        bar_panel(
+            FIG,
+            &l,
+            rows,
+            ev,
+            label_w,
+            "evidence (score test, ≈ BIC gain)",
+            |r| r.evidence,
+            None,
+            true,
+        )?;
+        let rm = rows
+            .iter()
+            .map(|r| r.heldout_rms_nm)
+            .chain(baseline_heldout_rms_nm)
+            .fold(0.0, f64::max);
+        bar_panel(
+            FIG,
+            &r,
+            rows,
+            (0.0, if rm > 0.0 { rm * 1.2 } else { 1.0 }),
+            12,
+            "held-out RMS error (N·m)",
+            |r| r.heldout_rms_nm,
+            baseline_heldout_rms_nm,
+            false,
+        )
+    })
+}
+
+#[allow(clippy::too_many_arguments)]
+fn bar_panel(
+    figure: &'static str,
+    area: &Area<'_>,
+    rows: &[Candidate<'_>],
+    x: (f64, f64),
+    label_w: u32,
+    x_desc: &str,
+    value: impl Fn(&Candidate<'_>) -> f64,
+    reference: Option<f64>,
+    names: bool,
+) -> Result<()> {
+    let e = draw_err(figure);
+    let n = rows.len();
+    let mut chart = ChartBuilder::on(area)
+        .margin_right(20)
+        .margin_top(6)
+        .x_label_area_size(56)
+        .y_label_area_size(label_w)
+        .build_cartesian_2d(x.0..x.1, 0.0..n as f64)
+        .map_err(&e)?;
+    let xs = x.1 - x.0;
+    let xf = move |v: &f64| tick_text(*v, xs);
+    let (bold, light) = mesh_colours();
+    chart
+        .configure_mesh()
+        .disable_y_mesh()
+        .bold_line_style(bold)
+        .light_line_style(light)
+        .x_labels(6)
+        .y_labels(0)
+        .x_label_formatter(&xf)
+        .label_style((FONT, TICK_PX))
+        .axis_desc_style((FONT, DESC_PX))
+        .x_desc(x_desc)
+        .draw()
+        .map_err(&e)?;
+    let value_font = (FONT, SMALL_PX)
+        .into_font()
+        .color(&plotters::style::BLACK)
+        .pos(Pos::new(HPos::Left, VPos::Center));
+    let name_font = (FONT, TICK_PX)
+        .into_font()
+        .color(&plotters::style::BLACK)
+        .pos(Pos::new(HPos::Right, VPos::Center));
+    let base = area.get_base_pixel();
+    for (k, r) in rows.iter().enumerate() {
+        // Best first, at the top.
+        let y = (n - 1 - k) as f64;
+        let v = value(r);
+        let c = if r.selected { VERMILLION } else { BLUE };
+        chart
+            .draw_series(std::iter::once(Rectangle::new(
+                [(0.0, y + 0.18), (v, y + 0.82)],
+                c.mix(0.85).filled(),
+            )))
+            .map_err(&e)?;
+        let at = chart.backend_coord(&(v.max(0.0), y + 0.5));
+        area.draw(&Text::new(
+            format_sig(v, 3),
+            (at.0 - base.0 + 6, at.1 - base.1),
+            value_font.clone(),
+        ))
+        .map_err(&e)?;
+        if names {
+            let at = chart.backend_coord(&(x.0, y + 0.5));
+            area.draw(&Text::new(
+                r.name.to_string(),
+                (at.0 - base.0 - 10, at.1 - base.1),
+                name_font.clone(),
+            ))
+            .map_err(&e)?;
+        }
+    }
+    if let Some(b) = reference {
+        chart
+            .draw_series(DashedLineSeries::new(
+                vec![(b, 0.0), (b, n as f64)],
+                8,
+                5,
+                GREY.stroke_width(2),
+            ))
+            .map_err(&e)?;
+    }
+    Ok(())
+}
+
+/// The dissertation's Fig. 6: RMS torque change (N·m) against the relative change of each
+/// parameter (%), one curve per parameter in first-appearance order. The nominal point
+/// (0 %, 0 N·m) is added to every curve; points whose simulation failed are left out.
+pub fn sensitivity_curves(points: &[SensitivityPoint<'_>]) -> Result<String> {
+    const FIG: &str = "sensitivity_curves";
+    let mut params: Vec<&str> = Vec::new();
+    for (i, p) in points.iter().enumerate() {
+        check_value(FIG, format!("{} change_pct", p.param), p.change_pct, i)?;
+        if let Some(v) = p.rms_change_nm {
+            check_value(FIG, format!("{} rms_change_nm", p.param), v, i)?;
+        }
+        if !params.contains(&p.param) {
+            params.push(p.param);
+        }
+    }
+    let mut curves: Vec<Vec<(f64, f64)>> = params
+        .iter()
+        .map(|name| {
+            let mut c: Vec<(f64, f64)> = points
+                .iter()
+                .filter(|p| p.param == *name)
+                .filter_map(|p| p.rms_change_nm.map(|v| (p.change_pct, v)))
+                .collect();
+            if !c.iter().any(|p| p.0 == 0.0) {
+                c.push((0.0, 0.0));
+            }
+            c.sort_by(|a, b| a.0.total_cmp(&b.0));
+            c
+        })
+        .collect();
+    if curves.iter().all(|c| c.len() < 2) {
+        return Err(ReportError::Empty {
+            figure: FIG,
+            series: "sensitivity points with an RMS change".into(),
+        });
+    }
+    let x = padded(
+        min_max(curves.iter().flatten().map(|p| p.0)).unwrap_or((-20.0, 20.0)),
+        0.03,
+    );
+    let top = min_max(curves.iter().flatten().map(|p| p.1)).map_or(1.0, |r| r.1);
+    let y = (0.0, if top > 0.0 { top * 1.06 } else { 1.0 });
+    render(FIG, (1000, 760), |root| {
+        let body = titled(
+            FIG,
+            root,
+            "Sensitivity of the torque to each parameter (one at a time)",
+        )?;
+        let entries: Vec<_> = params
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (p.to_string(), Mark::Line(style(i), 2)))
+            .collect();
+        let body = legend_strip(FIG, &body, &entries)?;
+        let e = draw_err(FIG);
+        let mut chart = ChartBuilder::on(&body)
+            .margin_right(24)
+            .margin_top(6)
+            .x_label_area_size(56)
+            .y_label_area_size(90)
+            .build_cartesian_2d(x.0..x.1, y.0..y.1)
+            .map_err(&e)?;
+        let (xs, ys) = (x.1 - x.0, y.1 - y.0);
+        let xf = move |v: &f64| tick_text(*v, xs);
+        let yf = move |v: &f64| tick_text(*v, ys);
+        let (bold, light) = mesh_colours();
+        chart
+            .configure_mesh()
+            .bold_line_style(bold)
+            .light_line_style(light)
+            .x_label_formatter(&xf)
+            .y_label_formatter(&yf)
+            .label_style((FONT, TICK_PX))
+            .axis_desc_style((FONT, DESC_PX))
+            .x_desc("parameter change (%)")
+            .y_desc("RMS torque change (N·m)")
+            .draw()
+            .map_err(&e)?;
+        for (i, c) in curves.iter_mut().enumerate() {
+            let st = style(i);
+            draw_line(FIG, &mut chart, c.clone(), st, 2)?;
+            chart
+                .draw_series(c.iter().map(|p| Circle::new(*p, 4, st.colour.filled())))
+                .map_err(&e)?;
+        }
+        Ok(())
+    })
+}
