@@ -19,6 +19,9 @@
 //! Generation is sequential and uses only seeded ChaCha8 streams, so it does not depend on the
 //! machine's thread count.
 
+mod bench;
+mod render_check;
+
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -296,12 +299,18 @@ fn default_dir() -> PathBuf {
 const USAGE: &str = "usage: cargo xtask gen-fixtures [--check] [--out DIR]\n\
   gen-fixtures          write the synthetic fixtures (default folder: <workspace>/fixtures)\n\
   --check               regenerate into a temporary folder and fail on any difference\n\
-  --out DIR             use DIR instead of <workspace>/fixtures";
+  --out DIR             use DIR instead of <workspace>/fixtures\n\
+  render-check F.html   render a report headless in Chromium and fail if it is blank or broken\n\
+                        (cargo xtask render-check --help)\n\
+  bench                 time the forward model and the cost on the seed fixture against the\n\
+                        Python peer (cargo xtask bench --help)";
 
 fn run() -> Result<bool> {
     let mut args = std::env::args().skip(1);
     match args.next().as_deref() {
         Some("gen-fixtures") => {}
+        Some("render-check") => return render_check::run(&mut args),
+        Some("bench") => return bench::run(&mut args),
         Some("-h" | "--help") | None => {
             println!("{USAGE}");
             return Ok(true);

@@ -10,6 +10,8 @@ pub const SEED_UNLOADED_NAME: &str = "bundled:fixtures/seed/unloaded.csv";
 
 const SEED_TRIAL: &str = include_str!("../../../fixtures/seed/trial.csv");
 const SEED_UNLOADED: &str = include_str!("../../../fixtures/seed/unloaded.csv");
+/// Name of the bundled truth in messages.
+pub const SEED_TRUTH_NAME: &str = "bundled:fixtures/seed/truth.json";
 /// Parameters and effects the bundled trial was generated with.
 pub const SEED_TRUTH: &str = include_str!("../../../fixtures/seed/truth.json");
 

@@ -10,6 +10,7 @@ mod bundled;
 mod commands;
 mod error;
 mod output;
+mod progress;
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
@@ -30,6 +31,8 @@ enum Command {
     Simulate(commands::simulate::Args),
     /// One-at-a-time ±20 % parameter sweeps: RMS torque change (dissertation Fig. 6).
     Sensitivity(commands::sensitivity::Args),
+    /// Identify LST, F0 and α0 of sol, gm, gl (writes identify.json).
+    Identify(commands::identify::Args),
 }
 
 fn main() {
@@ -57,6 +60,7 @@ fn main() {
         Command::Envelope(a) => commands::envelope::run(a),
         Command::Simulate(a) => commands::simulate::run(a),
         Command::Sensitivity(a) => commands::sensitivity::run(a),
+        Command::Identify(a) => commands::identify::run(a),
     };
     if let Err(f) = result {
         eprintln!("{f}");

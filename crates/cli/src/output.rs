@@ -37,11 +37,6 @@ impl OutDir {
         })
     }
 
-    /// The folder.
-    pub fn dir(&self) -> &Path {
-        &self.dir
-    }
-
     /// Path of a file in the folder.
     pub fn path(&self, name: &str) -> PathBuf {
         self.dir.join(name)
@@ -59,7 +54,7 @@ impl OutDir {
 /// a rename, refusing to overwrite any of `inputs`.
 pub fn write_file_checked(target: &Path, bytes: &[u8], inputs: &[PathBuf]) -> CmdResult<()> {
     let canon_target = canonical_or_self(target);
-    if inputs.iter().any(|i| *i == canon_target) {
+    if inputs.contains(&canon_target) {
         return Err(Failure::bad(format!(
             "refusing to overwrite the input file {}",
             target.display()

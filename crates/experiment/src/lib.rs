@@ -45,6 +45,7 @@ pub mod emg;
 pub mod error;
 pub mod files;
 pub mod model_inputs;
+pub mod noise;
 pub mod protocol;
 pub mod seeds;
 pub mod synth;
@@ -61,6 +62,9 @@ pub use files::{
     write_f64, write_trial, write_unloaded, ReadOptions, Trial, Unloaded,
 };
 pub use model_inputs::{model_inputs, model_inputs_named, InputOptions};
+pub use noise::{
+    detect_events, detect_events_with, EventSettings, LagCheck, NoiseEstimate, NoiseSettings,
+};
 pub use protocol::{Events, MotionSettings, Phase, Protocol, ProtocolTrace, Segment};
 pub use seeds::{rng, Stream};
 pub use synth::{random_params, round_decimals, sorted_json, synthesize, SynthConfig, Synthetic};

@@ -55,6 +55,12 @@ pub enum Error {
         /// How many random points were tried.
         attempts: u32,
     },
+    /// The muscle model rejected the problem or its inputs (identification only).
+    #[error("model: {0}")]
+    Model(#[from] muscle_model::ModelError),
+    /// A trial or unloaded run could not be turned into a problem (identification only).
+    #[error("{0}")]
+    Experiment(#[from] experiment::ExperimentError),
     /// The evaluation budget is too small to evaluate even the start point.
     #[error("evaluation budget {budget} is too small (need at least {needed})")]
     BudgetTooSmall {

@@ -7,13 +7,19 @@
 
 use crate::error::ModelError;
 use crate::params::Muscle;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// Source of [`TrialInputs`] identities (caches key on them; clones share the identity, which
+/// is sound because inputs are immutable after construction).
+static NEXT_UID: AtomicU64 = AtomicU64::new(1);
 
 /// Half-width of the central second difference used for `q̈` (inertia effect), in seconds.
 pub const ACCEL_HALF_WINDOW_S: f64 = 0.005;
 
 /// Validated inputs of one trial, with derived velocity and acceleration at the samples.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub struct TrialInputs {
+    uid: u64,
     fs: f64,
     t0: f64,
     times: Vec<f64>,
@@ -91,6 +97,7 @@ impl TrialInputs {
             acceleration[n - 1] = acceleration[n - 2];
         }
         Ok(TrialInputs {
+            uid: NEXT_UID.fetch_add(1, Ordering::Relaxed),
             fs,
             t0,
             times,
@@ -100,6 +107,13 @@ impl TrialInputs {
             env,
             env_ta,
         })
+    }
+
+    /// Identity of these inputs for caches (equal for clones, distinct for separately built
+    /// inputs).
+    #[inline]
+    pub(crate) fn uid(&self) -> u64 {
+        self.uid
     }
 
     /// Number of samples.
@@ -203,6 +217,20 @@ impl TrialInputs {
     #[inline]
     pub fn envelope_ta_at(&self, t: f64) -> Option<f64> {
         self.env_ta.as_ref().map(|e| lerp(e, self.locate(t)))
+    }
+}
+
+impl PartialEq for TrialInputs {
+    /// Equal data (the cache identity is ignored).
+    fn eq(&self, o: &Self) -> bool {
+        self.fs == o.fs
+            && self.t0 == o.t0
+            && self.times == o.times
+            && self.angle == o.angle
+            && self.velocity == o.velocity
+            && self.acceleration == o.acceleration
+            && self.env == o.env
+            && self.env_ta == o.env_ta
     }
 }
 

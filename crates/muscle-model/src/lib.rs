@@ -15,12 +15,15 @@
 //! τ    = Σ_j F̃T_j·F0_j·r_j(q)             (+ effects)
 //! ```
 //!
-//! Each muscle is integrated on its own with Dormand–Prince 5(4) (crate `ode`), with dense
-//! output at the sample times. By default ([`Formulation::Reduced`]) only `a` and `LM` are
-//! integrated and `LMT = LMT(q)`, `F̃T = fT(ε)` are evaluated from the invariants (same exact
-//! solution, no drift, robust to quantised angles); [`Formulation::FourState`] integrates the
-//! four SPEC states literally. The initial state is the static equilibrium (`ṽ = 0`) at
-//! `a = u(0)`.
+//! Each muscle is integrated on its own with Dormand–Prince 5(4), with dense output at the
+//! sample times. By default ([`Formulation::Fast`]) `a`, `â`, the fatigue factor and
+//! `LMT(q)` are computed once per trial at the samples (they do not depend on LST, F0, α0)
+//! and only `LM` is integrated; `F̃T = fT(ε)` comes from the invariant. A [`Workspace`] keeps
+//! each muscle's result for its two latest parameter sets, so a move of one muscle's
+//! parameters integrates one muscle and a move of `F0` alone integrates none.
+//! [`Formulation::Reduced`] integrates `a` and `LM` (used by [`SimSettings::tight`]);
+//! [`Formulation::FourState`] integrates the four SPEC states literally. The initial state is
+//! the static equilibrium (`ṽ = 0`) at `a = u(0)`.
 //!
 //! ```
 //! use muscle_model::{simulate, synthetic, Effects, ModelParams, SimSettings};
@@ -38,6 +41,7 @@ pub mod activation;
 pub mod curves;
 pub mod effects;
 pub mod error;
+mod fast;
 pub mod geometry;
 pub mod inputs;
 pub mod params;

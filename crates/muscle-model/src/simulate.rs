@@ -5,7 +5,7 @@ use crate::effects::Effects;
 use crate::error::ModelError;
 use crate::inputs::TrialInputs;
 use crate::params::{ModelParams, Muscle};
-use crate::unit::{MuscleUnit, IX_FT, STATE_DIM};
+use crate::unit::{MuscleUnit, IX_FT, IX_LM, STATE_DIM};
 use ode::{AdaptiveSettings, OdeSystem};
 use serde::{Deserialize, Serialize};
 
@@ -38,33 +38,45 @@ pub enum Formulation {
     FourState,
     /// Only `a` and `LM` are integrated; `LMT = LMT(q(t))` and `F̃T = fT(ε(LMT, LM))` are
     /// evaluated from the invariants, so they hold exactly and `q̇` is not needed. Robust to
-    /// quantised or noisy angles (default).
-    #[default]
+    /// quantised or noisy angles. [`SimSettings::tight`] uses it.
     Reduced,
+    /// The reduced system with its inputs precomputed once per trial (default): activation
+    /// `a`, `â`, the fatigue factor and `LMT(q)` at every sample (activation integrated once
+    /// with RK4, 4 substeps per sample interval; cubic Hermite between samples), so each
+    /// muscle integrates only its fibre length `LM`. Same exact solution as
+    /// [`Formulation::Reduced`]; the error control acts on `LM` alone. The per-trial part is
+    /// cached in the [`Workspace`] and reused while the trial, the activation parameters, the
+    /// delay and the fatigue rate stay the same.
+    #[default]
+    Fast,
 }
 
 impl Default for SimSettings {
-    /// `rtol = 1e-6`, `atol = 1e-8`, `h_max = 10 ms`, reduced formulation: 2e-4 … 6e-4 N·m RMS
-    /// from a `rtol = 1e-10` run on the seed-like trial (see `docs/model.md`).
+    /// `rtol = 1e-6`, `atol = 1e-8`, `h_max = 30 ms`, [`Formulation::Fast`]: about 1e-3 N·m
+    /// RMS from [`SimSettings::tight`] on the seed fixture (`docs/benchmarks.md`).
     fn default() -> Self {
         SimSettings {
             rtol: 1e-6,
             atol: 1e-8,
-            h_max: 0.01,
+            h_max: 0.03,
             max_steps: 1_000_000,
             record_states: false,
-            formulation: Formulation::Reduced,
+            formulation: Formulation::Fast,
         }
     }
 }
 
 impl SimSettings {
-    /// Tight settings for reference runs (`rtol = 1e-10`, `atol = 1e-12`).
+    /// Tight settings for reference runs (`rtol = 1e-10`, `atol = 1e-12`,
+    /// [`Formulation::Reduced`], `h_max = 10 ms`).
     pub fn tight() -> Self {
         SimSettings {
             rtol: 1e-10,
             atol: 1e-12,
-            ..SimSettings::default()
+            h_max: 0.01,
+            max_steps: 1_000_000,
+            record_states: false,
+            formulation: Formulation::Reduced,
         }
     }
 
@@ -146,6 +158,32 @@ impl SimOutput {
 pub struct Workspace {
     torque_muscle: [Vec<f64>; 3],
     ta: Vec<f64>,
+    channels: [crate::fast::Channel; 3],
+    slots: [[Slot; 2]; 3],
+    newest: [usize; 3],
+    hits: u64,
+    misses: u64,
+}
+
+/// What a cached per-muscle result was computed from (everything but `F0`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct SlotKey {
+    uid: u64,
+    n: usize,
+    unit: MuscleUnit,
+    delay: f64,
+    rtol: f64,
+    atol: f64,
+    h_max: f64,
+    max_steps: usize,
+}
+
+/// One cached muscle: `F̃T·r` at the samples (torque per newton of `F0`).
+#[derive(Clone, Debug, Default)]
+struct Slot {
+    key: Option<SlotKey>,
+    unit_torque: Vec<f64>,
+    stats: SimStats,
 }
 
 impl Workspace {
@@ -158,6 +196,43 @@ impl Workspace {
     pub fn torque_muscle(&self) -> &[Vec<f64>; 3] {
         &self.torque_muscle
     }
+
+    /// `(reused, integrated)`: how many per-muscle results [`simulate_into`] took from this
+    /// workspace's cache and how many it integrated, since the workspace was made.
+    ///
+    /// With [`Formulation::Fast`] each muscle's result (its torque per newton of `F0`) is kept
+    /// for the two most recent parameter sets of that muscle; a call whose muscle constants
+    /// (all but `F0`), trial, delay and tolerances match a kept one reuses it, bit for bit
+    /// (the muscles are independent given the inputs). An annealing move that changes one
+    /// muscle therefore integrates one muscle, and a move of `F0` alone integrates none.
+    pub fn cache_counts(&self) -> (u64, u64) {
+        (self.hits, self.misses)
+    }
+}
+
+/// Unit-`F0` torque `F̃T·r(q)` of `unit` at every sample into `out` ([`Formulation::Fast`]).
+fn fast_unit_torque(
+    ch: &mut crate::fast::Channel,
+    inputs: &TrialInputs,
+    unit: &MuscleUnit,
+    delay: f64,
+    settings: &SimSettings,
+    out: &mut [f64],
+) -> Result<SimStats, ModelError> {
+    let t0 = inputs.times()[0];
+    let y0 = unit.equilibrium_state(
+        inputs.envelope_at(unit.muscle.index(), t0 - delay),
+        inputs.angle()[0],
+    );
+    ch.prepare(inputs, unit, delay);
+    let chr = &*ch;
+    crate::fast::run(chr, inputs, unit, y0[IX_LM], settings, |i, _, _, ft| {
+        out[i] = ft * chr.r[i];
+    })
+    .map_err(|source| ModelError::Integration {
+        muscle: unit.muscle.name(),
+        source,
+    })
 }
 
 struct UnitSystem<'a> {
@@ -209,7 +284,9 @@ fn delay_s(effects: &Effects) -> f64 {
 
 /// Integrates muscle `m` and writes its torque at every sample into `torque`; calls `state`
 /// with every sample's state.
+#[allow(clippy::too_many_arguments)]
 fn run_muscle(
+    ch: &mut crate::fast::Channel,
     inputs: &TrialInputs,
     params: &ModelParams,
     effects: &Effects,
@@ -223,6 +300,20 @@ fn run_muscle(
     let t = inputs.times();
     let j = m.index();
     let y0 = unit.equilibrium_state(inputs.envelope_at(j, t[0] - delay), inputs.angle()[0]);
+    if settings.formulation == Formulation::Fast {
+        ch.prepare(inputs, &unit, delay);
+        let f0 = unit.f0;
+        let chr = &*ch;
+        let stats = crate::fast::run(chr, inputs, &unit, y0[IX_LM], settings, |i, lm, lmt, ft| {
+            torque[i] = f0 * (ft * chr.r[i]);
+            state(i, &crate::fast::state(chr, i, lm, lmt, ft));
+        })
+        .map_err(|source| ModelError::Integration {
+            muscle: m.name(),
+            source,
+        })?;
+        return Ok(stats);
+    }
     let reduced = settings.formulation == Formulation::Reduced;
     let mut sys = UnitSystem {
         unit: &unit,
@@ -372,11 +463,14 @@ pub fn simulate(
         .record_states
         .then(|| std::array::from_fn(|_| vec![[0.0; STATE_DIM]; n]));
     let mut stats = [SimStats::default(); 3];
+    let mut channels: [crate::fast::Channel; 3] = Default::default();
     for m in Muscle::ALL {
         let j = m.index();
         let st = states.as_mut().map(|s| &mut s[j]);
+        let ch = &mut channels[j];
         stats[j] = match st {
             Some(st) => run_muscle(
+                ch,
                 inputs,
                 params,
                 effects,
@@ -386,6 +480,7 @@ pub fn simulate(
                 |i, y| st[i] = *y,
             )?,
             None => run_muscle(
+                ch,
                 inputs,
                 params,
                 effects,
@@ -453,10 +548,53 @@ pub fn simulate_into(
         });
     }
     let mut total = SimStats::default();
+    let fast = settings.formulation == Formulation::Fast;
+    let delay = delay_s(effects);
     for m in Muscle::ALL {
-        let buf = &mut ws.torque_muscle[m.index()];
+        let j = m.index();
+        let buf = &mut ws.torque_muscle[j];
         buf.resize(n, 0.0);
-        let s = run_muscle(inputs, params, effects, settings, m, buf, |_, _| {})?;
+        let ch = &mut ws.channels[j];
+        let s = if fast {
+            let unit = MuscleUnit::new(params, m, effects);
+            let key = SlotKey {
+                uid: inputs.uid(),
+                n,
+                unit: MuscleUnit { f0: 1.0, ..unit },
+                delay,
+                rtol: settings.rtol,
+                atol: settings.atol,
+                h_max: settings.h_max,
+                max_steps: settings.max_steps,
+            };
+            let slots = &mut ws.slots[j];
+            let k = match slots.iter().position(|sl| sl.key == Some(key)) {
+                Some(k) => {
+                    ws.hits += 1;
+                    k
+                }
+                None => {
+                    ws.misses += 1;
+                    let k = 1 - ws.newest[j];
+                    let sl = &mut slots[k];
+                    sl.key = None;
+                    sl.unit_torque.resize(n, 0.0);
+                    sl.stats =
+                        fast_unit_torque(ch, inputs, &unit, delay, settings, &mut sl.unit_torque)?;
+                    sl.key = Some(key);
+                    k
+                }
+            };
+            ws.newest[j] = k;
+            let sl = &slots[k];
+            let f0 = unit.f0;
+            for (b, g) in buf.iter_mut().zip(&sl.unit_torque) {
+                *b = f0 * g;
+            }
+            sl.stats
+        } else {
+            run_muscle(ch, inputs, params, effects, settings, m, buf, |_, _| {})?
+        };
         total.accepted += s.accepted;
         total.rejected += s.rejected;
         total.rhs_calls += s.rhs_calls;

@@ -1,6 +1,7 @@
 //! One module per `surae` subcommand.
 
 pub mod envelope;
+pub mod identify;
 pub mod sensitivity;
 pub mod simulate;
 
@@ -93,7 +94,7 @@ pub struct ModelArgs {
     pub emg_is_envelope: bool,
 }
 
-fn read_text(path: &Path) -> CmdResult<String> {
+pub fn read_text(path: &Path) -> CmdResult<String> {
     let bytes = std::fs::read(path).map_err(|e| {
         Failure::bad(format!(
             "{}: {}",

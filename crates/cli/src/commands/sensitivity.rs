@@ -40,7 +40,7 @@ pub fn run(args: Args) -> CmdResult {
         )));
     }
     let n_steps = (args.max_change / args.step).floor() as i64;
-    if n_steps < 1 || n_steps > 1000 {
+    if !(1..=1000).contains(&n_steps) {
         return Err(Failure::bad(
             "--step must be at most --max-change, and not tiny",
         ));

@@ -1,0 +1,310 @@
+//! `surae identify`: fit LST, F0 and α0 of the three muscles (SPEC §7–8) by
+//! simulated annealing or MCMC.
+
+use super::{load_model_config, load_trial, load_unloaded, trial_inputs, LoadedTrial, ModelArgs};
+use crate::error::{CmdResult, Failure};
+use crate::output::OutDir;
+use crate::progress::Progress;
+use muscle_model::{ModelParams, ParamId, Problem};
+use serde_json::{json, Map, Value};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Identification method.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// Simulated annealing (eq. 13 acceptance) with a Levenberg–Marquardt polish.
+    Sa,
+    /// Metropolis–Hastings chains with an AR(1) noise likelihood.
+    Mcmc,
+}
+
+impl Method {
+    fn name(self) -> &'static str {
+        match self {
+            Method::Sa => "sa",
+            Method::Mcmc => "mcmc",
+        }
+    }
+}
+
+/// Arguments of `surae identify`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// `sa` (simulated annealing) or `mcmc` (Metropolis–Hastings).
+    #[arg(long, value_enum)]
+    pub method: Method,
+    /// Trial CSV (SPEC §5); the bundled seed trial (and its unloaded run) when omitted.
+    #[arg(long)]
+    pub trial: Option<PathBuf>,
+    /// Unloaded run CSV (`time_s, ankle_angle_deg, torque_nm`): its cycle-locked
+    /// error is removed from the measured torque and its noise sets the likelihood.
+    #[arg(long)]
+    pub unloaded: Option<PathBuf>,
+    /// Seed of every random choice (results do not depend on the thread count).
+    #[arg(long, default_value_t = 42)]
+    pub seed: u64,
+    /// True parameters (a SPEC §5 parameters JSON, or a fixture's `truth.json`):
+    /// adds `errors_pct`. The bundled trial's truth is used when no `--trial` is given.
+    #[arg(long)]
+    pub truth: Option<PathBuf>,
+    #[command(flatten)]
+    pub model: ModelArgs,
+    /// Output folder (default `out/identify`).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// No progress display and no summary.
+    #[arg(long)]
+    pub quiet: bool,
+    /// Print `identify.json` to standard output (the summary goes to standard error).
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Reads a truth file: a parameters JSON, or an object with a `params` member.
+pub fn read_truth(path: &Path, text: &str) -> CmdResult<ModelParams> {
+    let v: Value = serde_json::from_str(text).map_err(|e| {
+        Failure::bad(format!(
+            "{}:{}:{}: invalid JSON: {e}",
+            path.display(),
+            e.line(),
+            e.column()
+        ))
+    })?;
+    let params = match v.get("params") {
+        Some(p) => p.clone(),
+        None => v,
+    };
+    ModelParams::nominal()
+        .merged_json(&params)
+        .map_err(|e| Failure::bad(format!("{}: {e}", path.display())))
+}
+
+/// Everything both methods need.
+pub struct Prepared {
+    /// The trial.
+    pub loaded: LoadedTrial,
+    /// The identification problem (measured torque corrected by the unloaded run).
+    pub problem: Problem,
+    /// The measured torque as recorded.
+    pub measured_raw: Vec<f64>,
+    /// How the unloaded run was used, for the JSON.
+    pub noise: Value,
+    /// True parameters, if known.
+    pub truth: Option<ModelParams>,
+    /// Files read (never overwritten).
+    pub inputs: Vec<PathBuf>,
+}
+
+/// Loads the trial, unloaded run and truth and builds the problem.
+pub fn prepare(
+    trial: Option<&Path>,
+    unloaded: Option<&Path>,
+    truth: Option<&Path>,
+    model: &ModelArgs,
+) -> CmdResult<Prepared> {
+    let (params, effects, mut inputs_read) = load_model_config(model)?;
+    let loaded = load_trial(trial)?;
+    let unloaded = load_unloaded(unloaded, trial.is_some())?;
+    let truth = match truth {
+        Some(p) => {
+            let text = super::read_text(p)?;
+            inputs_read.push(p.to_path_buf());
+            Some(read_truth(p, &text)?)
+        }
+        None if trial.is_none() => Some(
+            read_truth(
+                Path::new(crate::bundled::SEED_TRUTH_NAME),
+                crate::bundled::SEED_TRUTH,
+            )
+            .map_err(|e| Failure::internal(e.to_string()))?,
+        ),
+        None => None,
+    };
+    if let Some(p) = &loaded.path {
+        inputs_read.push(p.clone());
+    }
+    // validates the EMG columns with messages that name the file
+    trial_inputs(&loaded, model)?;
+    let opts = experiment::InputOptions {
+        emg_is_envelope: model.emg_is_envelope,
+        ..experiment::InputOptions::default()
+    };
+    let unloaded_name = unloaded.as_ref().map(|(_, n)| n.clone());
+    let prep = identify_sa::prepare_trial(&loaded.trial, unloaded.as_ref().map(|(u, _)| u), &opts)
+        .map_err(|e| match &unloaded_name {
+            Some(n) => Failure::bad(format!("{} / {n}: {e}", loaded.name)),
+            None => Failure::bad(format!("{}: {e}", loaded.name)),
+        })?;
+    let noise = match &prep.noise {
+        Some(n) => json!({
+            "unloaded": unloaded_name,
+            "offset_nm": n.offset_nm,
+            "sigma_nm": n.sigma_nm,
+            "lag1_autocorrelation": n.lag1,
+            "ar1_phi": n.ar1_phi,
+            "subtracted_rms_nm": prep.subtracted_rms_nm(),
+        }),
+        None => json!({"unloaded": Value::Null}),
+    };
+    let measured_raw = prep.raw_torque.clone();
+    let problem = Problem::new(
+        prep.problem.inputs().clone(),
+        prep.problem.measured().to_vec(),
+        params,
+        effects,
+        ParamId::identified().to_vec(),
+    )
+    .map_err(|e| Failure::bad(format!("{}: {e}", loaded.name)))?;
+    Ok(Prepared {
+        loaded,
+        problem,
+        measured_raw,
+        noise,
+        truth,
+        inputs: inputs_read,
+    })
+}
+
+fn errors_pct(params: &BTreeMap<String, f64>, truth: &ModelParams) -> BTreeMap<String, f64> {
+    let effects = muscle_model::Effects::none();
+    params
+        .iter()
+        .filter_map(|(name, v)| {
+            let id = ParamId::parse(name).ok()?;
+            let t = id.get(truth, &effects);
+            Some((name.clone(), 100.0 * (v - t).abs() / t.abs()))
+        })
+        .collect()
+}
+
+fn rms(a: &[f64], b: &[f64]) -> f64 {
+    (a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>() / a.len().max(1) as f64).sqrt()
+}
+
+/// Runs the command.
+pub fn run(args: Args) -> CmdResult {
+    let prep = prepare(
+        args.trial.as_deref(),
+        args.unloaded.as_deref(),
+        args.truth.as_deref(),
+        &args.model,
+    )?;
+    let out_dir = args
+        .out
+        .clone()
+        .unwrap_or_else(|| crate::default_out("identify"));
+    let input_refs: Vec<&Path> = prep.inputs.iter().map(|p| p.as_path()).collect();
+    let out = OutDir::prepare(&out_dir, &input_refs)?;
+    let show = !args.quiet;
+    let (mut doc, lines) = match args.method {
+        Method::Sa => run_sa(&prep, args.seed, show)?,
+        Method::Mcmc => return Err(Failure::bad("--method mcmc is not available yet")),
+    };
+
+    // common fields
+    let params: BTreeMap<String, f64> = doc["params"]
+        .as_object()
+        .map(|m| {
+            m.iter()
+                .filter_map(|(k, v)| v.as_f64().map(|f| (k.clone(), f)))
+                .collect()
+        })
+        .unwrap_or_default();
+    let obj = doc.as_object_mut().expect("identify document is an object");
+    obj.insert("trial".into(), json!(prep.loaded.name));
+    obj.insert("seed".into(), json!(args.seed));
+    obj.insert("noise".into(), prep.noise.clone());
+    if let Some(truth) = &prep.truth {
+        let e = errors_pct(&params, truth);
+        obj.insert("errors_pct".into(), json!(e));
+    }
+    let text = serde_json::to_string_pretty(&doc).map_err(Failure::internal)? + "\n";
+    let path = out.write("identify.json", text.as_bytes())?;
+
+    if args.json {
+        print!("{text}");
+    }
+    if show {
+        let say = |s: &str| {
+            if args.json {
+                eprintln!("{s}");
+            } else {
+                println!("{s}");
+            }
+        };
+        for l in &lines {
+            say(l);
+        }
+        if let Some(e) = doc.get("errors_pct").and_then(|v| v.as_object()) {
+            say("errors vs truth (%):");
+            for m in ["sol", "gm", "gl"] {
+                let get = |f: &str| {
+                    e.get(&format!("{m}.{f}"))
+                        .and_then(|v| v.as_f64())
+                        .unwrap_or(f64::NAN)
+                };
+                say(&format!(
+                    "  {m:<4} LST {:6.2}   F0 {:6.2}   α0 {:6.2}",
+                    get("lst_m"),
+                    get("fom_n"),
+                    get("alpha_deg")
+                ));
+            }
+        }
+        say(&format!("wrote {}", path.display()));
+    }
+    Ok(())
+}
+
+fn run_sa(prep: &Prepared, seed: u64, show: bool) -> CmdResult<(Value, Vec<String>)> {
+    let settings = identify_sa::IdentifySettings::default().with_seed(seed);
+    let total = u64::from(settings.chains) * settings.annealer.max_evaluations;
+    let progress = Progress::new(show, total, "SA");
+    let observer = |ev: &identify_sa::IdentifyEvent| {
+        progress.on_sa_event(ev);
+        std::ops::ControlFlow::Continue(())
+    };
+    let fit = identify_sa::identify(&prep.problem, &settings, &observer)
+        .map_err(|e| Failure::bad(format!("{}: identification failed: {e}", prep.loaded.name)))?;
+    progress.finish();
+    let prediction = prep
+        .problem
+        .predict(&fit.x)
+        .map_err(|e| Failure::internal(format!("simulation of the fit failed: {e}")))?;
+    let rms_raw = rms(&prep.measured_raw, &prediction);
+    let params: Map<String, Value> = fit
+        .params
+        .iter()
+        .map(|(k, v)| (k.clone(), json!(v)))
+        .collect();
+    let doc = json!({
+        "method": Method::Sa.name(),
+        "params": params,
+        "rms_nm": fit.rms_nm,
+        "rms_raw_nm": rms_raw,
+        "evaluations": fit.evaluations,
+        "wall_s": fit.wall_s,
+        "sa": {
+            "chains": fit.chains.len(),
+            "best_chain": fit.best_chain,
+            "chain_costs": fit.chains.iter().map(|c| c.cost).collect::<Vec<_>>(),
+        },
+    });
+    let mut lines = vec![format!(
+        "identify (sa): {} — {} evaluations in {:.1} s ({:.1} µs per evaluation)",
+        prep.loaded.name,
+        fit.evaluations,
+        fit.wall_s,
+        1e6 * fit.wall_s / fit.evaluations.max(1) as f64
+    )];
+    lines.push(format!(
+        "  torque RMS {:.2} N·m after removing the dynamometer's cycle-locked error ({:.2} N·m against the raw torque)",
+        fit.rms_nm, rms_raw
+    ));
+    lines.push("  parameter          value".into());
+    for (k, v) in &fit.params {
+        lines.push(format!("  {k:<16} {v:>10.5}"));
+    }
+    Ok((doc, lines))
+}

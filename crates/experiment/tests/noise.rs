@@ -1,0 +1,234 @@
+//! Event detection and the unloaded-run noise estimate against the synthetic truth.
+
+use experiment::{
+    detect_events, quantise, systematic_error, unloaded_run, DynamometerSettings, ErrorKind,
+    Events, NoiseEstimate, Protocol, Unloaded,
+};
+
+fn max_event_error(a: &Events, b: &Events) -> f64 {
+    assert_eq!(a.starts.len(), b.starts.len(), "starts {a:?} vs {b:?}");
+    assert_eq!(
+        a.reversals.len(),
+        b.reversals.len(),
+        "reversals {a:?} vs {b:?}"
+    );
+    assert_eq!(a.stops.len(), b.stops.len(), "stops {a:?} vs {b:?}");
+    a.all()
+        .iter()
+        .zip(b.all())
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn detected_events_match_the_protocols() {
+    for p in ["seed", "relaxed+2", "cycles+3", "cycles+5"] {
+        let tr = p.parse::<Protocol>().unwrap().trace().unwrap();
+        let ev = detect_events(&tr.time_s, &tr.angle_deg).unwrap();
+        let err = max_event_error(&ev, &tr.events);
+        println!("{p}: max event error {:.3} ms", err * 1e3);
+        assert!(err < 0.5e-3, "{p}: {err} s");
+    }
+}
+
+#[test]
+fn detected_events_survive_a_coarse_noisy_encoder() {
+    // 0.01° encoder resolution plus ±0.01° jitter (deterministic pseudo-noise).
+    let tr = Protocol::Cycles { cycles: 3 }.trace().unwrap();
+    let mut state = 12345u64;
+    let angle: Vec<f64> = tr
+        .angle_deg
+        .iter()
+        .map(|a| {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            let u = (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+            ((a + 0.02 * u) / 0.01).round() * 0.01
+        })
+        .collect();
+    let ev = detect_events(&tr.time_s, &angle).unwrap();
+    let err = max_event_error(&ev, &tr.events);
+    println!("noisy encoder: max event error {:.3} ms", err * 1e3);
+    assert!(err < 3e-3, "{err} s");
+}
+
+#[test]
+fn event_detection_rejects_bad_input() {
+    let t: Vec<f64> = (0..100).map(|i| i as f64 / 2048.0).collect();
+    let flat = vec![15.0; 100];
+    let e = detect_events(&t, &flat).unwrap_err();
+    assert_eq!(e.kind(), ErrorKind::InvalidSettings);
+    let e = detect_events(&t, &flat[..50]).unwrap_err();
+    assert_eq!(e.kind(), ErrorKind::LengthMismatch);
+    let mut bad = flat.clone();
+    bad[3] = f64::NAN;
+    assert_eq!(
+        detect_events(&t, &bad).unwrap_err().kind(),
+        ErrorKind::NotFinite
+    );
+}
+
+fn rms(a: &[f64], b: &[f64]) -> f64 {
+    (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / a.len() as f64).sqrt()
+}
+
+/// Theory for the nominal SPEC §4 noise at 2048 Hz.
+struct Theory {
+    sigma: f64,
+    lag1: f64,
+    phi: f64,
+}
+
+fn theory(s: &DynamometerSettings) -> Theory {
+    let q = s.quantisation_step_nm();
+    let var = s.ar1_sd_nm.powi(2) + s.white_sd_nm.powi(2) + q * q / 12.0;
+    let phi = s.ar1_phi(1.0 / 2048.0);
+    Theory {
+        sigma: var.sqrt(),
+        lag1: phi * s.ar1_sd_nm.powi(2) / var,
+        phi,
+    }
+}
+
+#[test]
+fn unloaded_estimate_recovers_the_systematic_part_and_the_noise() {
+    let s = DynamometerSettings::default();
+    let th = theory(&s);
+    let seed_trace = Protocol::Seed.trace().unwrap();
+    let true_sys = systematic_error(&seed_trace.time_s, &seed_trace.events.all(), &s);
+    let offset_only = vec![s.offset_nm; true_sys.len()];
+    let seeds = 1..=8u64;
+    let mut sum_trans = 0.0;
+    let mut sum_offset = 0.0;
+    let mut worst = (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    for seed in seeds {
+        let u = unloaded_run(&s, seed).unwrap();
+        let est = NoiseEstimate::from_unloaded(&u).unwrap();
+        // Placed at the seed trial's own (detected) events.
+        let ev = detect_events(&seed_trace.time_s, &seed_trace.angle_deg).unwrap();
+        let sys = est.systematic_for(&seed_trace.time_s, &ev);
+        let e_sys = rms(&sys, &true_sys);
+        let e_none = rms(&offset_only, &true_sys);
+        let trans_est: Vec<f64> = sys.iter().map(|v| v - est.offset_nm).collect();
+        let trans_true: Vec<f64> = true_sys.iter().map(|v| v - s.offset_nm).collect();
+        let e_trans = rms(&trans_est, &trans_true);
+        let e_sigma = (est.sigma_nm / th.sigma - 1.0).abs();
+        let e_lag1 = (est.lag1 - th.lag1).abs();
+        let e_phi = (est.ar1_phi - th.phi).abs();
+        println!(
+            "seed {seed}: offset {:.3} sys rms err {e_sys:.3} transients {e_trans:.3} (none {e_none:.3}) \
+             sigma {:.3}/{:.3} lag1 {:.4}/{:.4} phi {:.4}/{:.4} ar1 {:.3} white {:.3} se {:.3}",
+            est.offset_nm,
+            est.sigma_nm,
+            th.sigma,
+            est.lag1,
+            th.lag1,
+            est.ar1_phi,
+            th.phi,
+            est.ar1_sd_nm,
+            est.white_sd_nm,
+            est.template_se_nm()
+        );
+        assert_eq!(
+            est.events.all().len(),
+            7,
+            "3 cycles: 1 start, 5 reversals, 1 stop"
+        );
+        worst = (
+            worst.0.max(e_sys),
+            worst.1.max(e_sigma),
+            worst.2.max(e_lag1),
+            worst.3.max(e_phi),
+            worst.4.max((est.offset_nm - s.offset_nm).abs()),
+        );
+        // The template removes most of the transients (the rest is its averaging noise).
+        assert!(
+            e_trans < 0.75 * e_none,
+            "seed {seed}: {e_trans} vs {e_none}"
+        );
+        sum_trans += e_trans / e_none;
+        sum_offset += (est.offset_nm - s.offset_nm).abs();
+    }
+    println!(
+        "worst: sys {:.3} N·m, sigma {:.3} rel, lag1 {:.4}, phi {:.4}, offset {:.3}",
+        worst.0, worst.1, worst.2, worst.3, worst.4
+    );
+    let mean_trans = sum_trans / 8.0;
+    println!("mean transient error / transient RMS: {mean_trans:.3}");
+    assert!(mean_trans < 0.5, "{mean_trans}");
+    // The offset is the mean of an AR(1) (correlation time 0.03 s) over ~7.5 s: sd ≈ 0.13 N·m.
+    let mean_offset = sum_offset / 8.0;
+    println!("mean |offset error| {mean_offset:.3} N·m");
+    assert!(mean_offset < 0.2, "{mean_offset}");
+    assert!(worst.0 < 0.4, "systematic part RMS error {} N·m", worst.0);
+    assert!(worst.1 < 0.10, "sigma relative error {}", worst.1);
+    assert!(worst.2 < 0.03, "lag-one autocorrelation error {}", worst.2);
+    assert!(worst.3 < 0.01, "AR(1) phi error {}", worst.3);
+    assert!(worst.4 < 0.4, "offset error {} N·m", worst.4);
+}
+
+#[test]
+fn autocorrelation_follows_ar1_plus_white() {
+    let s = DynamometerSettings::default();
+    let u = unloaded_run(&s, 11).unwrap();
+    let est = NoiseEstimate::from_unloaded(&u).unwrap();
+    let checks = est.autocorrelation_check(&[1, 5, 20, 60]);
+    assert_eq!(checks.len(), 4);
+    for c in &checks {
+        println!(
+            "lag {}: measured {:.3} ar1+white {:.3} ar1 {:.3}",
+            c.lag, c.measured, c.ar1_white, c.ar1
+        );
+        assert!((c.measured - c.ar1_white).abs() < 0.06, "{c:?}");
+    }
+    // The AR(1) handed to a likelihood has the measured lag-one correlation and marginal σ.
+    let ar = est.ar1().unwrap();
+    assert!((ar.phi - est.lag1).abs() < 1e-12);
+    let marginal = ar.sigma_innov / (1.0 - ar.phi * ar.phi).sqrt();
+    assert!((marginal - est.sigma_nm).abs() < 1e-9);
+}
+
+#[test]
+fn estimate_of_a_pure_systematic_run_is_exact_up_to_quantisation() {
+    // No random part: the template is the transient itself, the remainder is quantisation.
+    let s = DynamometerSettings {
+        ar1_sd_nm: 0.0,
+        white_sd_nm: 0.0,
+        ..DynamometerSettings::default()
+    };
+    let u = unloaded_run(&s, 1).unwrap();
+    let est = NoiseEstimate::from_unloaded(&u).unwrap();
+    let truth = systematic_error(
+        &u.time_s,
+        &Protocol::unloaded().trace().unwrap().events.all(),
+        &s,
+    );
+    let sys = est.systematic_for(&u.time_s, &est.events);
+    // The ADC turns the constant offset into a constant (−1.5 → −1.655 N·m): compare the
+    // transients and the offset separately.
+    let transient_truth: Vec<f64> = truth.iter().map(|v| v - s.offset_nm).collect();
+    let transient_est: Vec<f64> = sys.iter().map(|v| v - est.offset_nm).collect();
+    let e = rms(&transient_est, &transient_truth);
+    println!(
+        "noise-free: systematic RMS error {e:.4} N·m, sigma {:.4}",
+        est.sigma_nm
+    );
+    // The quantisation step is 0.33 N·m (its RMS 0.096 N·m); the estimate is within that.
+    assert!(e < 0.1, "{e}");
+    assert!(est.sigma_nm < 0.15);
+    assert!((est.offset_nm - quantise(s.offset_nm, &s)).abs() < 0.2);
+}
+
+#[test]
+fn estimate_rejects_a_run_without_motion() {
+    let n = 4096;
+    let u = Unloaded {
+        time_s: (0..n).map(|i| i as f64 / 2048.0).collect(),
+        ankle_angle_deg: vec![15.0; n],
+        torque_nm: vec![-1.5; n],
+        comments: Vec::new(),
+        ignored_columns: Vec::new(),
+    };
+    assert!(NoiseEstimate::from_unloaded(&u).is_err());
+}

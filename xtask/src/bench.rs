@@ -1,0 +1,188 @@
+//! `cargo xtask bench`: the forward model and the cost on the seed fixture, then the Python
+//! peer (`bench/peer/surae_peer.py`, scipy RK45) on the same trial in the same run; prints a
+//! Markdown table with the ratios.
+
+use anyhow::{bail, Context, Result};
+use muscle_model::{
+    simulate, simulate_into, Effects, ModelParams, Problem, ProblemWorkspace, SimSettings,
+    Workspace,
+};
+use std::path::Path;
+use std::process::Command;
+use std::time::Instant;
+
+const USAGE: &str = "usage: cargo xtask bench [--repeat N] [--reps M] [--trial T.csv]\n\
+  --repeat N     Python peer simulations (median; default 5)\n\
+  --reps M       Rust repetitions per row (median; default 2000)\n\
+  --trial T.csv  trial (default <workspace>/fixtures/seed/trial.csv)";
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// Median wall time (s) of `f` over `reps` calls after 20 warm-up calls.
+fn time_it(reps: usize, mut f: impl FnMut(usize) -> Result<()>) -> Result<f64> {
+    for k in 0..20 {
+        f(k)?;
+    }
+    let mut t = Vec::with_capacity(reps);
+    for k in 0..reps {
+        let s = Instant::now();
+        f(k)?;
+        t.push(s.elapsed().as_secs_f64());
+    }
+    Ok(median(t))
+}
+
+fn rms(a: &[f64], b: &[f64]) -> f64 {
+    (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / a.len() as f64).sqrt()
+}
+
+/// Runs the peer and returns its median wall time per simulation (s).
+fn peer(root: &Path, trial: &Path, repeat: usize) -> Result<f64> {
+    let script = root.join("bench/peer/surae_peer.py");
+    let out = Command::new("python3")
+        .arg(&script)
+        .arg("--trial")
+        .arg(trial)
+        .args(["--time", "--repeat", &repeat.to_string()])
+        .output()
+        .context("running python3 (is it installed?)")?;
+    let text =
+        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    if !out.status.success() {
+        if text.contains("No module named") {
+            bail!(
+                "the Python peer needs numpy and scipy: pip install -r bench/peer/requirements.txt\n{text}"
+            );
+        }
+        bail!("the Python peer failed:\n{text}");
+    }
+    // "wall per simulation: median 0.2346 s over 3 ..."
+    let v = text
+        .split("median ")
+        .nth(1)
+        .and_then(|r| r.split_whitespace().next())
+        .and_then(|x| x.parse::<f64>().ok())
+        .with_context(|| format!("no median time in the peer output:\n{text}"))?;
+    Ok(v)
+}
+
+/// `cargo xtask bench [...]`.
+pub fn run(args: &mut impl Iterator<Item = String>) -> Result<bool> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .context("workspace root")?
+        .to_path_buf();
+    let mut repeat = 5;
+    let mut reps = 2000;
+    let mut trial_path = root.join("fixtures/seed/trial.csv");
+    while let Some(a) = args.next() {
+        match a.as_str() {
+            "--repeat" => repeat = args.next().context("--repeat N")?.parse()?,
+            "--reps" => reps = args.next().context("--reps M")?.parse()?,
+            "--trial" => trial_path = args.next().context("--trial T.csv")?.into(),
+            "-h" | "--help" => {
+                println!("{USAGE}");
+                return Ok(true);
+            }
+            other => bail!("unknown argument `{other}`\n{USAGE}"),
+        }
+    }
+    if repeat == 0 || reps == 0 {
+        bail!("--repeat and --reps must be positive");
+    }
+    let trial = experiment::read_trial(&trial_path)
+        .with_context(|| format!("reading {}", trial_path.display()))?;
+    let inputs = experiment::model_inputs(&trial, &Default::default())?;
+    let n = inputs.len();
+    let p = ModelParams::nominal();
+    let e = Effects::none();
+    let s = SimSettings::default();
+    eprintln!("trial {} ({n} samples)", trial_path.display());
+
+    // accuracy of the default settings against the tight reference
+    let tight = simulate(&inputs, &p, &e, &SimSettings::tight())?;
+    let fast = simulate(&inputs, &p, &e, &s)?;
+    let err = rms(&fast.torque, &tight.torque);
+    let st = fast.total_stats();
+
+    // one forward simulation: three parameter sets in turn, each differing in every muscle,
+    // so the two-slot per-muscle cache never applies
+    let sets: Vec<ModelParams> = (0..3)
+        .map(|k| {
+            let mut q = p;
+            for m in &mut q.muscles {
+                m.lst_m *= 1.0 + 1e-4 * k as f64;
+            }
+            q
+        })
+        .collect();
+    let mut ws = Workspace::new();
+    let mut torque = vec![0.0; n];
+    let t_fwd = time_it(reps, |k| {
+        simulate_into(&mut ws, &inputs, &sets[k % 3], &e, &s, &mut torque)?;
+        Ok(())
+    })?;
+
+    // cost evaluations as an annealer makes them: one coordinate of the 9 moved at a time
+    let problem = Problem::standard(inputs.clone(), trial.torque_nm.clone())?;
+    let x0 = problem.base_vector();
+    let mut pws = ProblemWorkspace::new();
+    let mut x = x0.clone();
+    let mut state = 0x2545_f491_4f6c_dd1d_u64;
+    let mut next = || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        state
+    };
+    let t_cost_sa = time_it(reps, |_| {
+        let c = (next() % 9) as usize;
+        let u = (next() >> 11) as f64 / (1u64 << 53) as f64;
+        x[c] = x0[c] * (1.0 + 0.02 * (u - 0.5));
+        std::hint::black_box(problem.sse_with(&x, &mut pws)?);
+        Ok(())
+    })?;
+    // a full cost evaluation: all coordinates moved
+    let t_cost_full = time_it(reps.min(500), |k| {
+        for (c, xi) in x.iter_mut().enumerate() {
+            *xi = x0[c] * (1.0 + 1e-4 * ((k + c) % 5) as f64);
+        }
+        std::hint::black_box(problem.sse_with(&x, &mut pws)?);
+        Ok(())
+    })?;
+
+    eprintln!("running the Python peer ({repeat} simulations) ...");
+    let t_peer = peer(&root, &trial_path, repeat)?;
+
+    let us = |t: f64| format!("{:.1} µs", t * 1e6);
+    println!("| measurement | surae (Rust, 1 thread) | peer (Python, scipy RK45) | ratio |");
+    println!("|---|---|---|---|");
+    println!(
+        "| forward simulation, seed trial (3 muscles integrated) | {} | {:.1} ms | {:.0}× |",
+        us(t_fwd),
+        t_peer * 1e3,
+        t_peer / t_fwd
+    );
+    println!(
+        "| cost evaluation, all 9 parameters moved | {} | — | {:.0}× |",
+        us(t_cost_full),
+        t_peer / t_cost_full
+    );
+    println!(
+        "| cost evaluation, one random coordinate moved (annealing move) | {} | — | {:.0}× |",
+        us(t_cost_sa),
+        t_peer / t_cost_sa
+    );
+    println!("| SA to the noise floor | not yet measured | — | — |");
+    println!("| MCMC to R̂ < 1.01, ESS ≥ 400 | not yet measured | — | — |");
+    println!("| full diagnosis | not yet measured | — | — |");
+    println!();
+    println!(
+        "default settings: {:.2e} N·m RMS from SimSettings::tight(); {} accepted steps, {} RHS calls (3 muscles); {} Rust repetitions, {repeat} peer simulations",
+        err, st.accepted, st.rhs_calls, reps
+    );
+    Ok(true)
+}
