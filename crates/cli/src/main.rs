@@ -9,6 +9,7 @@
 mod bundled;
 mod commands;
 mod error;
+mod figures;
 mod output;
 mod progress;
 

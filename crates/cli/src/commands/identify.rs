@@ -3,6 +3,7 @@
 
 use super::{load_model_config, load_trial, load_unloaded, trial_inputs, LoadedTrial, ModelArgs};
 use crate::error::{CmdResult, Failure};
+use crate::figures::{self, FigureSet};
 use crate::output::OutDir;
 use crate::progress::Progress;
 use muscle_model::{ModelParams, ParamId, Problem};
@@ -197,7 +198,7 @@ pub fn run(args: Args) -> CmdResult {
     let input_refs: Vec<&Path> = prep.inputs.iter().map(|p| p.as_path()).collect();
     let out = OutDir::prepare(&out_dir, &input_refs)?;
     let show = !args.quiet;
-    let (mut doc, lines) = match args.method {
+    let (mut doc, lines, prediction) = match args.method {
         Method::Sa => run_sa(&prep, args.seed, show)?,
         Method::Mcmc => return Err(Failure::bad("--method mcmc is not available yet")),
     };
@@ -221,6 +222,7 @@ pub fn run(args: Args) -> CmdResult {
     }
     let text = serde_json::to_string_pretty(&doc).map_err(Failure::internal)? + "\n";
     let path = out.write("identify.json", text.as_bytes())?;
+    let files = write_figures(&out, &prep, &doc, &prediction, args.method)?;
 
     if args.json {
         print!("{text}");
@@ -252,12 +254,17 @@ pub fn run(args: Args) -> CmdResult {
                 ));
             }
         }
-        say(&format!("wrote {}", path.display()));
+        say(&format!(
+            "wrote {} and {} figures/report files in {}",
+            path.display(),
+            files.len(),
+            out_dir.display()
+        ));
     }
     Ok(())
 }
 
-fn run_sa(prep: &Prepared, seed: u64, show: bool) -> CmdResult<(Value, Vec<String>)> {
+fn run_sa(prep: &Prepared, seed: u64, show: bool) -> CmdResult<(Value, Vec<String>, Vec<f64>)> {
     let settings = identify_sa::IdentifySettings::default().with_seed(seed);
     let total = u64::from(settings.chains) * settings.annealer.max_evaluations;
     let progress = Progress::new(show, total, "SA");
@@ -306,5 +313,108 @@ fn run_sa(prep: &Prepared, seed: u64, show: bool) -> CmdResult<(Value, Vec<Strin
     for (k, v) in &fit.params {
         lines.push(format!("  {k:<16} {v:>10.5}"));
     }
-    Ok((doc, lines))
+    Ok((doc, lines, prediction))
+}
+
+/// The fit figures and `report.html` of an identification.
+fn write_figures(
+    out: &OutDir,
+    prep: &Prepared,
+    doc: &Value,
+    prediction: &[f64],
+    method: Method,
+) -> CmdResult<Vec<PathBuf>> {
+    let inputs = prep.problem.inputs();
+    let measured = prep.problem.measured();
+    let time = inputs.times();
+    let angle = figures::angle_deg(inputs);
+    let residual: Vec<f64> = measured
+        .iter()
+        .zip(prediction)
+        .map(|(m, p)| m - p)
+        .collect();
+    let mut set = FigureSet::new(
+        out,
+        &format!("surae identify ({}) — {}", method.name(), prep.loaded.name),
+    );
+    set.page().paragraph(format!(
+        "Identification of tendon slack length (LST), maximum isometric force (F0) and \
+         pennation angle (α0) of soleus, gastrocnemius medialis and lateralis by {}. \
+         The measured torque is shown after removing the dynamometer's cycle-locked error \
+         estimated from the unloaded run (when one was given).",
+        match method {
+            Method::Sa => "simulated annealing with a Levenberg–Marquardt polish",
+            Method::Mcmc => "Metropolis–Hastings sampling",
+        }
+    ));
+    let nominal = ModelParams::nominal();
+    let none = muscle_model::Effects::none();
+    let mut rows = Vec::new();
+    for (i, id) in prep.problem.free().iter().enumerate() {
+        let name = id.name();
+        let v = doc["params"][&name].as_f64().unwrap_or(f64::NAN);
+        let (lo, hi) = prep.problem.bounds()[i];
+        let mut row = vec![
+            report::param_label(&name),
+            report::format_sig(v, 5),
+            report::format_sig(id.get(&nominal, &none), 5),
+            format!(
+                "[{}, {}]",
+                report::format_sig(lo, 4),
+                report::format_sig(hi, 4)
+            ),
+        ];
+        if let Some(t) = &prep.truth {
+            row.push(report::format_sig(id.get(t, &none), 5));
+            row.push(
+                doc["errors_pct"][&name]
+                    .as_f64()
+                    .map_or("–".into(), |e| format!("{e:.2}")),
+            );
+        }
+        rows.push(row);
+    }
+    let mut headers = vec!["parameter", "estimate", "nominal", "bounds"];
+    if prep.truth.is_some() {
+        headers.extend(["truth", "error (%)"]);
+    }
+    set.page()
+        .table("Identified parameters", &headers, &rows)
+        .map_err(|e| Failure::internal(e.to_string()))?;
+    set.page().key_values(
+        "Fit",
+        &[
+            (
+                "torque RMS (N·m)",
+                format!("{:.3}", doc["rms_nm"].as_f64().unwrap_or(f64::NAN)),
+            ),
+            ("model evaluations", doc["evaluations"].to_string()),
+            (
+                "wall time (s)",
+                format!("{:.2}", doc["wall_s"].as_f64().unwrap_or(f64::NAN)),
+            ),
+        ],
+    );
+    let env = figures::envelopes(inputs);
+    set.add(
+        "torque_fit",
+        "Measured (corrected) and fitted torque, ankle angle and EMG envelopes",
+        report::figures::torque_fit(time, measured, &[("fit", prediction)], &angle, &env),
+    )?;
+    set.add(
+        "residual_vs_time",
+        "Residual (measured − model) against time",
+        report::figures::residual_vs_time(time, &[("fit", &residual)]),
+    )?;
+    set.add(
+        "residual_vs_angle",
+        "Residual against ankle angle, coloured by phase",
+        report::figures::residual_vs_angle(
+            &angle,
+            &residual,
+            &figures::phases(inputs),
+            &figures::PHASE_NAMES,
+        ),
+    )?;
+    set.finish()
 }

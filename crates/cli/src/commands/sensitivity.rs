@@ -2,6 +2,7 @@
 
 use super::{load_model_config, load_trial, trial_inputs, ModelArgs};
 use crate::error::{CmdResult, Failure};
+use crate::figures::FigureSet;
 use crate::output::OutDir;
 use muscle_model::{sensitivity, SensitivitySettings};
 use std::path::{Path, PathBuf};
@@ -68,6 +69,27 @@ pub fn run(args: Args) -> CmdResult {
     let out = OutDir::prepare(&out_dir, &input_paths)?;
     let csv = out.write("sensitivity.csv", table.to_csv().as_bytes())?;
     let json = out.write("sensitivity.json", table.to_json_string().as_bytes())?;
+    let points: Vec<report::figures::SensitivityPoint<'_>> = table
+        .rows
+        .iter()
+        .map(|r| report::figures::SensitivityPoint {
+            param: &r.param,
+            change_pct: r.change_pct,
+            rms_change_nm: r.rms_change_nm,
+        })
+        .collect();
+    let mut set = FigureSet::new(&out, &format!("surae sensitivity — {}", loaded.name));
+    set.page().paragraph(format!(
+        "One-at-a-time sweeps of each identified parameter (dissertation Fig. 6): RMS change \
+         of the ankle torque against the nominal simulation (nominal RMS torque {:.1} N·m).",
+        table.nominal_rms_torque_nm
+    ));
+    set.add(
+        "sensitivity",
+        "RMS torque change per parameter change (dissertation Fig. 6)",
+        report::figures::sensitivity_curves(&points),
+    )?;
+    set.finish()?;
 
     println!(
         "sensitivity: {} ({} samples), nominal RMS torque {:.2} N·m, changes ±{}% in {}% steps",
@@ -103,6 +125,10 @@ pub fn run(args: Args) -> CmdResult {
             table.failures()
         );
     }
-    println!("wrote {} and {}", csv.display(), json.display());
+    println!(
+        "wrote {}, {}, sensitivity.svg and report.html",
+        csv.display(),
+        json.display()
+    );
     Ok(())
 }
