@@ -34,6 +34,9 @@ enum Command {
     Sensitivity(commands::sensitivity::Args),
     /// Identify LST, F0 and α0 of sol, gm, gl (writes identify.json).
     Identify(commands::identify::Args),
+    /// What the model gets wrong: residual analysis, the named cause(s), the
+    /// extended model and its held-out gain (writes diagnosis.json).
+    Diagnose(commands::diagnose::Args),
 }
 
 fn main() {
@@ -62,6 +65,7 @@ fn main() {
         Command::Simulate(a) => commands::simulate::run(a),
         Command::Sensitivity(a) => commands::sensitivity::run(a),
         Command::Identify(a) => commands::identify::run(a),
+        Command::Diagnose(a) => commands::diagnose::run(a),
     };
     if let Err(f) = result {
         eprintln!("{f}");

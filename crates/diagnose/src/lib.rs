@@ -1,3 +1,569 @@
-//! Diagnosis of what the simulation gets wrong: residual analysis, ranking of the
-//! SPEC §6 model extensions and their held-out gain. Not implemented yet: this
-//! crate holds no functions until the diagnosis issue fills it.
+//! Diagnosis of what the simulation gets wrong (SPEC §7 `surae diagnose`): residual analysis,
+//! ranking and fitting of the SPEC §6 model extensions, and their held-out gain.
+//!
+//! # Method
+//!
+//! 1. **Noise** ([`noise`]): on the unloaded run, fit the dynamometer's systematic part
+//!    `c + Σ_e e^{−(t−e)/τ}(B sin 2πf(t−e) + C cos 2πf(t−e))` (offset + event transients) and
+//!    an AR(1)+white random part; subtract the systematic part (at the trial's own events)
+//!    from the measured torque. Whitening by the Kalman innovations `ν_t/√S_t` makes the
+//!    least squares exact generalised least squares, with
+//!    `log L = −½ Σ (ln 2π S_t + ν_t²/S_t)`.
+//! 2. **Baseline** ([`lm`]): bounded Levenberg–Marquardt on the 9 muscle parameters from
+//!    nominal, whitened residual, finite-difference Jacobian.
+//! 3. **Ranking** ([`score`]): for every eligible extension, the score test
+//!    `LM = rᵀP⊥S(SᵀP⊥S)⁻¹SᵀP⊥r/s²` from its sensitivity `S` at the null value;
+//!    evidence `LM − p ln n`.
+//! 4. **Refit** the leaders (muscle + effect parameters) and cross-validate cycle-wise
+//!    (each cycle held out in turn: zero weight, states still simulated over the whole trial).
+//!    An extension is **accepted** when
+//!    `heldout_before − heldout_after ≥ max(2 % · heldout_before, 0.02 N·m)` **and**
+//!    `ΔBIC = BIC_ext − BIC_base < −10`; the best accepted one (lowest ΔBIC) joins the model
+//!    and the ranking is repeated on the new residual (greedy forward selection).
+//! 5. **Confounding**: an extension whose signature has `cos > 0.98` with the span of the
+//!    model's parameter sensitivities is reported in `confounded`, never named.
+//! 6. **Unexplained structure** ([`analysis`]): a step-function model of the motion tested
+//!    against the final residual.
+//! 7. **Uncertainty**: Gauss–Newton standard errors `√diag(s²(JᵀJ)⁻¹)` with the whitened `J`.
+//!
+//! # Example
+//!
+//! ```no_run
+//! use experiment::{synthesize, Protocol, SynthConfig};
+//! use muscle_model::Effects;
+//!
+//! let effects = Effects::from_json_str(r#"{"electromechanical_delay": {"delay_ms": 40}}"#)?;
+//! let cfg = SynthConfig::new("relaxed+2".parse::<Protocol>()?, 11).with_effects(effects);
+//! let syn = synthesize(&cfg)?;
+//! let d = diagnose::run(&syn.trial, Some(&syn.unloaded), &diagnose::DiagnoseSettings::default(),
+//!                       &mut diagnose::no_observer)?;
+//! assert_eq!(d.causes, vec!["electromechanical_delay".to_string()]);
+//! for line in d.summary_lines() { println!("{line}"); }
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+// Index loops mirror the equations (several arrays per index); the boxed β → value maps are
+// one-line closures.
+#![allow(clippy::needless_range_loop, clippy::type_complexity)]
+
+pub mod analysis;
+mod error;
+pub mod fit;
+pub mod lm;
+pub mod noise;
+mod report;
+pub mod scenarios;
+pub mod score;
+pub mod segment;
+
+use std::collections::BTreeMap;
+use std::ops::ControlFlow;
+use std::time::Instant;
+
+use experiment::{model_inputs, InputOptions, Trial, Unloaded};
+use muscle_model::{EffectKind, Muscle, ParamId};
+use rayon::prelude::*;
+
+pub use analysis::{AcfPoint, Bin, ResidualAnalysis, Series};
+pub use error::DiagnoseError;
+pub use lm::LmSettings;
+pub use noise::{NoiseModel, NoiseSource, Transient};
+pub use report::{CandidateReport, Diagnosis, Gain, ModelReport, Verdict};
+pub use segment::{PhaseLabel, Segmentation};
+
+use fit::{Context, Fit};
+use noise::WhitenPlan;
+
+/// Settings of a diagnosis. `Default` is the documented decision rule (docs/diagnosis.md).
+#[derive(Clone, Debug, PartialEq)]
+pub struct DiagnoseSettings {
+    /// Effects considered (those whose inputs exist: `antagonist_coactivation` needs `emg_ta`).
+    pub candidates: Vec<EffectKind>,
+    /// Most effects added.
+    pub max_effects: usize,
+    /// Candidates refitted per round (best evidence first).
+    pub refits_per_round: usize,
+    /// Minimum score statistic for a refit.
+    pub min_score_lm: f64,
+    /// Held-out RMS must fall by at least this share (%).
+    pub min_heldout_gain_pct: f64,
+    /// … and by at least this much (N·m).
+    pub min_heldout_gain_nm: f64,
+    /// ΔBIC must be below this.
+    pub max_delta_bic: f64,
+    /// Cosine above which an extension is confounded with the model's parameters.
+    pub confound_cos: f64,
+    /// Structure evidence above which `unexplained_structure` is set.
+    pub structure_threshold: f64,
+    /// How the EMG columns become envelopes.
+    pub input_options: InputOptions,
+    /// Levenberg–Marquardt settings of the full fits.
+    pub lm: LmSettings,
+    /// Levenberg–Marquardt iterations of a cross-validation refit.
+    pub cv_iterations: usize,
+}
+
+impl Default for DiagnoseSettings {
+    fn default() -> Self {
+        DiagnoseSettings {
+            candidates: EffectKind::ALL.to_vec(),
+            max_effects: 3,
+            refits_per_round: 3,
+            min_score_lm: 6.0,
+            min_heldout_gain_pct: 2.0,
+            min_heldout_gain_nm: 0.02,
+            max_delta_bic: -10.0,
+            confound_cos: 0.98,
+            structure_threshold: 10.0,
+            input_options: InputOptions::default(),
+            lm: LmSettings::default(),
+            cv_iterations: 8,
+        }
+    }
+}
+
+/// Stage reported to the observer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stage {
+    /// Fitting the noise model.
+    Noise,
+    /// Fitting the baseline.
+    Baseline,
+    /// Ranking and refitting candidates in a round.
+    Round(usize),
+    /// Residual analysis.
+    Analysis,
+}
+
+/// Progress report.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Progress {
+    /// Stage.
+    pub stage: Stage,
+    /// Human message.
+    pub message: String,
+    /// Simulations so far.
+    pub evaluations: usize,
+}
+
+/// An observer that never stops the diagnosis.
+pub fn no_observer(_: &Progress) -> ControlFlow<()> {
+    ControlFlow::Continue(())
+}
+
+fn notify(
+    obs: &mut dyn FnMut(&Progress) -> ControlFlow<()>,
+    stage: Stage,
+    message: String,
+    evaluations: usize,
+) -> Result<(), DiagnoseError> {
+    match obs(&Progress {
+        stage,
+        message,
+        evaluations,
+    }) {
+        ControlFlow::Continue(()) => Ok(()),
+        ControlFlow::Break(()) => Err(DiagnoseError::Cancelled),
+    }
+}
+
+/// Refit result of one candidate.
+struct Refit {
+    kind: EffectKind,
+    fit: Fit,
+    delta_bic: f64,
+    gain_nm: f64,
+    gain_pct: f64,
+}
+
+/// Diagnoses a measured trial (and its unloaded run when available).
+///
+/// # Errors
+/// Invalid trial or unloaded run (EMG columns, no motion, sampling rates that differ),
+/// invalid settings, a baseline that cannot be simulated, or a stop by the observer.
+pub fn run(
+    trial: &Trial,
+    unloaded: Option<&Unloaded>,
+    settings: &DiagnoseSettings,
+    observer: &mut dyn FnMut(&Progress) -> ControlFlow<()>,
+) -> Result<Diagnosis, DiagnoseError> {
+    let t0 = Instant::now();
+    check_settings(settings)?;
+    let inputs = model_inputs(trial, &settings.input_options)?;
+    let n = inputs.len();
+    let fs = inputs.fs();
+    let act: Vec<f64> = (0..n)
+        .map(|i| {
+            Muscle::ALL
+                .iter()
+                .map(|m| inputs.envelope(*m)[i])
+                .sum::<f64>()
+                / 3.0
+        })
+        .collect();
+    let seg = Segmentation::new(inputs.angle(), fs, Some(&act)).map_err(|reason| {
+        DiagnoseError::Segmentation {
+            recording: "trial",
+            reason,
+        }
+    })?;
+    notify(observer, Stage::Noise, "fitting the noise model".into(), 0)?;
+    let times: Vec<f64> = (0..n).map(|i| i as f64 / fs).collect();
+    let nominal = ParamId::identified().map(|p| {
+        p.get(
+            &muscle_model::ModelParams::nominal(),
+            &muscle_model::Effects::none(),
+        )
+    });
+    let mut evaluations = 0;
+    let lm = settings.lm;
+    let cv_lm = LmSettings {
+        max_iterations: settings.cv_iterations,
+        ..settings.lm
+    };
+    let make_ctx = |y: Vec<f64>, noise: NoiseModel| -> Context {
+        let plan = noise.plan(n, None);
+        let folds = (0..seg.cycles.len())
+            .map(|k| {
+                let held: Vec<bool> = seg.cycle.iter().map(|c| *c == Some(k)).collect();
+                let train: Vec<bool> = held.iter().map(|h| !h).collect();
+                let p: WhitenPlan = noise.plan(n, Some(&train));
+                (held, p)
+            })
+            .collect();
+        Context {
+            inputs: inputs.clone(),
+            y,
+            noise,
+            seg: seg.clone(),
+            plan,
+            folds,
+            lm,
+            cv_lm,
+        }
+    };
+    let (noise, y) = match unloaded {
+        Some(u) => {
+            let fu = u.sample_rate_hz();
+            if (fu - fs).abs() > 1e-6 * fs || fu.is_nan() {
+                return Err(DiagnoseError::Unloaded {
+                    reason: format!("sampled at {fu} Hz but the trial at {fs} Hz"),
+                });
+            }
+            let su = Segmentation::new(&u.ankle_angle_deg, fu, None).map_err(|reason| {
+                DiagnoseError::Segmentation {
+                    recording: "unloaded run",
+                    reason,
+                }
+            })?;
+            let noise = NoiseModel::fit(&u.torque_nm, fu, &su.events, true, NoiseSource::Unloaded);
+            let sys = noise.systematic(&times, &seg.events);
+            let y: Vec<f64> = trial
+                .torque_nm
+                .iter()
+                .zip(&sys)
+                .map(|(a, b)| a - b)
+                .collect();
+            (noise, y)
+        }
+        None => {
+            // preliminary white-noise baseline, then the noise model from its residual
+            let pre_noise = NoiseModel {
+                source: NoiseSource::TrialResidual,
+                offset_nm: 0.0,
+                transient: noise::Transient::none(),
+                phi: 0.0,
+                sd_ar_nm: 0.0,
+                sd_white_nm: 1.0,
+                remainder_rms_nm: 0.0,
+            };
+            let ctx0 = make_ctx(trial.torque_nm.clone(), pre_noise);
+            let f0 = ctx0.fit(&[], &nominal, false)?;
+            evaluations += f0.evaluations;
+            let res: Vec<f64> = trial
+                .torque_nm
+                .iter()
+                .zip(&f0.pred)
+                .map(|(a, b)| a - b)
+                .collect();
+            let mut noise =
+                NoiseModel::fit(&res, fs, &seg.events, false, NoiseSource::TrialResidual);
+            noise.offset_nm = 0.0;
+            let sys = noise.systematic(&times, &seg.events);
+            let y: Vec<f64> = trial
+                .torque_nm
+                .iter()
+                .zip(&sys)
+                .map(|(a, b)| a - b)
+                .collect();
+            (noise, y)
+        }
+    };
+    let ctx = make_ctx(y, noise);
+    notify(
+        observer,
+        Stage::Baseline,
+        "fitting the baseline (9 muscle parameters)".into(),
+        evaluations,
+    )?;
+    let baseline = ctx.fit(&[], &nominal, true)?;
+    evaluations += baseline.evaluations;
+    let nobs = ctx.plan.n_obs();
+    let eligible: Vec<EffectKind> = settings
+        .candidates
+        .iter()
+        .copied()
+        .filter(|k| *k != EffectKind::AntagonistCoactivation || inputs.envelope_ta().is_some())
+        .collect();
+
+    let mut current = baseline.clone();
+    let mut reports: BTreeMap<EffectKind, CandidateReport> = BTreeMap::new();
+    let mut confounded: Vec<String> = Vec::new();
+    for round in 0..settings.max_effects {
+        notify(
+            observer,
+            Stage::Round(round),
+            format!("round {}: ranking extensions", round + 1),
+            evaluations,
+        )?;
+        let mut scores = score::score_all(&ctx, &current, &eligible);
+        evaluations += 4 * scores.len();
+        scores.sort_by(|a, b| b.evidence.total_cmp(&a.evidence));
+        for s in &scores {
+            // nearly collinear with the model's parameters and still asked for by the
+            // residual: refitted like the others; reported as confounded unless accepted
+            let conf = s.cos_baseline > settings.confound_cos && s.lm >= settings.min_score_lm;
+            reports.insert(
+                s.kind,
+                CandidateReport {
+                    effect: s.kind.name().into(),
+                    evidence: s.evidence,
+                    score_lm: s.lm,
+                    heldout_rms_nm: None,
+                    delta_bic: None,
+                    heldout_gain_pct: None,
+                    cos_to_model: s.cos_baseline,
+                    round,
+                    accepted: false,
+                    confounded: conf,
+                    fitted: None,
+                },
+            );
+        }
+        let leaders: Vec<&score::Score> = scores
+            .iter()
+            .filter(|s| s.lm >= settings.min_score_lm)
+            .take(settings.refits_per_round)
+            .collect();
+        if leaders.is_empty() {
+            break;
+        }
+        let refits: Vec<Result<Refit, DiagnoseError>> = leaders
+            .par_iter()
+            .map(|s| {
+                let mut kinds = current.kinds.clone();
+                kinds.push(s.kind);
+                let fit = ctx.fit(&kinds, &score::extended_start(&current, s), true)?;
+                let delta_bic = fit.bic(nobs) - current.bic(nobs);
+                let gain_nm = current.heldout_rms - fit.heldout_rms;
+                let gain_pct = 100.0 * gain_nm / current.heldout_rms;
+                Ok(Refit {
+                    kind: s.kind,
+                    fit,
+                    delta_bic,
+                    gain_nm,
+                    gain_pct,
+                })
+            })
+            .collect();
+        let mut passing: Vec<Refit> = Vec::new();
+        for r in refits {
+            let r = match r {
+                Ok(r) => r,
+                Err(DiagnoseError::Fit { .. }) | Err(DiagnoseError::Model(_)) => continue,
+                Err(e) => return Err(e),
+            };
+            evaluations += r.fit.evaluations;
+            if let Some(rep) = reports.get_mut(&r.kind) {
+                rep.heldout_rms_nm = Some(r.fit.heldout_rms);
+                rep.delta_bic = Some(r.delta_bic);
+                rep.heldout_gain_pct = Some(r.gain_pct);
+                rep.fitted = Some(effect_values(&r.fit, r.kind));
+            }
+            let need = (settings.min_heldout_gain_pct / 100.0 * current.heldout_rms)
+                .max(settings.min_heldout_gain_nm);
+            // a collinear extension must also be estimated clearly away from its null
+            let collinear = reports
+                .get(&r.kind)
+                .is_some_and(|rep| rep.cos_to_model > settings.confound_cos);
+            let clear = !collinear || effect_significance(&r.fit, r.kind, nobs) >= 3.0;
+            if r.gain_nm >= need && r.delta_bic < settings.max_delta_bic && clear {
+                passing.push(r);
+            }
+        }
+        passing.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
+        let Some(best) = passing.into_iter().next() else {
+            break;
+        };
+        if let Some(rep) = reports.get_mut(&best.kind) {
+            rep.accepted = true;
+        }
+        current = best.fit;
+    }
+    for rep in reports.values_mut() {
+        if rep.confounded && !rep.accepted && !confounded.contains(&rep.effect) {
+            confounded.push(rep.effect.clone());
+        }
+        if rep.accepted {
+            rep.confounded = false;
+        }
+    }
+    notify(
+        observer,
+        Stage::Analysis,
+        "residual analysis".into(),
+        evaluations,
+    )?;
+    let ra = analysis::analyse(&ctx, &baseline, &current, settings.structure_threshold);
+    let unexplained = ra.structure_evidence > settings.structure_threshold;
+    let causes: Vec<String> = current.kinds.iter().map(|k| k.name().to_string()).collect();
+    let verdict = if causes.is_empty() && !unexplained {
+        Verdict::Adequate
+    } else {
+        Verdict::Deficient
+    };
+    let mut candidates: Vec<CandidateReport> = reports.into_values().collect();
+    candidates.sort_by(|a, b| {
+        b.accepted
+            .cmp(&a.accepted)
+            .then(b.evidence.total_cmp(&a.evidence))
+    });
+    let base_rep = model_report(&baseline, nobs, false);
+    let ext_rep = model_report(&current, nobs, true);
+    let gain = Gain {
+        heldout_rms_reduction_pct: 100.0 * (1.0 - current.heldout_rms / baseline.heldout_rms),
+        delta_bic: current.bic(nobs) - baseline.bic(nobs),
+        delta_log_likelihood: current.loglik - baseline.loglik,
+        rms_reduction_pct: 100.0 * (1.0 - current.rms / baseline.rms),
+    };
+    Ok(Diagnosis {
+        verdict,
+        causes,
+        unexplained_structure: unexplained,
+        baseline: base_rep,
+        extended: ext_rep,
+        gain,
+        candidates,
+        confounded,
+        noise: ctx.noise,
+        residual_analysis: ra,
+        evaluations,
+        wall_s: t0.elapsed().as_secs_f64(),
+    })
+}
+
+fn check_settings(s: &DiagnoseSettings) -> Result<(), DiagnoseError> {
+    let bad = |name: &'static str, reason: &str| {
+        Err(DiagnoseError::Settings {
+            name,
+            reason: reason.into(),
+        })
+    };
+    if s.refits_per_round == 0 {
+        return bad("refits_per_round", "must be at least 1");
+    }
+    if !(s.min_heldout_gain_pct.is_finite() && s.min_heldout_gain_pct >= 0.0) {
+        return bad("min_heldout_gain_pct", "must be finite and ≥ 0");
+    }
+    if !(s.min_heldout_gain_nm.is_finite() && s.min_heldout_gain_nm >= 0.0) {
+        return bad("min_heldout_gain_nm", "must be finite and ≥ 0");
+    }
+    if !s.max_delta_bic.is_finite() {
+        return bad("max_delta_bic", "must be finite");
+    }
+    if !(s.confound_cos > 0.0 && s.confound_cos <= 1.0) {
+        return bad("confound_cos", "must be in (0, 1]");
+    }
+    if s.lm.max_iterations == 0 || !(s.lm.fd_step > 0.0 && s.lm.fd_step < 0.5) {
+        return bad("lm", "max_iterations ≥ 1 and 0 < fd_step < 0.5");
+    }
+    Ok(())
+}
+
+fn effect_values(fit: &Fit, kind: EffectKind) -> BTreeMap<String, f64> {
+    let mut m = BTreeMap::new();
+    for (id, v) in fit.free.iter().zip(&fit.x) {
+        if let ParamId::Effect(k, i) = id {
+            if *k == kind {
+                m.insert(kind.params()[*i].name.to_string(), *v);
+            }
+        }
+    }
+    m
+}
+
+/// Largest `|θ − null|/SE` over the effect's parameters in a fit.
+fn effect_significance(fit: &Fit, kind: EffectKind, nobs: usize) -> f64 {
+    let se = standard_errors(fit, nobs);
+    let null = kind.null_values();
+    fit.free
+        .iter()
+        .zip(&fit.x)
+        .zip(&se)
+        .filter_map(|((id, v), s)| match id {
+            ParamId::Effect(k, i) if *k == kind && *s > 0.0 => Some((v - null[*i]).abs() / s),
+            _ => None,
+        })
+        .fold(0.0, f64::max)
+}
+
+fn standard_errors(fit: &Fit, nobs: usize) -> Vec<f64> {
+    let jtj = fit.jac.tr_mul(&fit.jac);
+    let p = fit.k();
+    let s2 = (fit.white_ss / (nobs - p).max(1) as f64).max(1.0);
+    match jtj.clone().try_inverse() {
+        Some(inv) => (0..p).map(|i| (s2 * inv[(i, i)]).max(0.0).sqrt()).collect(),
+        None => {
+            let svd = jtj.svd(true, true);
+            match svd.pseudo_inverse(1e-12) {
+                Ok(inv) => (0..p).map(|i| (s2 * inv[(i, i)]).max(0.0).sqrt()).collect(),
+                Err(_) => vec![f64::NAN; p],
+            }
+        }
+    }
+}
+
+fn model_report(fit: &Fit, nobs: usize, extended: bool) -> ModelReport {
+    let se = standard_errors(fit, nobs);
+    let mut params = BTreeMap::new();
+    let mut punc = BTreeMap::new();
+    let mut effects: BTreeMap<String, BTreeMap<String, f64>> = BTreeMap::new();
+    let mut eunc: BTreeMap<String, BTreeMap<String, f64>> = BTreeMap::new();
+    for ((id, v), s) in fit.free.iter().zip(&fit.x).zip(&se) {
+        match id {
+            ParamId::Effect(k, i) => {
+                let pn = k.params()[*i].name.to_string();
+                effects
+                    .entry(k.name().into())
+                    .or_default()
+                    .insert(pn.clone(), *v);
+                eunc.entry(k.name().into()).or_default().insert(pn, *s);
+            }
+            _ => {
+                params.insert(id.name(), *v);
+                punc.insert(id.name(), *s);
+            }
+        }
+    }
+    ModelReport {
+        effects: extended.then_some(effects),
+        params,
+        rms_nm: fit.rms,
+        heldout_rms_nm: fit.heldout_rms,
+        log_likelihood: fit.loglik,
+        bic: fit.bic(nobs),
+        n_params: fit.k(),
+        effect_uncertainty: extended.then_some(eunc),
+        param_uncertainty: punc,
+    }
+}

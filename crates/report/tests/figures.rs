@@ -165,19 +165,19 @@ fn candidate_ranking_bars_in_order() {
         Candidate {
             name: "electromechanical_delay",
             evidence: 812.0,
-            heldout_rms_nm: 2.1,
+            heldout_rms_nm: Some(2.1),
             selected: true,
         },
         Candidate {
             name: "fatigue",
             evidence: 33.5,
-            heldout_rms_nm: 4.0,
+            heldout_rms_nm: Some(4.0),
             selected: false,
         },
         Candidate {
             name: "inertia",
             evidence: -4.0,
-            heldout_rms_nm: 4.4,
+            heldout_rms_nm: Some(4.4),
             selected: false,
         },
     ];
@@ -367,7 +367,7 @@ fn bad_input_is_an_error_not_a_panic() {
     let c = [Candidate {
         name: "x",
         evidence: f64::NAN,
-        heldout_rms_nm: 1.0,
+        heldout_rms_nm: Some(1.0),
         selected: false,
     }];
     assert!(figures::candidate_ranking(&c, None).is_err());

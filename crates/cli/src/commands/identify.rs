@@ -309,9 +309,16 @@ fn run_sa(prep: &Prepared, seed: u64, show: bool) -> CmdResult<(Value, Vec<Strin
         "  torque RMS {:.2} N·m after removing the dynamometer's cycle-locked error ({:.2} N·m against the raw torque)",
         fit.rms_nm, rms_raw
     ));
-    lines.push("  parameter          value".into());
-    for (k, v) in &fit.params {
-        lines.push(format!("  {k:<16} {v:>10.5}"));
+    lines.push("  parameter            estimate    bounds".into());
+    for (i, id) in prep.problem.free().iter().enumerate() {
+        let (lo, hi) = prep.problem.bounds()[i];
+        let v = fit.x[i];
+        let at_bound = (v - lo).abs() <= 1e-9 * (hi - lo) || (hi - v).abs() <= 1e-9 * (hi - lo);
+        lines.push(format!(
+            "  {:<16} {v:>12.5}    [{lo:.5}, {hi:.5}]{}",
+            id.name(),
+            if at_bound { "  at bound" } else { "" }
+        ));
     }
     Ok((doc, lines, prediction))
 }

@@ -19,7 +19,7 @@ pub struct Candidate<'a> {
     /// Evidence for the effect (score-test `LM − p ln n`, about the BIC gain; may be negative).
     pub evidence: f64,
     /// Held-out RMS torque error of the model extended by this effect (N·m).
-    pub heldout_rms_nm: f64,
+    pub heldout_rms_nm: Option<f64>,
     /// Whether the diagnosis kept it as a cause (drawn in vermillion).
     pub selected: bool,
 }
@@ -66,12 +66,9 @@ pub fn candidate_ranking(
     }
     for (i, r) in rows.iter().enumerate() {
         check_value(FIG, format!("{} evidence", r.name), r.evidence, i)?;
-        check_value(
-            FIG,
-            format!("{} heldout_rms_nm", r.name),
-            r.heldout_rms_nm,
-            i,
-        )?;
+        if let Some(h) = r.heldout_rms_nm {
+            check_value(FIG, format!("{} heldout_rms_nm", r.name), h, i)?;
+        }
     }
     if let Some(b) = baseline_heldout_rms_nm {
         check_value(FIG, "baseline_heldout_rms_nm".into(), b, 0)?;
@@ -116,13 +113,13 @@ pub fn candidate_ranking(
             ev,
             label_w,
             "evidence (score test, ≈ BIC gain)",
-            |r| r.evidence,
+            |r| Some(r.evidence),
             None,
             true,
         )?;
         let rm = rows
             .iter()
-            .map(|r| r.heldout_rms_nm)
+            .filter_map(|r| r.heldout_rms_nm)
             .chain(baseline_heldout_rms_nm)
             .fold(0.0, f64::max);
         bar_panel(
@@ -147,7 +144,7 @@ fn bar_panel(
     x: (f64, f64),
     label_w: u32,
     x_desc: &str,
-    value: impl Fn(&Candidate<'_>) -> f64,
+    value: impl Fn(&Candidate<'_>) -> Option<f64>,
     reference: Option<f64>,
     names: bool,
 ) -> Result<()> {
@@ -188,17 +185,22 @@ fn bar_panel(
     for (k, r) in rows.iter().enumerate() {
         // Best first, at the top.
         let y = (n - 1 - k) as f64;
-        let v = value(r);
         let c = if r.selected { VERMILLION } else { BLUE };
-        chart
-            .draw_series(std::iter::once(Rectangle::new(
-                [(0.0, y + 0.18), (v, y + 0.82)],
-                c.mix(0.85).filled(),
-            )))
-            .map_err(&e)?;
+        let (v, label) = match value(r) {
+            Some(v) => (v, format_sig(v, 3)),
+            None => (x.0, "not refitted".to_string()),
+        };
+        if value(r).is_some() {
+            chart
+                .draw_series(std::iter::once(Rectangle::new(
+                    [(0.0, y + 0.18), (v, y + 0.82)],
+                    c.mix(0.85).filled(),
+                )))
+                .map_err(&e)?;
+        }
         let at = chart.backend_coord(&(v.max(0.0), y + 0.5));
         area.draw(&Text::new(
-            format_sig(v, 3),
+            label,
             (at.0 - base.0 + 6, at.1 - base.1),
             value_font.clone(),
         ))

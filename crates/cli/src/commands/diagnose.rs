@@ -1,0 +1,263 @@
+//! `surae diagnose`: what the baseline model gets wrong, which catalogued
+//! effect explains it, and what the extension buys out of sample.
+
+use super::{load_trial, load_unloaded, trial_inputs, ModelArgs};
+use crate::error::{CmdResult, Failure};
+use crate::figures::{self, FigureSet};
+use crate::output::OutDir;
+use crate::progress::Progress;
+use diagnose::{DiagnoseSettings, Diagnosis};
+use std::path::{Path, PathBuf};
+
+/// Arguments of `surae diagnose`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Trial CSV (SPEC §5); the bundled seed trial (and its unloaded run) when omitted.
+    #[arg(long)]
+    pub trial: Option<PathBuf>,
+    /// Unloaded run CSV: its cycle-locked error is removed from the measured
+    /// torque and its noise sets the likelihood. Strongly recommended.
+    #[arg(long)]
+    pub unloaded: Option<PathBuf>,
+    /// Seed (the diagnosis itself is deterministic; kept for scripts that pass one).
+    #[arg(long, default_value_t = 42)]
+    pub seed: u64,
+    /// The EMG columns are already normalised envelopes in [0, 1].
+    #[arg(long)]
+    pub emg_is_envelope: bool,
+    /// Output folder (default `out/diagnose`).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// No progress display and no summary.
+    #[arg(long)]
+    pub quiet: bool,
+    /// Print `diagnosis.json` to standard output (the summary goes to standard error).
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Runs the command.
+pub fn run(args: Args) -> CmdResult {
+    let loaded = load_trial(args.trial.as_deref())?;
+    let unloaded = load_unloaded(args.unloaded.as_deref(), args.trial.is_some())?;
+    let model_args = ModelArgs {
+        emg_is_envelope: args.emg_is_envelope,
+        ..ModelArgs::default()
+    };
+    // validates the inputs with messages that name the file
+    let inputs = trial_inputs(&loaded, &model_args)?;
+    let mut inputs_read: Vec<&Path> = loaded.path.iter().map(|p| p.as_path()).collect();
+    if let Some(p) = &args.unloaded {
+        inputs_read.push(p.as_path());
+    }
+    let out_dir = args
+        .out
+        .clone()
+        .unwrap_or_else(|| crate::default_out("diagnose"));
+    let out = OutDir::prepare(&out_dir, &inputs_read)?;
+
+    let mut settings = DiagnoseSettings::default();
+    settings.input_options.emg_is_envelope = args.emg_is_envelope;
+    let show = !args.quiet;
+    let progress = Progress::new(show, 0, "diag");
+    let mut observer = |p: &diagnose::Progress| {
+        progress.message(format!("{} ({} simulations)", p.message, p.evaluations));
+        std::ops::ControlFlow::Continue(())
+    };
+    let d = diagnose::run(
+        &loaded.trial,
+        unloaded.as_ref().map(|(u, _)| u),
+        &settings,
+        &mut observer,
+    )
+    .map_err(|e| {
+        let names = match &unloaded {
+            Some((_, n)) => format!("{} / {n}", loaded.name),
+            None => loaded.name.clone(),
+        };
+        Failure::bad(format!("{names}: {e}"))
+    })?;
+    progress.finish();
+
+    let mut doc = d.to_json_value();
+    if let Some(obj) = doc.as_object_mut() {
+        obj.insert("trial".into(), serde_json::json!(loaded.name));
+        obj.insert(
+            "unloaded".into(),
+            serde_json::json!(unloaded.as_ref().map(|(_, n)| n.clone())),
+        );
+    }
+    let text = serde_json::to_string_pretty(&doc).map_err(Failure::internal)? + "\n";
+    let path = out.write("diagnosis.json", text.as_bytes())?;
+    let files = write_figures(&out, &loaded.name, &loaded.trial.torque_nm, &inputs, &d)?;
+
+    if args.json {
+        print!("{text}");
+    }
+    if show {
+        let say = |s: &str| {
+            if args.json {
+                eprintln!("{s}");
+            } else {
+                println!("{s}");
+            }
+        };
+        say(&format!("diagnose: {}", loaded.name));
+        if unloaded.is_none() {
+            say("  (no unloaded run: the dynamometer's own error cannot be told from a torque offset)");
+        }
+        for l in d.summary_lines() {
+            say(&l);
+        }
+        say(&format!(
+            "wrote {} and {} figure/report files in {}",
+            path.display(),
+            files.len(),
+            out_dir.display()
+        ));
+    }
+    Ok(())
+}
+
+fn write_figures(
+    out: &OutDir,
+    name: &str,
+    measured: &[f64],
+    inputs: &muscle_model::TrialInputs,
+    d: &Diagnosis,
+) -> CmdResult<Vec<PathBuf>> {
+    let s = &d.residual_analysis.series;
+    let time = &s.time_s;
+    // predictions of the measured torque: measured − residual (model + the
+    // dynamometer's cycle-locked error)
+    let baseline: Vec<f64> = measured
+        .iter()
+        .zip(&s.baseline_residual_nm)
+        .map(|(m, r)| m - r)
+        .collect();
+    let extended: Vec<f64> = measured
+        .iter()
+        .zip(&s.extended_residual_nm)
+        .map(|(m, r)| m - r)
+        .collect();
+    let mut set = FigureSet::new(out, &format!("surae diagnose — {name}"));
+    let causes: Vec<&str> = d.causes.iter().map(|c| c.as_str()).collect();
+    let mut effect_labels: Vec<(String, f64)> = Vec::new();
+    if let Some(effects) = &d.extended.effects {
+        for (effect, params) in effects {
+            for (p, v) in params {
+                effect_labels.push((format!("{effect}: {p}"), *v));
+            }
+        }
+    }
+    let effect_values: Vec<(&str, f64)> = effect_labels
+        .iter()
+        .map(|(l, v)| (l.as_str(), *v))
+        .collect();
+    let story = report::diagnosis_story(&report::DiagnosisSummary {
+        adequate: d.causes.is_empty() && !d.unexplained_structure,
+        causes: &causes,
+        unexplained_structure: d.unexplained_structure,
+        baseline_rms_nm: d.baseline.rms_nm,
+        baseline_heldout_rms_nm: d.baseline.heldout_rms_nm,
+        extended_heldout_rms_nm: (!d.causes.is_empty()).then_some(d.extended.heldout_rms_nm),
+        heldout_rms_reduction_pct: d.gain.heldout_rms_reduction_pct,
+        delta_bic: -d.gain.delta_bic,
+        effect_values: &effect_values,
+    });
+    for p in story {
+        set.page().paragraph(p);
+    }
+    set.page().preformatted(d.summary_lines().join("\n"));
+    let rows: Vec<Vec<String>> = d
+        .candidates
+        .iter()
+        .map(|c| {
+            vec![
+                c.effect.clone(),
+                format!("{:.1}", c.evidence),
+                c.heldout_rms_nm.map_or("–".into(), |v| format!("{v:.3}")),
+                c.delta_bic.map_or("–".into(), |v| format!("{v:.1}")),
+                if c.accepted {
+                    "named".into()
+                } else if c.confounded {
+                    "confounded".into()
+                } else {
+                    String::new()
+                },
+            ]
+        })
+        .collect();
+    set.page()
+        .table(
+            "Candidate effects (score-test evidence, refit held-out RMS and ΔBIC)",
+            &["effect", "evidence", "held-out RMS (N·m)", "ΔBIC", ""],
+            &rows,
+        )
+        .map_err(|e| Failure::internal(e.to_string()))?;
+
+    let angle = &s.angle_deg;
+    let env = figures::envelopes(inputs);
+    let phase_names: Vec<&str> = diagnose::segment::PhaseLabel::ALL
+        .iter()
+        .map(|p| p.name())
+        .collect();
+    let phase: Vec<usize> = s
+        .phase
+        .iter()
+        .map(|p| {
+            diagnose::segment::PhaseLabel::ALL
+                .iter()
+                .position(|q| q == p)
+                .unwrap_or(0)
+        })
+        .collect();
+    set.add(
+        "torque_fit",
+        "Measured torque with the baseline and extended models, ankle angle and EMG envelopes",
+        report::figures::torque_fit(
+            time,
+            measured,
+            &[("baseline", &baseline), ("extended", &extended)],
+            angle,
+            &env,
+        ),
+    )?;
+    set.add(
+        "residual_vs_angle",
+        "Baseline residual against ankle angle, coloured by phase",
+        report::figures::residual_vs_angle(angle, &s.baseline_residual_nm, &phase, &phase_names),
+    )?;
+    set.add(
+        "residual_vs_time",
+        "Residual of the baseline and the extended model against time",
+        report::figures::residual_vs_time(
+            time,
+            &[
+                ("baseline", &s.baseline_residual_nm),
+                ("extended", &s.extended_residual_nm),
+            ],
+        ),
+    )?;
+    set.add(
+        "fit_comparison",
+        "Baseline against extended fit",
+        report::figures::fit_comparison(time, measured, &baseline, &extended),
+    )?;
+    let candidates: Vec<report::figures::Candidate<'_>> = d
+        .candidates
+        .iter()
+        .map(|c| report::figures::Candidate {
+            name: &c.effect,
+            evidence: c.evidence,
+            heldout_rms_nm: c.heldout_rms_nm,
+            selected: c.accepted,
+        })
+        .collect();
+    set.add(
+        "candidates",
+        "Candidate effects ranked by evidence (named causes highlighted)",
+        report::figures::candidate_ranking(&candidates, Some(d.baseline.heldout_rms_nm)),
+    )?;
+    set.finish()
+}

@@ -1,0 +1,139 @@
+//! Confusion table and detection limits over random hidden-effect trials.
+//!
+//! `cargo run --release -p diagnose --example confusion -- [N] [BASE_SEED] [--limits]`
+//! prints, per scenario, how often the named causes equal the hidden ones, what was named
+//! instead, the magnitude error and the time; with `--limits`, the detection rate per effect
+//! at sizes below the realistic range.
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+use diagnose::scenarios::{headline, hidden_trial, hidden_trial_sized};
+use diagnose::{no_observer, run, DiagnoseSettings};
+use muscle_model::EffectKind;
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().collect();
+    let n: u64 = args.get(1).map_or(Ok(10), |s| s.parse())?;
+    let base: u64 = args.get(2).map_or(Ok(10_000), |s| s.parse())?;
+    let settings = DiagnoseSettings::default();
+    if args.iter().any(|a| a == "--limits") {
+        let sizes: Vec<(EffectKind, Vec<f64>)> = vec![
+            (EffectKind::TorqueOffset, vec![0.5, 1.0, 2.0, 3.0]),
+            (EffectKind::PassiveJointTorque, vec![1.0, 2.0, 3.5, 5.0]),
+            (EffectKind::Gravity, vec![1.0, 2.0, 3.0]),
+            (
+                EffectKind::ElectromechanicalDelay,
+                vec![3.0, 6.0, 10.0, 20.0],
+            ),
+            (EffectKind::Fatigue, vec![0.002, 0.005, 0.01]),
+            (EffectKind::AntagonistCoactivation, vec![0.5, 1.0, 2.0, 3.0]),
+            (EffectKind::EccentricEnhancement, vec![0.03, 0.06, 0.1, 0.2]),
+        ];
+        println!("effect, size, detected/N, other named");
+        for (kind, ss) in sizes {
+            for s in ss {
+                let mut hit = 0;
+                let mut other = 0;
+                for i in 0..n {
+                    let seed = base + 1000 * (kind as u64) + i;
+                    let t = hidden_trial_sized(kind, s, seed)?;
+                    let d = run(
+                        &t.synthetic.trial,
+                        Some(&t.synthetic.unloaded),
+                        &settings,
+                        &mut no_observer,
+                    )?;
+                    if d.causes == vec![kind.name().to_string()] {
+                        hit += 1;
+                    } else if d.causes.iter().any(|c| c != kind.name()) {
+                        other += 1;
+                    }
+                }
+                println!("{}, {s}, {hit}/{n}, {other}", kind.name());
+            }
+        }
+        return Ok(());
+    }
+    let mut scenarios: Vec<(String, Vec<EffectKind>, bool)> = vec![
+        ("none".into(), vec![], false),
+        ("none+ta".into(), vec![], true),
+    ];
+    for k in EffectKind::ALL {
+        scenarios.push((k.name().into(), vec![k], false));
+    }
+    scenarios.push((
+        "electromechanical_delay+torque_offset".into(),
+        vec![EffectKind::ElectromechanicalDelay, EffectKind::TorqueOffset],
+        false,
+    ));
+    scenarios.push((
+        "fatigue+passive_joint_torque".into(),
+        vec![EffectKind::Fatigue, EffectKind::PassiveJointTorque],
+        false,
+    ));
+    println!("scenario | correct/N | named instead (count) | mean |rel. err| of headline | held-out gain > 0 | max wall s");
+    for (si, (name, kinds, ta)) in scenarios.iter().enumerate() {
+        let mut ok = 0;
+        let mut named: BTreeMap<String, usize> = BTreeMap::new();
+        let mut errs = Vec::new();
+        let mut gain_pos = 0;
+        let mut wall: f64 = 0.0;
+        for i in 0..n {
+            let seed = base + 100_000 * si as u64 + i;
+            let t = hidden_trial(kinds, *ta, seed)?;
+            let t0 = Instant::now();
+            let d = run(
+                &t.synthetic.trial,
+                Some(&t.synthetic.unloaded),
+                &settings,
+                &mut no_observer,
+            )?;
+            wall = wall.max(t0.elapsed().as_secs_f64());
+            let mut want: Vec<String> = kinds.iter().map(|k| k.name().to_string()).collect();
+            want.sort();
+            let mut got = d.causes.clone();
+            got.sort();
+            if got == want {
+                ok += 1;
+            } else {
+                *named.entry(format!("[{}]", got.join("+"))).or_default() += 1;
+                eprintln!("seed {seed} {name}: named {:?}", d.causes);
+            }
+            if kinds.is_empty() || d.gain.heldout_rms_reduction_pct > 0.0 {
+                gain_pos += 1;
+            }
+            for k in kinds {
+                let truth = headline(*k, t.effects.values(*k).unwrap_or_default());
+                if let Some(e) = d.extended.effects.as_ref().and_then(|e| e.get(k.name())) {
+                    let ps = k.params();
+                    let mut v = [0.0; 2];
+                    for (j, p) in ps.iter().enumerate() {
+                        v[j] = e.get(p.name).copied().unwrap_or(p.null);
+                    }
+                    let got = headline(*k, v);
+                    let rel = if *k == EffectKind::EccentricEnhancement {
+                        (got - truth).abs() / (truth - 1.4)
+                    } else {
+                        (got - truth).abs() / truth.abs()
+                    };
+                    errs.push(rel);
+                }
+            }
+        }
+        let me = if errs.is_empty() {
+            f64::NAN
+        } else {
+            errs.iter().sum::<f64>() / errs.len() as f64
+        };
+        println!(
+            "{name} | {ok}/{n} | {} | {:.1} % | {gain_pos}/{n} | {wall:.1}",
+            named
+                .iter()
+                .map(|(k, v)| format!("{k}×{v}"))
+                .collect::<Vec<_>>()
+                .join(" "),
+            100.0 * me
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,383 @@
+//! Residual analysis: the residual against time, angle, velocity, acceleration, phase, activation and its rate, TA EMG; its autocorrelation against the noise model's; and the test for structure left unexplained.
+//!
+//! Structure test: the whitened residual is regressed on step functions of the motion
+//! (one per cycle × sweep direction × 5° angle bin, and one per half of every hold) after
+//! projecting out the fitted model's Jacobian; `LM_struct = rᵀP⊥B(BᵀP⊥B)⁻¹BᵀP⊥r/s²`.
+//! Structure is *unexplained* when `LM_struct − df·ln n` exceeds the threshold: the generic
+//! step model would beat the fitted model by BIC.
+
+use nalgebra::{DMatrix, DVector};
+use serde::Serialize;
+
+use crate::fit::{Context, Fit};
+use crate::segment::PhaseLabel;
+
+/// Mean and RMS of the residual over one bin of one variable.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Bin {
+    /// Variable: `phase`, `angle_deg.<phase>`, `velocity_deg_s`, `acceleration_deg_s2`,
+    /// `activation`, `activation_rate_per_s`, `emg_ta`.
+    pub variable: String,
+    /// Bin label (phase name) or lower edge.
+    pub lo: f64,
+    /// Upper edge (equal to `lo` for categorical bins).
+    pub hi: f64,
+    /// Phase name for categorical bins.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub label: Option<String>,
+    /// Samples in the bin.
+    pub n: usize,
+    /// Mean residual (N·m).
+    pub mean_nm: f64,
+    /// RMS residual (N·m).
+    pub rms_nm: f64,
+}
+
+/// Per-sample series for plots (not serialised).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Series {
+    /// Time (s).
+    pub time_s: Vec<f64>,
+    /// Residual of the baseline fit: measured − systematic dynamometer part − model (N·m).
+    pub baseline_residual_nm: Vec<f64>,
+    /// Residual of the final (extended) fit (N·m).
+    pub extended_residual_nm: Vec<f64>,
+    /// Phase label.
+    pub phase: Vec<PhaseLabel>,
+    /// Angle (°).
+    pub angle_deg: Vec<f64>,
+    /// Angular velocity (°/s).
+    pub velocity_deg_s: Vec<f64>,
+    /// Angular acceleration (°/s²).
+    pub acceleration_deg_s2: Vec<f64>,
+    /// Mean normalised plantarflexor envelope (the activation input).
+    pub activation: Vec<f64>,
+    /// Its rate of change (1/s).
+    pub activation_rate_per_s: Vec<f64>,
+    /// Normalised TA envelope, when present.
+    pub emg_ta: Option<Vec<f64>>,
+}
+
+/// Autocorrelation of the residual vs the noise model's.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct AcfPoint {
+    /// Lag (ms).
+    pub lag_ms: f64,
+    /// Baseline residual autocorrelation.
+    pub baseline: f64,
+    /// Extended residual autocorrelation.
+    pub extended: f64,
+    /// Noise model autocorrelation.
+    pub noise_model: f64,
+}
+
+/// The residual analysis.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ResidualAnalysis {
+    /// Binned baseline residual.
+    pub baseline_bins: Vec<Bin>,
+    /// Binned extended residual (phase and angle only).
+    pub extended_bins: Vec<Bin>,
+    /// Autocorrelations.
+    pub acf: Vec<AcfPoint>,
+    /// Structure statistic of the baseline residual.
+    pub baseline_structure_lm: f64,
+    /// Structure statistic of the final residual.
+    pub extended_structure_lm: f64,
+    /// Degrees of freedom of the structure test.
+    pub structure_df: usize,
+    /// `LM − df·ln n` of the final residual (structure evidence; > threshold = unexplained).
+    pub structure_evidence: f64,
+    /// Per-sample series (not serialised).
+    #[serde(skip)]
+    pub series: Series,
+}
+
+fn bins_of(
+    variable: &str,
+    x: &[f64],
+    r: &[f64],
+    sel: &dyn Fn(usize) -> bool,
+    edges: &[f64],
+) -> Vec<Bin> {
+    let mut out = Vec::new();
+    for w in edges.windows(2) {
+        let (lo, hi) = (w[0], w[1]);
+        let (mut s, mut ss, mut n) = (0.0, 0.0, 0usize);
+        for i in 0..x.len() {
+            if sel(i) && x[i] >= lo && x[i] < hi {
+                s += r[i];
+                ss += r[i] * r[i];
+                n += 1;
+            }
+        }
+        if n > 0 {
+            out.push(Bin {
+                variable: variable.to_string(),
+                lo,
+                hi,
+                label: None,
+                n,
+                mean_nm: s / n as f64,
+                rms_nm: (ss / n as f64).sqrt(),
+            });
+        }
+    }
+    out
+}
+
+fn phase_bins(ph: &[PhaseLabel], r: &[f64]) -> Vec<Bin> {
+    PhaseLabel::ALL
+        .iter()
+        .filter_map(|p| {
+            let v: Vec<f64> = (0..r.len())
+                .filter(|&i| ph[i] == *p)
+                .map(|i| r[i])
+                .collect();
+            if v.is_empty() {
+                return None;
+            }
+            let n = v.len();
+            Some(Bin {
+                variable: "phase".into(),
+                lo: 0.0,
+                hi: 0.0,
+                label: Some(p.name().into()),
+                n,
+                mean_nm: v.iter().sum::<f64>() / n as f64,
+                rms_nm: (v.iter().map(|x| x * x).sum::<f64>() / n as f64).sqrt(),
+            })
+        })
+        .collect()
+}
+
+fn angle_bins(ph: &[PhaseLabel], angle_deg: &[f64], r: &[f64]) -> Vec<Bin> {
+    let edges: Vec<f64> = (0..=8).map(|k| -20.0 + 5.0 * k as f64 - 0.01).collect();
+    let mut out = Vec::new();
+    for p in [
+        PhaseLabel::Relaxed,
+        PhaseLabel::Concentric,
+        PhaseLabel::Eccentric,
+    ] {
+        out.extend(bins_of(
+            &format!("angle_deg.{}", p.name()),
+            angle_deg,
+            r,
+            &|i| ph[i] == p,
+            &edges,
+        ));
+    }
+    out
+}
+
+fn quantile_edges(x: &[f64], k: usize) -> Vec<f64> {
+    let mut v: Vec<f64> = x.to_vec();
+    v.sort_by(f64::total_cmp);
+    let mut e: Vec<f64> = (0..=k).map(|j| v[((v.len() - 1) * j) / k]).collect();
+    e.dedup();
+    if let Some(l) = e.last_mut() {
+        *l += 1e-9;
+    }
+    e
+}
+
+fn acf(x: &[f64], k: usize) -> f64 {
+    let n = x.len();
+    let m = x.iter().sum::<f64>() / n as f64;
+    let c0: f64 = x.iter().map(|v| (v - m) * (v - m)).sum();
+    if k >= n || c0 <= 0.0 {
+        return 0.0;
+    }
+    (0..n - k).map(|i| (x[i] - m) * (x[i + k] - m)).sum::<f64>() / c0
+}
+
+/// Step-function basis of the motion (see the module docs).
+fn structure_basis(ctx: &Context) -> Vec<Vec<f64>> {
+    let n = ctx.y.len();
+    let seg = &ctx.seg;
+    let deg: Vec<f64> = ctx.inputs.angle().iter().map(|a| a.to_degrees()).collect();
+    let mut cols = Vec::new();
+    for k in 0..seg.cycles.len() {
+        for dir in [PhaseLabel::Concentric, PhaseLabel::Eccentric] {
+            for b in 0..7 {
+                let lo = -20.0 + 5.0 * b as f64;
+                let col: Vec<f64> = (0..n)
+                    .map(|i| {
+                        let ph = seg.phase[i];
+                        let is_dir = ph == dir
+                            || (ph == PhaseLabel::Relaxed
+                                && ((dir == PhaseLabel::Concentric)
+                                    == (ctx.inputs.velocity()[i] < 0.0)));
+                        if seg.cycle[i] == Some(k) && is_dir && deg[i] >= lo && deg[i] < lo + 5.0 {
+                            1.0
+                        } else {
+                            0.0
+                        }
+                    })
+                    .collect();
+                if col.iter().sum::<f64>() > 20.0 {
+                    cols.push(col);
+                }
+            }
+        }
+    }
+    // holds: two halves each
+    let mut i = 0;
+    while i < n {
+        if seg.phase[i] == PhaseLabel::Hold {
+            let s = i;
+            while i < n && seg.phase[i] == PhaseLabel::Hold {
+                i += 1;
+            }
+            let mid = (s + i) / 2;
+            for (a, b) in [(s, mid), (mid, i)] {
+                if b - a > 20 {
+                    let mut col = vec![0.0; n];
+                    col[a..b].iter_mut().for_each(|v| *v = 1.0);
+                    cols.push(col);
+                }
+            }
+        } else {
+            i += 1;
+        }
+    }
+    cols
+}
+
+/// `LM_struct` of a fit (see the module docs) and its degrees of freedom.
+pub(crate) fn structure_lm(ctx: &Context, fit: &Fit) -> (f64, usize) {
+    let cols = structure_basis(ctx);
+    let n = ctx.plan.n_obs();
+    let q = fit.jac.clone().qr().q();
+    let r = DVector::from_column_slice(&fit.white);
+    let s2 = (r.norm_squared() / (n - fit.k()).max(1) as f64).max(1e-12);
+    let p = cols.len();
+    let mut pc = DMatrix::zeros(n, p);
+    for (j, c) in cols.iter().enumerate() {
+        let mut w = vec![0.0; n];
+        ctx.plan.whiten(c, &mut w);
+        let v = DVector::from_vec(w);
+        let proj = &v - &q * q.tr_mul(&v);
+        pc.set_column(j, &proj);
+    }
+    let a = pc.tr_mul(&pc);
+    let b = pc.tr_mul(&r);
+    let svd = a.svd(true, true);
+    let tol = svd.singular_values.max() * 1e-10;
+    let rank = svd.singular_values.iter().filter(|s| **s > tol).count();
+    match svd.solve(&b, tol) {
+        Ok(beta) => (b.dot(&beta) / s2, rank),
+        Err(_) => (0.0, rank),
+    }
+}
+
+/// Builds the analysis of the baseline and final fits.
+pub(crate) fn analyse(
+    ctx: &Context,
+    baseline: &Fit,
+    fin: &Fit,
+    structure_threshold_unused: f64,
+) -> ResidualAnalysis {
+    let _ = structure_threshold_unused;
+    let inp = &ctx.inputs;
+    let n = ctx.y.len();
+    let fs = inp.fs();
+    let rb: Vec<f64> = ctx
+        .y
+        .iter()
+        .zip(&baseline.pred)
+        .map(|(a, b)| a - b)
+        .collect();
+    let re: Vec<f64> = ctx.y.iter().zip(&fin.pred).map(|(a, b)| a - b).collect();
+    let deg: Vec<f64> = inp.angle().iter().map(|a| a.to_degrees()).collect();
+    let vel: Vec<f64> = inp.velocity().iter().map(|a| a.to_degrees()).collect();
+    let acc: Vec<f64> = inp.acceleration().iter().map(|a| a.to_degrees()).collect();
+    let act: Vec<f64> = (0..n)
+        .map(|i| {
+            (0..3)
+                .map(|j| inp.envelope(muscle_model::Muscle::ALL[j])[i])
+                .sum::<f64>()
+                / 3.0
+        })
+        .collect();
+    let rate: Vec<f64> = (0..n)
+        .map(|i| {
+            let (a, b) = (i.saturating_sub(1), (i + 1).min(n - 1));
+            (act[b] - act[a]) * fs / (b - a).max(1) as f64
+        })
+        .collect();
+    let ph = &ctx.seg.phase;
+    let all = |_: usize| true;
+    let mut bb = phase_bins(ph, &rb);
+    bb.extend(angle_bins(ph, &deg, &rb));
+    bb.extend(bins_of(
+        "velocity_deg_s",
+        &vel,
+        &rb,
+        &all,
+        &[-31.0, -20.0, -1.0, 1.0, 20.0, 31.0],
+    ));
+    bb.extend(bins_of(
+        "acceleration_deg_s2",
+        &acc,
+        &rb,
+        &all,
+        &[-700.0, -100.0, 100.0, 700.0],
+    ));
+    bb.extend(bins_of(
+        "activation",
+        &act,
+        &rb,
+        &all,
+        &quantile_edges(&act, 5),
+    ));
+    bb.extend(bins_of(
+        "activation_rate_per_s",
+        &rate,
+        &rb,
+        &all,
+        &quantile_edges(&rate, 5),
+    ));
+    if let Some(ta) = inp.envelope_ta() {
+        bb.extend(bins_of("emg_ta", ta, &rb, &all, &quantile_edges(ta, 5)));
+    }
+    let mut eb = phase_bins(ph, &re);
+    eb.extend(angle_bins(ph, &deg, &re));
+    let lags_ms = [0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 30.0, 50.0, 100.0, 200.0];
+    let acf_pts = lags_ms
+        .iter()
+        .map(|&ms| {
+            let k = ((ms * 1e-3 * fs).round() as usize).max(1);
+            AcfPoint {
+                lag_ms: k as f64 / fs * 1e3,
+                baseline: acf(&rb, k),
+                extended: acf(&re, k),
+                noise_model: ctx.noise.autocorrelation(k),
+            }
+        })
+        .collect();
+    let (lb, df) = structure_lm(ctx, baseline);
+    let (le, _) = structure_lm(ctx, fin);
+    let nobs = ctx.plan.n_obs() as f64;
+    ResidualAnalysis {
+        baseline_bins: bb,
+        extended_bins: eb,
+        acf: acf_pts,
+        baseline_structure_lm: lb,
+        extended_structure_lm: le,
+        structure_df: df,
+        structure_evidence: le - df as f64 * nobs.ln(),
+        series: Series {
+            time_s: inp.times().to_vec(),
+            baseline_residual_nm: rb,
+            extended_residual_nm: re,
+            phase: ph.clone(),
+            angle_deg: deg,
+            velocity_deg_s: vel,
+            acceleration_deg_s2: acc,
+            activation: act,
+            activation_rate_per_s: rate,
+            emg_ta: inp.envelope_ta().map(|t| t.to_vec()),
+        },
+    }
+}

@@ -1,0 +1,244 @@
+//! The diagnosis result: the SPEC §7 `diagnosis.json` shape (plus documented extra fields) and the terminal summary.
+
+use std::collections::BTreeMap;
+
+use serde::Serialize;
+
+use crate::analysis::ResidualAnalysis;
+use crate::noise::NoiseModel;
+
+/// `adequate` (no cause named) or `deficient`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    /// The baseline model explains the trial.
+    Adequate,
+    /// At least one catalogued effect, or unexplained structure, is missing from the model.
+    Deficient,
+}
+
+/// A fitted model in the report.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ModelReport {
+    /// Effects and their fitted parameters (`{}` for the baseline).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub effects: Option<BTreeMap<String, BTreeMap<String, f64>>>,
+    /// The 9 identified muscle parameters (`sol.lst_m`, …).
+    pub params: BTreeMap<String, f64>,
+    /// In-sample RMS of `measured − dynamometer systematic part − model` (N·m).
+    pub rms_nm: f64,
+    /// Cycle-wise cross-validated RMS (each cycle predicted by a fit without it) (N·m).
+    pub heldout_rms_nm: f64,
+    /// Exact Gaussian log-likelihood under the noise model.
+    pub log_likelihood: f64,
+    /// `−2 log L + k ln n`.
+    pub bic: f64,
+    /// Number of free parameters.
+    pub n_params: usize,
+    /// Standard errors (Gauss–Newton, whitened Jacobian) of the effect parameters, same shape
+    /// as `effects` (extended model only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub effect_uncertainty: Option<BTreeMap<String, BTreeMap<String, f64>>>,
+    /// Standard errors of the muscle parameters.
+    pub param_uncertainty: BTreeMap<String, f64>,
+}
+
+/// Gain of the extended model over the baseline.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Gain {
+    /// `100·(1 − heldout_ext/heldout_base)`.
+    pub heldout_rms_reduction_pct: f64,
+    /// `BIC_ext − BIC_base` (negative favours the extension).
+    pub delta_bic: f64,
+    /// `log L_ext − log L_base`.
+    pub delta_log_likelihood: f64,
+    /// `100·(1 − rms_ext/rms_base)` in sample.
+    pub rms_reduction_pct: f64,
+}
+
+/// One candidate extension.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CandidateReport {
+    /// Effect name.
+    pub effect: String,
+    /// Score-test evidence `LM − p ln n` at the round it was last scored (≈ expected BIC gain).
+    pub evidence: f64,
+    /// Score statistic `LM` (≈ χ²(p) under the null).
+    pub score_lm: f64,
+    /// Held-out RMS of the model with this candidate added (null if it was not refitted).
+    pub heldout_rms_nm: Option<f64>,
+    /// `BIC(with) − BIC(without)` of the refit (null if not refitted).
+    pub delta_bic: Option<f64>,
+    /// Relative held-out gain of the refit (%).
+    pub heldout_gain_pct: Option<f64>,
+    /// Cosine between its fitted signature and the span of the model's parameters.
+    pub cos_to_model: f64,
+    /// Selection round (0 = against the baseline).
+    pub round: usize,
+    /// Whether it was added to the model.
+    pub accepted: bool,
+    /// Whether it is confounded with the model's parameters (not testable here).
+    pub confounded: bool,
+    /// Fitted parameter values of the refit (if refitted).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fitted: Option<BTreeMap<String, f64>>,
+}
+
+/// The diagnosis of one trial (serialises to SPEC §7 `diagnosis.json`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Diagnosis {
+    /// `adequate` or `deficient`.
+    pub verdict: Verdict,
+    /// Named causes (effect names) in order of selection; empty when adequate.
+    pub causes: Vec<String>,
+    /// The final residual keeps structure that no catalogued effect explains.
+    pub unexplained_structure: bool,
+    /// The baseline fit.
+    pub baseline: ModelReport,
+    /// The final model (the baseline again when no cause is named).
+    pub extended: ModelReport,
+    /// Gains.
+    pub gain: Gain,
+    /// Every candidate scored, best evidence first.
+    pub candidates: Vec<CandidateReport>,
+    /// Effects that cannot be told apart from the model's parameters on this trial.
+    pub confounded: Vec<String>,
+    /// Noise model used.
+    pub noise: NoiseModel,
+    /// Residual analysis (binned summaries and autocorrelation; per-sample series in memory).
+    pub residual_analysis: ResidualAnalysis,
+    /// Model simulations used.
+    pub evaluations: usize,
+    /// Wall time (s).
+    pub wall_s: f64,
+}
+
+fn fmt_effect(
+    name: &str,
+    vals: &BTreeMap<String, f64>,
+    unc: Option<&BTreeMap<String, f64>>,
+) -> String {
+    let parts: Vec<String> = vals
+        .iter()
+        .map(|(k, v)| match unc.and_then(|u| u.get(k)) {
+            Some(s) => format!("{k} {} ± {}", sig(*v), sig(*s)),
+            None => format!("{k} {}", sig(*v)),
+        })
+        .collect();
+    format!("{name}: {}", parts.join(", "))
+}
+
+fn sig(v: f64) -> String {
+    let a = v.abs();
+    if a >= 100.0 {
+        format!("{v:.0}")
+    } else if a >= 10.0 {
+        format!("{v:.1}")
+    } else if a >= 1.0 {
+        format!("{v:.2}")
+    } else {
+        format!("{v:.3}")
+    }
+}
+
+impl Diagnosis {
+    /// The `diagnosis.json` text (pretty-printed).
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).unwrap_or_else(|e| format!("{{\"error\": \"{e}\"}}"))
+    }
+
+    /// The `diagnosis.json` value.
+    pub fn to_json_value(&self) -> serde_json::Value {
+        serde_json::to_value(self).unwrap_or(serde_json::Value::Null)
+    }
+
+    /// A terminal summary of at most 20 lines.
+    pub fn summary_lines(&self) -> Vec<String> {
+        let mut l = Vec::new();
+        let v = match self.verdict {
+            Verdict::Adequate => "ADEQUATE: the baseline model explains this trial",
+            Verdict::Deficient => "DEFICIENT: the baseline model misses something",
+        };
+        l.push(format!("verdict      {v}"));
+        l.push(format!(
+            "noise        {} (offset {:+.2} N·m, transient {:.1} N·m @ {:.1} Hz, AR(1) φ {:.3} sd {:.2}, white sd {:.2})",
+            match self.noise.source {
+                crate::noise::NoiseSource::Unloaded => "from the unloaded run",
+                crate::noise::NoiseSource::TrialResidual => "from the trial residual (no unloaded run)",
+            },
+            self.noise.offset_nm,
+            self.noise.transient.b_nm.hypot(self.noise.transient.c_nm),
+            self.noise.transient.freq_hz,
+            self.noise.phi,
+            self.noise.sd_ar_nm,
+            self.noise.sd_white_nm
+        ));
+        l.push(format!(
+            "baseline     RMS {:.2} N·m, held-out RMS {:.2} N·m",
+            self.baseline.rms_nm, self.baseline.heldout_rms_nm
+        ));
+        if self.causes.is_empty() {
+            l.push("causes       none".into());
+        } else {
+            l.push(format!("causes       {}", self.causes.join(", ")));
+            if let Some(eff) = &self.extended.effects {
+                for (name, vals) in eff {
+                    let unc = self
+                        .extended
+                        .effect_uncertainty
+                        .as_ref()
+                        .and_then(|u| u.get(name));
+                    l.push(format!("  {}", fmt_effect(name, vals, unc)));
+                }
+            }
+            l.push(format!(
+                "extended     RMS {:.2} N·m, held-out RMS {:.2} N·m",
+                self.extended.rms_nm, self.extended.heldout_rms_nm
+            ));
+            l.push(format!(
+                "gain         held-out RMS −{:.1} %, ΔBIC {:.1}, Δlog L {:.1}",
+                self.gain.heldout_rms_reduction_pct,
+                self.gain.delta_bic,
+                self.gain.delta_log_likelihood
+            ));
+        }
+        if !self.confounded.is_empty() {
+            l.push(format!(
+                "confounded   {} (cannot be told from the muscle parameters here)",
+                self.confounded.join(", ")
+            ));
+        }
+        l.push(format!(
+            "structure    {} (evidence {:.0})",
+            if self.unexplained_structure {
+                "UNEXPLAINED structure remains in the residual"
+            } else {
+                "no unexplained structure"
+            },
+            self.residual_analysis.structure_evidence
+        ));
+        l.push("candidates   effect                   evidence  held-out  ΔBIC".into());
+        for c in self.candidates.iter().take(20 - l.len() - 1) {
+            l.push(format!(
+                "  {}{:<24} {:>9.1} {:>9} {:>8}",
+                if c.accepted {
+                    "*"
+                } else if c.confounded {
+                    "?"
+                } else {
+                    " "
+                },
+                c.effect,
+                c.evidence,
+                c.heldout_rms_nm.map_or("-".into(), |h| format!("{h:.3}")),
+                c.delta_bic.map_or("-".into(), |d| format!("{d:.1}"))
+            ));
+        }
+        l.push(format!(
+            "work         {} simulations, {:.1} s",
+            self.evaluations, self.wall_s
+        ));
+        l.truncate(20);
+        l
+    }
+}

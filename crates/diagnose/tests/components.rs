@@ -1,0 +1,98 @@
+//! Component tests: segmentation, the dynamometer noise model and its whitening, the LM solver.
+
+use diagnose::noise::{NoiseModel, NoiseSource};
+use diagnose::{lm, PhaseLabel, Segmentation};
+use experiment::{unloaded_run, DynamometerSettings, Protocol};
+
+#[test]
+fn segments_relaxed_plus_two() {
+    let tr = "relaxed+2".parse::<Protocol>().unwrap().trace().unwrap();
+    // envelope: rest in the relaxed cycle, 1 in the active part
+    let env: Vec<f64> = tr
+        .active
+        .iter()
+        .map(|a| if *a { 1.0 } else { 0.02 })
+        .collect();
+    let seg = Segmentation::new(&tr.angle_deg, tr.sample_rate_hz, Some(&env)).unwrap();
+    assert_eq!(seg.cycles.len(), 3);
+    assert!(seg.cycles[0].relaxed && !seg.cycles[1].relaxed && !seg.cycles[2].relaxed);
+    let truth = tr.events.all();
+    assert_eq!(seg.events.len(), truth.len());
+    for (a, b) in seg.events.iter().zip(&truth) {
+        assert!((a - b).abs() < 1e-3, "event {a} vs {b}");
+    }
+    let n_relaxed = seg
+        .phase
+        .iter()
+        .filter(|p| **p == PhaseLabel::Relaxed)
+        .count();
+    assert!((n_relaxed as f64 / tr.sample_rate_hz - 2.0 * 1.2167).abs() < 0.01);
+}
+
+#[test]
+fn noise_model_recovers_the_dynamometer_error() {
+    let s = DynamometerSettings::default();
+    let u = unloaded_run(&s, 5).unwrap();
+    let fs = u.sample_rate_hz();
+    let seg = Segmentation::new(&u.ankle_angle_deg, fs, None).unwrap();
+    let m = NoiseModel::fit(&u.torque_nm, fs, &seg.events, true, NoiseSource::Unloaded);
+    assert!((m.offset_nm - s.offset_nm).abs() < 0.3, "{m:?}");
+    let amp = m.transient.b_nm.hypot(m.transient.c_nm);
+    assert!((amp - s.transient_amplitude_nm).abs() < 1.5, "{m:?}");
+    assert!(
+        (m.transient.freq_hz - s.transient_freq_hz).abs() < 1.0,
+        "{m:?}"
+    );
+    let phi = s.ar1_phi(1.0 / fs);
+    assert!((m.phi - phi).abs() < 0.01, "{m:?}");
+    assert!((m.sd_ar_nm - s.ar1_sd_nm).abs() < 0.3, "{m:?}");
+    assert!((m.sd_white_nm - s.white_sd_nm).abs() < 0.2, "{m:?}");
+    // whitened remainder: unit variance, no lag-one correlation
+    let times: Vec<f64> = (0..u.len()).map(|i| i as f64 / fs).collect();
+    let sys = m.systematic(&times, &seg.events);
+    let e: Vec<f64> = u.torque_nm.iter().zip(&sys).map(|(a, b)| a - b).collect();
+    let plan = m.plan(e.len(), None);
+    let mut w = vec![0.0; e.len()];
+    plan.whiten(&e, &mut w);
+    let n = w.len() as f64;
+    let var = w.iter().map(|x| x * x).sum::<f64>() / n;
+    let r1 = w.windows(2).map(|p| p[0] * p[1]).sum::<f64>() / n / var;
+    assert!((var - 1.0).abs() < 0.1, "whitened variance {var}");
+    assert!(r1.abs() < 0.05, "whitened lag-1 correlation {r1}");
+}
+
+#[test]
+fn levenberg_marquardt_solves_a_bounded_curve_fit() {
+    // y = a·exp(−b t) with (a, b) = (2, 3), b bounded to [0, 2.5]: the fit sits on the bound.
+    let t: Vec<f64> = (0..50).map(|i| i as f64 * 0.02).collect();
+    let y: Vec<f64> = t.iter().map(|t| 2.0 * (-3.0 * t).exp()).collect();
+    let f = |x: &[f64]| -> Option<Vec<f64>> {
+        Some(
+            t.iter()
+                .zip(&y)
+                .map(|(t, y)| x[0] * (-x[1] * t).exp() - y)
+                .collect(),
+        )
+    };
+    let free = lm::minimise(
+        &f,
+        &[1.0, 1.0],
+        &[(0.0, 5.0), (0.0, 5.0)],
+        &lm::LmSettings::default(),
+    )
+    .unwrap();
+    assert!(
+        (free.x[0] - 2.0).abs() < 1e-4 && (free.x[1] - 3.0).abs() < 1e-4,
+        "{:?}",
+        free.x
+    );
+    let bounded = lm::minimise(
+        &f,
+        &[1.0, 1.0],
+        &[(0.0, 5.0), (0.0, 2.5)],
+        &lm::LmSettings::default(),
+    )
+    .unwrap();
+    assert!((bounded.x[1] - 2.5).abs() < 1e-12, "{:?}", bounded.x);
+    assert!(bounded.cost > free.cost);
+}
