@@ -1,6 +1,8 @@
 //! `cargo xtask bench`: the forward model and the cost on the seed fixture, then the Python
 //! peer (`bench/peer/surae_peer.py`, scipy RK45) on the same trial in the same run; prints a
-//! Markdown table with the ratios.
+//! Markdown table with the ratios. The SA row runs `identify_sa::identify` end to end on the
+//! trial (with `unloaded.csv` next to it when present) and divides its wall time by its
+//! evaluations.
 
 use anyhow::{bail, Context, Result};
 use muscle_model::{
@@ -33,6 +35,43 @@ fn time_it(reps: usize, mut f: impl FnMut(usize) -> Result<()>) -> Result<f64> {
         t.push(s.elapsed().as_secs_f64());
     }
     Ok(median(t))
+}
+
+/// CPU time (user + system, s) of this process from `/proc/self/stat` (Linux; 100 Hz ticks),
+/// `None` elsewhere.
+fn cpu_seconds() -> Option<f64> {
+    let s = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // fields after the command name (which is in parentheses and may contain spaces)
+    let rest = s.rsplit_once(')')?.1;
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let utime: f64 = f.get(11)?.parse().ok()?;
+    let stime: f64 = f.get(12)?.parse().ok()?;
+    Some((utime + stime) / 100.0)
+}
+
+/// One end-to-end `identify_sa::identify` run: (evaluations, wall s, CPU s if known).
+fn sa_run(trial_path: &Path, trial: &experiment::Trial) -> Result<(u64, f64, Option<f64>)> {
+    let unloaded_path = trial_path.with_file_name("unloaded.csv");
+    let unloaded = if unloaded_path.exists() {
+        Some(
+            experiment::read_unloaded(&unloaded_path)
+                .with_context(|| format!("reading {}", unloaded_path.display()))?,
+        )
+    } else {
+        None
+    };
+    let prep = identify_sa::prepare_trial(trial, unloaded.as_ref(), &Default::default())?;
+    let settings = identify_sa::IdentifySettings::default();
+    let cpu0 = cpu_seconds();
+    let start = Instant::now();
+    let fit = identify_sa::identify(&prep.problem, &settings, &identify_sa::NoObserver)?;
+    let wall = start.elapsed().as_secs_f64();
+    let cpu = cpu_seconds().zip(cpu0).map(|(b, a)| b - a);
+    eprintln!(
+        "SA: {} evaluations in {wall:.2} s, torque RMS {:.3} N·m",
+        fit.evaluations, fit.rms_nm
+    );
+    Ok((fit.evaluations, wall, cpu))
 }
 
 fn rms(a: &[f64], b: &[f64]) -> f64 {
@@ -154,6 +193,10 @@ pub fn run(args: &mut impl Iterator<Item = String>) -> Result<bool> {
         Ok(())
     })?;
 
+    eprintln!("running identify_sa::identify (4 chains, rayon) ...");
+    let (sa_evals, sa_wall, sa_cpu) = sa_run(&trial_path, &trial)?;
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+
     eprintln!("running the Python peer ({repeat} simulations) ...");
     let t_peer = peer(&root, &trial_path, repeat)?;
 
@@ -176,7 +219,20 @@ pub fn run(args: &mut impl Iterator<Item = String>) -> Result<bool> {
         us(t_cost_sa),
         t_peer / t_cost_sa
     );
-    println!("| SA to the noise floor | not yet measured | — | — |");
+    let per_eval = sa_wall / sa_evals.max(1) as f64;
+    println!(
+        "| SA model evaluation inside `identify` (wall / evaluations; {sa_evals} evaluations in {sa_wall:.2} s on {threads} threads{}) | {} | {:.1} ms | {:.0}× |",
+        sa_cpu.map_or(String::new(), |c| format!(
+            "; CPU {:.1} µs per evaluation",
+            c / sa_evals.max(1) as f64 * 1e6
+        )),
+        us(per_eval),
+        t_peer * 1e3,
+        t_peer / per_eval
+    );
+    println!(
+        "| SA end to end (seed, unloaded-run correction, 4 chains + polish) | {sa_wall:.2} s | — | — |"
+    );
     println!("| MCMC to R̂ < 1.01, ESS ≥ 400 | not yet measured | — | — |");
     println!("| full diagnosis | not yet measured | — | — |");
     println!();

@@ -7,6 +7,11 @@ pub const MB_CENTRE: f64 = 0.3085;
 /// Shapes below this are treated as the identity (`A = 0`).
 pub const MB_IDENTITY_BELOW: f64 = 1e-12;
 
+thread_local! {
+    /// The last curve built on this thread ([`ManalBuchanan::new`]).
+    static MB_MEMO: std::cell::Cell<Option<ManalBuchanan>> = const { std::cell::Cell::new(None) };
+}
+
 /// The Manal–Buchanan A-model `â = f_A(a)`: logarithmic below `u0`, linear above, value and
 /// slope continuous at `u0`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -32,6 +37,20 @@ impl ManalBuchanan {
     /// `x/((1 + x)·ln(1 + x)) = m·u0/a0`, a strictly decreasing function of `x > 0` solved here
     /// by bisection to machine precision; then `β = x/u0`, `α = a0/ln(1 + x)`.
     pub fn new(shape: f64) -> Self {
+        // The bisection below costs microseconds and every `MuscleUnit` builds the curve, so the
+        // last result of this thread is kept (same bits: the computation is deterministic).
+        if let Some(mb) = MB_MEMO
+            .with(|c| c.get())
+            .filter(|mb| mb.shape.to_bits() == shape.to_bits())
+        {
+            return mb;
+        }
+        let mb = Self::compute(shape);
+        MB_MEMO.with(|c| c.set(Some(mb)));
+        mb
+    }
+
+    fn compute(shape: f64) -> Self {
         let s = shape / std::f64::consts::SQRT_2;
         let u0 = MB_CENTRE - s;
         let a0 = MB_CENTRE + s;

@@ -14,13 +14,14 @@ use crate::inputs::TrialInputs;
 use crate::simulate::{SimSettings, SimStats};
 use crate::unit::{MuscleUnit, IX_A, IX_FATIGUE, IX_FT, IX_LM, IX_LMT, STATE_DIM};
 use ode::OdeError;
+use std::sync::Arc;
 
 /// RK4 substeps per sample interval when the activation is precomputed.
 pub const ACT_SUBSTEPS: usize = 4;
 
 /// What a [`Channel`] was computed from.
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct ChannelKey {
+pub(crate) struct ChannelKey {
     uid: u64,
     n: usize,
     j: usize,
@@ -32,25 +33,11 @@ struct ChannelKey {
     poly: [f64; 4],
 }
 
-/// Per-trial, per-muscle inputs of the fibre ODE at the samples.
-#[derive(Clone, Debug, Default)]
-pub(crate) struct Channel {
-    key: Option<ChannelKey>,
-    /// Per sample `[act, dt·d(act)/dt, LMT, dt·dLMT/dt]`, `act = â·exp(−k∫â)`.
-    drive: Vec<[f64; 4]>,
-    /// Moment arm `r(q)` at the samples (m).
-    pub(crate) r: Vec<f64>,
-    /// Activation `a` at the samples.
-    a: Vec<f64>,
-    /// `∫₀ᵗ â dt` at the samples.
-    z: Vec<f64>,
-}
-
-impl Channel {
-    /// Makes the channel current for `unit` on `inputs` (no work when it already is).
-    pub(crate) fn prepare(&mut self, inputs: &TrialInputs, unit: &MuscleUnit, delay: f64) {
+impl ChannelKey {
+    /// The key of `unit`'s channel on `inputs` with electromechanical delay `delay` (s).
+    pub(crate) fn new(inputs: &TrialInputs, unit: &MuscleUnit, delay: f64) -> Self {
         let act = unit.activation;
-        let key = ChannelKey {
+        ChannelKey {
             uid: inputs.uid(),
             n: inputs.len(),
             j: unit.muscle.index(),
@@ -60,11 +47,65 @@ impl Channel {
             delay,
             fatigue: unit.fatigue_rate,
             poly: unit.poly,
-        };
-        if self.key == Some(key) {
-            return;
         }
-        self.key = None;
+    }
+}
+
+/// Channels kept per [`TrialInputs`] (shared by its clones and by every thread).
+pub(crate) const SHARED_CHANNELS: usize = 12;
+
+/// Per-trial, per-muscle inputs of the fibre ODE at the samples.
+#[derive(Clone, Debug)]
+pub(crate) struct Channel {
+    pub(crate) key: ChannelKey,
+    /// Per sample `[act, dt·d(act)/dt, LMT, dt·dLMT/dt]`, `act = â·exp(−k∫â)`.
+    drive: Vec<[f64; 4]>,
+    /// `LMT(q)` at the samples (m).
+    pub(crate) lmt: Vec<f64>,
+    /// Moment arm `r(q)` at the samples (m).
+    pub(crate) r: Vec<f64>,
+    /// Activation `a` at the samples.
+    a: Vec<f64>,
+    /// `∫₀ᵗ â dt` at the samples.
+    z: Vec<f64>,
+}
+
+/// The channel of `unit` on `inputs`: `current` when its key matches, else one kept with the
+/// inputs (shared across threads), else a new one (then kept). Channels are deterministic
+/// functions of their key, so where one comes from does not change any result.
+pub(crate) fn channel_for(
+    current: Option<&Arc<Channel>>,
+    inputs: &TrialInputs,
+    unit: &MuscleUnit,
+    delay: f64,
+) -> Arc<Channel> {
+    let key = ChannelKey::new(inputs, unit, delay);
+    if let Some(c) = current.filter(|c| c.key == key) {
+        return Arc::clone(c);
+    }
+    let shared = inputs.channel_cache();
+    {
+        let list = shared.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(c) = list.iter().find(|c| c.key == key) {
+            return Arc::clone(c);
+        }
+    }
+    let c = Arc::new(Channel::build(key, inputs, unit, delay));
+    let mut list = shared.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(c) = list.iter().find(|c| c.key == key) {
+        return Arc::clone(c);
+    }
+    if list.len() >= SHARED_CHANNELS {
+        list.remove(0);
+    }
+    list.push(Arc::clone(&c));
+    c
+}
+
+impl Channel {
+    /// Integrates the activation of `unit` on `inputs` and tabulates the drive.
+    fn build(key: ChannelKey, inputs: &TrialInputs, unit: &MuscleUnit, delay: f64) -> Self {
+        let act = unit.activation;
         let n = inputs.len();
         let j = key.j;
         let t = inputs.times();
@@ -73,14 +114,14 @@ impl Channel {
         let dt = 1.0 / inputs.fs();
         let nl = act.nonlinearity;
         let kf = unit.fatigue_rate;
-        self.drive.clear();
-        self.r.clear();
-        self.a.clear();
-        self.z.clear();
-        self.drive.reserve(n);
-        self.r.reserve(n);
-        self.a.reserve(n);
-        self.z.reserve(n);
+        let mut ch = Channel {
+            key,
+            drive: Vec::with_capacity(n),
+            lmt: Vec::with_capacity(n),
+            r: Vec::with_capacity(n),
+            a: Vec::with_capacity(n),
+            z: Vec::with_capacity(n),
+        };
         let u_at = |tt: f64| inputs.envelope_at(j, tt - delay).clamp(0.0, 1.0);
         let f = |tt: f64, y: [f64; 2]| -> [f64; 2] { [act.rate(u_at(tt), y[0]), nl.apply(y[0])] };
         let mut y = [u_at(t[0]), 0.0];
@@ -99,11 +140,12 @@ impl Channel {
             let c = unit.poly;
             let lmt = crate::geometry::lmt(&c, q[i]);
             let r = crate::geometry::moment_arm(&c, q[i]);
-            self.drive
+            ch.drive
                 .push([ah * phi, dt * (dah * phi + ah * dphi), lmt, dt * r * qd[i]]);
-            self.r.push(r);
-            self.a.push(a);
-            self.z.push(z);
+            ch.lmt.push(lmt);
+            ch.r.push(r);
+            ch.a.push(a);
+            ch.z.push(z);
             if i + 1 < n {
                 let mut tt = t[i];
                 for _ in 0..ACT_SUBSTEPS {
@@ -124,13 +166,13 @@ impl Channel {
                 }
             }
         }
-        self.key = Some(key);
+        ch
     }
 }
 
 /// Constants of the fibre-length right-hand side of one muscle.
 #[derive(Clone, Copy, Debug)]
-struct Fibre {
+pub(crate) struct Fibre {
     h2: f64,
     lm_cap: f64,
     cos_cap: f64,
@@ -150,7 +192,7 @@ struct Fibre {
 }
 
 impl Fibre {
-    fn new(u: &MuscleUnit) -> Self {
+    pub(crate) fn new(u: &MuscleUnit) -> Self {
         let cap = crate::geometry::MAX_PENNATION_DEG.to_radians();
         let c = &u.curves;
         Fibre {
@@ -184,9 +226,10 @@ impl Fibre {
         }
     }
 
-    /// Normalised tendon force `fT(ε(LMT, LM))`.
+    /// Normalised tendon force `fT(ε(LMT, LM))` (the same function serves every caller, so
+    /// results agree bit for bit).
     #[inline(always)]
-    fn tendon_force(&self, lmt: f64, lm: f64) -> f64 {
+    pub(crate) fn tendon_force(&self, lmt: f64, lm: f64) -> f64 {
         let (_, lmcos) = self.cos(lm);
         self.ft((lmt - lmcos - self.lst) * self.inv_lst)
     }
@@ -228,6 +271,16 @@ impl Fibre {
         } else {
             vm
         }
+    }
+}
+
+/// Unit-`F0` torque `F̃T·r(q)` at every sample from the fibre lengths `lm` (one pass over the
+/// samples, separate from the integration so that the integrator's loop stays small).
+pub(crate) fn unit_torque(fib: &Fibre, ch: &Channel, lm: &[f64], out: &mut [f64]) {
+    let n = out.len();
+    let (lm, lmt, r) = (&lm[..n], &ch.lmt[..n], &ch.r[..n]);
+    for i in 0..n {
+        out[i] = fib.tendon_force(lmt[i], lm[i]) * r[i];
     }
 }
 
@@ -302,17 +355,16 @@ const FAC_MAX: f64 = 10.0;
 const H_MIN: f64 = 1e-14;
 const LN_1E_4: f64 = -9.210_340_371_976_184;
 
-/// Integrates the fibre length of `unit` over the samples of `inputs` (channel prepared) and
-/// calls `out(i, LM, LMT, F̃T)` at every sample.
+/// Integrates the fibre length of `fib` over the samples of `inputs` (channel prepared) and
+/// writes `LM` at every sample into `lm_out` (length = samples).
 pub(crate) fn run(
     ch: &Channel,
     inputs: &TrialInputs,
-    unit: &MuscleUnit,
+    fib: &Fibre,
     lm0: f64,
     settings: &SimSettings,
-    mut out: impl FnMut(usize, f64, f64, f64),
+    lm_out: &mut [f64],
 ) -> Result<SimStats, OdeError> {
-    let fib = Fibre::new(unit);
     let drive = &ch.drive[..];
     let times = inputs.times();
     let n = times.len();
@@ -329,7 +381,7 @@ pub(crate) fn run(
     if !lm0.is_finite() {
         return Err(OdeError::NonFinite { t: t0 });
     }
-    out(0, lm0, drive[0][2], fib.tendon_force(drive[0][2], lm0));
+    lm_out[0] = lm0;
     let mut t = t0;
     let mut y = lm0;
     let (mut k1, mut a1) = f(t, y);
@@ -446,8 +498,7 @@ pub(crate) fn run(
                 let th1 = 1.0 - th;
                 y + th * (ydiff + th1 * (r3 + th * (r4 + th1 * r5)))
             };
-            let lmt = drive[next][2];
-            out(next, lm, lmt, fib.tendon_force(lmt, lm));
+            lm_out[next] = lm;
             next += 1;
         }
         t = t_new;

@@ -8,6 +8,17 @@
 use crate::error::ModelError;
 use crate::params::Muscle;
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+
+/// Per-trial precomputed inputs of the fast formulation, shared by clones and threads.
+#[derive(Default)]
+pub(crate) struct ChannelCache(Mutex<Vec<Arc<crate::fast::Channel>>>);
+
+impl std::fmt::Debug for ChannelCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("ChannelCache")
+    }
+}
 
 /// Source of [`TrialInputs`] identities (caches key on them; clones share the identity, which
 /// is sound because inputs are immutable after construction).
@@ -28,6 +39,7 @@ pub struct TrialInputs {
     acceleration: Vec<f64>,
     env: [Vec<f64>; 3],
     env_ta: Option<Vec<f64>>,
+    channels: Arc<ChannelCache>,
 }
 
 impl TrialInputs {
@@ -106,6 +118,7 @@ impl TrialInputs {
             acceleration,
             env,
             env_ta,
+            channels: Arc::default(),
         })
     }
 
@@ -114,6 +127,12 @@ impl TrialInputs {
     #[inline]
     pub(crate) fn uid(&self) -> u64 {
         self.uid
+    }
+
+    /// The fast formulation's per-muscle channels kept for these inputs.
+    #[inline]
+    pub(crate) fn channel_cache(&self) -> &Mutex<Vec<Arc<crate::fast::Channel>>> {
+        &self.channels.0
     }
 
     /// Number of samples.

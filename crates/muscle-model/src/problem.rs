@@ -5,7 +5,7 @@ use crate::effects::{EffectKind, Effects};
 use crate::error::ModelError;
 use crate::inputs::TrialInputs;
 use crate::params::{ModelParams, Muscle};
-use crate::simulate::{simulate_into, SimSettings, Workspace};
+use crate::simulate::{predict_into, SimSettings, Target, Workspace};
 use serde::{Deserialize, Serialize};
 use std::cell::RefCell;
 
@@ -619,7 +619,7 @@ impl Problem {
         out: &mut [f64],
     ) -> Result<(), ModelError> {
         let (p, e) = self.params_from_vector(x)?;
-        simulate_into(&mut ws.sim, &self.inputs, &p, &e, &self.settings, out)?;
+        predict_into(&mut ws.sim, &self.inputs, &p, &e, &self.settings, out, None)?;
         Ok(())
     }
 
@@ -654,23 +654,24 @@ impl Problem {
 
     /// Weighted sum of squared torque errors (dissertation eq. 12), `Σ wᵢ (τᵢ − τ̂ᵢ)²`.
     pub fn sse_with(&self, x: &[f64], ws: &mut ProblemWorkspace) -> Result<f64, ModelError> {
-        self.eval_pred(x, ws)?;
-        let s = match &self.weights {
-            None => ws
-                .pred
-                .iter()
-                .zip(&self.measured)
-                .map(|(p, m)| (m - p) * (m - p))
-                .sum(),
-            Some(w) => ws
-                .pred
-                .iter()
-                .zip(&self.measured)
-                .zip(w)
-                .map(|((p, m), w)| w * (m - p) * (m - p))
-                .sum(),
+        let (p, e) = self.params_from_vector(x)?;
+        let mut pred = std::mem::take(&mut ws.pred);
+        pred.resize(self.inputs.len(), 0.0);
+        let target = Target {
+            measured: &self.measured,
+            weights: self.weights.as_deref(),
         };
-        Ok(s)
+        let r = predict_into(
+            &mut ws.sim,
+            &self.inputs,
+            &p,
+            &e,
+            &self.settings,
+            &mut pred,
+            Some(target),
+        );
+        ws.pred = pred;
+        r
     }
 
     /// [`Problem::sse_with`] using a thread-local workspace.

@@ -3,11 +3,13 @@
 
 use crate::effects::Effects;
 use crate::error::ModelError;
+use crate::fast::Channel;
 use crate::inputs::TrialInputs;
 use crate::params::{ModelParams, Muscle};
 use crate::unit::{MuscleUnit, IX_FT, IX_LM, STATE_DIM};
 use ode::{AdaptiveSettings, OdeSystem};
 use serde::{Deserialize, Serialize};
+use std::sync::Arc;
 
 /// Integration settings of a simulation.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -45,8 +47,9 @@ pub enum Formulation {
     /// with RK4, 4 substeps per sample interval; cubic Hermite between samples), so each
     /// muscle integrates only its fibre length `LM`. Same exact solution as
     /// [`Formulation::Reduced`]; the error control acts on `LM` alone. The per-trial part is
-    /// cached in the [`Workspace`] and reused while the trial, the activation parameters, the
-    /// delay and the fatigue rate stay the same.
+    /// kept with the [`TrialInputs`] (shared by their clones and by every thread and
+    /// [`Workspace`]) and reused while the trial, the activation parameters, the delay and
+    /// the fatigue rate stay the same.
     #[default]
     Fast,
 }
@@ -158,9 +161,17 @@ impl SimOutput {
 pub struct Workspace {
     torque_muscle: [Vec<f64>; 3],
     ta: Vec<f64>,
-    channels: [crate::fast::Channel; 3],
+    channels: [Option<Arc<Channel>>; 3],
+    /// Fibre length at the samples (scratch of the fast integrator).
+    lm: Vec<f64>,
     slots: [[Slot; 2]; 3],
     newest: [usize; 3],
+    /// `F0` of each muscle in the last fast call (the slot `newest` holds its unit torque).
+    f0: [f64; 3],
+    /// Joint-level effect torque and what it was computed from (effects without the
+    /// antagonist term are cached; with it they are recomputed).
+    effects_key: Option<(u64, usize, Effects)>,
+    effects_torque: Vec<f64>,
     hits: u64,
     misses: u64,
 }
@@ -211,8 +222,10 @@ impl Workspace {
 }
 
 /// Unit-`F0` torque `F̃T·r(q)` of `unit` at every sample into `out` ([`Formulation::Fast`]).
+#[allow(clippy::too_many_arguments)]
 fn fast_unit_torque(
-    ch: &mut crate::fast::Channel,
+    current: &mut Option<Arc<Channel>>,
+    lm: &mut Vec<f64>,
     inputs: &TrialInputs,
     unit: &MuscleUnit,
     delay: f64,
@@ -224,15 +237,18 @@ fn fast_unit_torque(
         inputs.envelope_at(unit.muscle.index(), t0 - delay),
         inputs.angle()[0],
     );
-    ch.prepare(inputs, unit, delay);
-    let chr = &*ch;
-    crate::fast::run(chr, inputs, unit, y0[IX_LM], settings, |i, _, _, ft| {
-        out[i] = ft * chr.r[i];
-    })
-    .map_err(|source| ModelError::Integration {
-        muscle: unit.muscle.name(),
-        source,
-    })
+    let ch = crate::fast::channel_for(current.as_ref(), inputs, unit, delay);
+    let fib = crate::fast::Fibre::new(unit);
+    lm.resize(inputs.len(), 0.0);
+    let stats = crate::fast::run(&ch, inputs, &fib, y0[IX_LM], settings, lm).map_err(|source| {
+        ModelError::Integration {
+            muscle: unit.muscle.name(),
+            source,
+        }
+    })?;
+    crate::fast::unit_torque(&fib, &ch, lm, out);
+    *current = Some(ch);
+    Ok(stats)
 }
 
 struct UnitSystem<'a> {
@@ -286,7 +302,7 @@ fn delay_s(effects: &Effects) -> f64 {
 /// with every sample's state.
 #[allow(clippy::too_many_arguments)]
 fn run_muscle(
-    ch: &mut crate::fast::Channel,
+    current: &mut Option<Arc<Channel>>,
     inputs: &TrialInputs,
     params: &ModelParams,
     effects: &Effects,
@@ -301,17 +317,24 @@ fn run_muscle(
     let j = m.index();
     let y0 = unit.equilibrium_state(inputs.envelope_at(j, t[0] - delay), inputs.angle()[0]);
     if settings.formulation == Formulation::Fast {
-        ch.prepare(inputs, &unit, delay);
+        let ch = crate::fast::channel_for(current.as_ref(), inputs, &unit, delay);
+        let fib = crate::fast::Fibre::new(&unit);
+        let mut lm = vec![0.0; inputs.len()];
+        let stats = crate::fast::run(&ch, inputs, &fib, y0[IX_LM], settings, &mut lm).map_err(
+            |source| ModelError::Integration {
+                muscle: m.name(),
+                source,
+            },
+        )?;
         let f0 = unit.f0;
-        let chr = &*ch;
-        let stats = crate::fast::run(chr, inputs, &unit, y0[IX_LM], settings, |i, lm, lmt, ft| {
-            torque[i] = f0 * (ft * chr.r[i]);
-            state(i, &crate::fast::state(chr, i, lm, lmt, ft));
-        })
-        .map_err(|source| ModelError::Integration {
-            muscle: m.name(),
-            source,
-        })?;
+        for (i, &lmi) in lm.iter().enumerate() {
+            let lmt = ch.lmt[i];
+            let ft = fib.tendon_force(lmt, lmi);
+            // the same operations as `fast::unit_torque` followed by the F0 scaling
+            torque[i] = f0 * (ft * ch.r[i]);
+            state(i, &crate::fast::state(&ch, i, lmi, lmt, ft));
+        }
+        *current = Some(ch);
         return Ok(stats);
     }
     let reduced = settings.formulation == Formulation::Reduced;
@@ -463,7 +486,7 @@ pub fn simulate(
         .record_states
         .then(|| std::array::from_fn(|_| vec![[0.0; STATE_DIM]; n]));
     let mut stats = [SimStats::default(); 3];
-    let mut channels: [crate::fast::Channel; 3] = Default::default();
+    let mut channels: [Option<Arc<Channel>>; 3] = Default::default();
     for m in Muscle::ALL {
         let j = m.index();
         let st = states.as_mut().map(|s| &mut s[j]);
@@ -547,57 +570,17 @@ pub fn simulate_into(
             got: torque.len(),
         });
     }
-    let mut total = SimStats::default();
-    let fast = settings.formulation == Formulation::Fast;
-    let delay = delay_s(effects);
-    for m in Muscle::ALL {
-        let j = m.index();
-        let buf = &mut ws.torque_muscle[j];
-        buf.resize(n, 0.0);
-        let ch = &mut ws.channels[j];
-        let s = if fast {
-            let unit = MuscleUnit::new(params, m, effects);
-            let key = SlotKey {
-                uid: inputs.uid(),
-                n,
-                unit: MuscleUnit { f0: 1.0, ..unit },
-                delay,
-                rtol: settings.rtol,
-                atol: settings.atol,
-                h_max: settings.h_max,
-                max_steps: settings.max_steps,
-            };
-            let slots = &mut ws.slots[j];
-            let k = match slots.iter().position(|sl| sl.key == Some(key)) {
-                Some(k) => {
-                    ws.hits += 1;
-                    k
-                }
-                None => {
-                    ws.misses += 1;
-                    let k = 1 - ws.newest[j];
-                    let sl = &mut slots[k];
-                    sl.key = None;
-                    sl.unit_torque.resize(n, 0.0);
-                    sl.stats =
-                        fast_unit_torque(ch, inputs, &unit, delay, settings, &mut sl.unit_torque)?;
-                    sl.key = Some(key);
-                    k
-                }
-            };
-            ws.newest[j] = k;
-            let sl = &slots[k];
-            let f0 = unit.f0;
-            for (b, g) in buf.iter_mut().zip(&sl.unit_torque) {
+    let total = update_muscles(ws, inputs, params, effects, settings)?;
+    if settings.formulation == Formulation::Fast {
+        for j in 0..3 {
+            let f0 = ws.f0[j];
+            let g = &ws.slots[j][ws.newest[j]].unit_torque;
+            let buf = &mut ws.torque_muscle[j];
+            buf.resize(n, 0.0);
+            for (b, g) in buf.iter_mut().zip(g) {
                 *b = f0 * g;
             }
-            sl.stats
-        } else {
-            run_muscle(ch, inputs, params, effects, settings, m, buf, |_, _| {})?
-        };
-        total.accepted += s.accepted;
-        total.rejected += s.rejected;
-        total.rhs_calls += s.rhs_calls;
+        }
     }
     let ta_active = needs_ta(effects);
     if ta_active {
@@ -622,4 +605,242 @@ pub fn simulate_into(
         }
     }
     Ok(total)
+}
+
+/// Brings the per-muscle results of `ws` up to date: with [`Formulation::Fast`] the cache slots
+/// (`ws.newest`, `ws.f0`), otherwise `ws.torque_muscle`. Returns the summed statistics.
+fn update_muscles(
+    ws: &mut Workspace,
+    inputs: &TrialInputs,
+    params: &ModelParams,
+    effects: &Effects,
+    settings: &SimSettings,
+) -> Result<SimStats, ModelError> {
+    let n = inputs.len();
+    let mut total = SimStats::default();
+    let fast = settings.formulation == Formulation::Fast;
+    let delay = delay_s(effects);
+    for m in Muscle::ALL {
+        let j = m.index();
+        let s = if fast {
+            let unit = MuscleUnit::new(params, m, effects);
+            let key = SlotKey {
+                uid: inputs.uid(),
+                n,
+                unit: MuscleUnit { f0: 1.0, ..unit },
+                delay,
+                rtol: settings.rtol,
+                atol: settings.atol,
+                h_max: settings.h_max,
+                max_steps: settings.max_steps,
+            };
+            let slots = &mut ws.slots[j];
+            let k = match slots.iter().position(|sl| sl.key == Some(key)) {
+                Some(k) => {
+                    ws.hits += 1;
+                    k
+                }
+                None => {
+                    ws.misses += 1;
+                    let k = 1 - ws.newest[j];
+                    let sl = &mut slots[k];
+                    sl.key = None;
+                    sl.unit_torque.resize(n, 0.0);
+                    sl.stats = fast_unit_torque(
+                        &mut ws.channels[j],
+                        &mut ws.lm,
+                        inputs,
+                        &unit,
+                        delay,
+                        settings,
+                        &mut sl.unit_torque,
+                    )?;
+                    sl.key = Some(key);
+                    k
+                }
+            };
+            ws.newest[j] = k;
+            ws.f0[j] = unit.f0;
+            slots[k].stats
+        } else {
+            let buf = &mut ws.torque_muscle[j];
+            buf.resize(n, 0.0);
+            run_muscle(
+                &mut ws.channels[j],
+                inputs,
+                params,
+                effects,
+                settings,
+                m,
+                buf,
+                |_, _| {},
+            )?
+        };
+        total.accepted += s.accepted;
+        total.rejected += s.rejected;
+        total.rhs_calls += s.rhs_calls;
+    }
+    Ok(total)
+}
+
+/// What [`predict_into`] compares the prediction with: measured torque and optional weights.
+pub(crate) struct Target<'a> {
+    pub(crate) measured: &'a [f64],
+    pub(crate) weights: Option<&'a [f64]>,
+}
+
+/// The total torque of [`simulate_into`] (bit for bit) into `out`, and with a `target` the
+/// weighted sum of squares `Σ wᵢ (mᵢ − outᵢ)²` computed in the same pass (returned; 0 without
+/// a target). With [`Formulation::Fast`] this is one pass over the cached unit torques;
+/// [`Workspace::torque_muscle`] is not updated then.
+pub(crate) fn predict_into(
+    ws: &mut Workspace,
+    inputs: &TrialInputs,
+    params: &ModelParams,
+    effects: &Effects,
+    settings: &SimSettings,
+    out: &mut [f64],
+    target: Option<Target<'_>>,
+) -> Result<f64, ModelError> {
+    let n = inputs.len();
+    if settings.formulation != Formulation::Fast {
+        simulate_into(ws, inputs, params, effects, settings, out)?;
+        return Ok(target.map_or(0.0, |t| sum_squares(out, t)));
+    }
+    check(params, effects, settings)?;
+    if out.len() != n {
+        return Err(ModelError::Length {
+            what: "torque".into(),
+            expected: n,
+            got: out.len(),
+        });
+    }
+    update_muscles(ws, inputs, params, effects, settings)?;
+    let ta_active = needs_ta(effects);
+    let ekey = (inputs.uid(), n, *effects);
+    if ta_active || ws.effects_key != Some(ekey) {
+        ws.effects_key = None;
+        if ta_active {
+            ws.ta.resize(n, 0.0);
+            run_ta(inputs, params, effects, settings, &mut ws.ta)?;
+        }
+        ws.effects_torque.clear();
+        ws.effects_torque.resize(n, 0.0);
+        add_joint_effects(
+            inputs,
+            effects,
+            if ta_active { &ws.ta } else { &[] },
+            &mut ws.effects_torque,
+        );
+        if !ta_active {
+            ws.effects_key = Some(ekey);
+        }
+    }
+    let [f0, f1, f2] = ws.f0;
+    let g0 = &ws.slots[0][ws.newest[0]].unit_torque[..n];
+    let g1 = &ws.slots[1][ws.newest[1]].unit_torque[..n];
+    let g2 = &ws.slots[2][ws.newest[2]].unit_torque[..n];
+    let e = &ws.effects_torque[..n];
+    // the operations of `simulate_into`: effects, then `+= F0₀g₀ + F0₁g₁ + F0₂g₂`
+    for i in 0..n {
+        out[i] = e[i] + (f0 * g0[i] + f1 * g1[i] + f2 * g2[i]);
+    }
+    let has_target = target.is_some();
+    let ss = target.map_or(0.0, |t| sum_squares(out, t));
+    // with a target, a non-finite prediction makes the sum non-finite (0·∞ is NaN too)
+    if !has_target || !ss.is_finite() {
+        if let Some(i) = out.iter().position(|x| !x.is_finite()) {
+            return Err(ModelError::NonFinite {
+                what: "torque",
+                index: i,
+            });
+        }
+    }
+    Ok(ss)
+}
+
+/// `Σ wᵢ (mᵢ − pᵢ)²` (`wᵢ = 1` without weights), accumulated in four interleaved partial
+/// sums (a fixed order: deterministic, and independent of where the prediction came from).
+fn sum_squares(pred: &[f64], t: Target<'_>) -> f64 {
+    let n = pred.len().min(t.measured.len());
+    let (p, m) = (&pred[..n], &t.measured[..n]);
+    let mut acc = [0.0_f64; 4];
+    let n4 = n - n % 4;
+    match t.weights {
+        None => {
+            for i in (0..n4).step_by(4) {
+                for l in 0..4 {
+                    let d = m[i + l] - p[i + l];
+                    acc[l] += d * d;
+                }
+            }
+            for i in n4..n {
+                let d = m[i] - p[i];
+                acc[i - n4] += d * d;
+            }
+        }
+        Some(w) => {
+            let w = &w[..n];
+            for i in (0..n4).step_by(4) {
+                for l in 0..4 {
+                    let d = m[i + l] - p[i + l];
+                    acc[l] += w[i + l] * d * d;
+                }
+            }
+            for i in n4..n {
+                let d = m[i] - p[i];
+                acc[i - n4] += w[i] * d * d;
+            }
+        }
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fused_prediction_matches_simulate_into_bit_for_bit() {
+        let tr = crate::synthetic::seed_like_trial(512.0).unwrap();
+        let p = ModelParams::nominal();
+        let s = SimSettings::default();
+        let e1 = Effects::from_json_str(
+            r#"{"torque_offset": {"offset_nm": 1.5}, "gravity": {"moment_nm": 2.0}}"#,
+        )
+        .unwrap();
+        let e2 = Effects::from_json_str(r#"{"torque_offset": {"offset_nm": -0.5}}"#).unwrap();
+        let measured: Vec<f64> = simulate(&tr, &p, &Effects::none(), &s)
+            .unwrap()
+            .torque
+            .iter()
+            .map(|t| t + 0.25)
+            .collect();
+        let mut ws = Workspace::new();
+        let mut out = vec![0.0; tr.len()];
+        let mut q = p;
+        for (k, e) in [e1, e1, e2, Effects::none(), e2].iter().enumerate() {
+            q.muscles[k % 3].fom_n *= 1.01;
+            // simulate_into's sum order (simulate adds the effects first: equal to rounding)
+            let mut want = vec![0.0; tr.len()];
+            simulate_into(&mut Workspace::new(), &tr, &q, e, &s, &mut want).unwrap();
+            let slow = simulate(&tr, &q, e, &s).unwrap().torque;
+            assert!(want.iter().zip(&slow).all(|(a, b)| (a - b).abs() < 1e-9));
+            let t = Target {
+                measured: &measured,
+                weights: None,
+            };
+            let ss = predict_into(&mut ws, &tr, &q, e, &s, &mut out, Some(t)).unwrap();
+            assert_eq!(out, want, "call {k}");
+            let direct: f64 = measured
+                .iter()
+                .zip(&want)
+                .map(|(m, w)| (m - w) * (m - w))
+                .sum();
+            assert!(
+                (ss - direct).abs() <= 1e-12 * direct,
+                "call {k}: {ss} vs {direct}"
+            );
+        }
+    }
 }
