@@ -62,7 +62,7 @@ impl<'a> FigureSet<'a> {
                     .map_err(|e| Failure::internal(format!("figure {name}: {e}")))?;
                 self.written.push(p);
             }
-            Err(e) => eprintln!("warning: figure {name} not drawn: {e}"),
+            Err(e) => crate::warn(format!("figure {name} not drawn: {e}")),
         }
         Ok(())
     }

@@ -48,15 +48,18 @@ fn main() {
                 let _ = e.print();
                 std::process::exit(0);
             }
-            // a usage error: one line, exit code 2
+            // a usage error: one line (everything before clap's usage
+            // block, folded), exit code 2
             let text = e.render().to_string();
-            let first = text
+            let reason: Vec<&str> = text
                 .lines()
-                .find(|l| !l.trim().is_empty())
-                .unwrap_or("invalid arguments")
-                .trim()
-                .trim_start_matches("error: ");
-            eprintln!("error: {first} (see 'surae --help')");
+                .take_while(|l| !l.starts_with("Usage:"))
+                .map(|l| l.trim())
+                .filter(|l| !l.is_empty() && !l.starts_with("tip:"))
+                .collect();
+            let reason = reason.join(" ");
+            let reason = reason.trim_start_matches("error: ");
+            eprintln!("error: {reason} (see 'surae --help')");
             std::process::exit(2);
         }
     };
@@ -67,9 +70,27 @@ fn main() {
         Command::Identify(a) => commands::identify::run(a),
         Command::Diagnose(a) => commands::diagnose::run(a),
     };
-    if let Err(f) = result {
-        eprintln!("{f}");
-        std::process::exit(f.exit_code());
+    match result {
+        Ok(()) => {
+            for w in WARNINGS.lock().map(|w| w.clone()).unwrap_or_default() {
+                eprintln!("warning: {w}");
+            }
+        }
+        Err(f) => {
+            // a failure is reported on one line; warnings would only add noise
+            eprintln!("{f}");
+            std::process::exit(f.exit_code());
+        }
+    }
+}
+
+/// Warnings collected during a command, printed after it succeeds.
+static WARNINGS: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
+
+/// Records a warning for the end of a successful run.
+pub fn warn(msg: String) {
+    if let Ok(mut w) = WARNINGS.lock() {
+        w.push(msg);
     }
 }
 

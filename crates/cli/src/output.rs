@@ -16,9 +16,20 @@ fn canonical_or_self(p: &Path) -> PathBuf {
 }
 
 impl OutDir {
-    /// Checks that `dir` can be used as an output folder that none of
-    /// `inputs` lives in under the same name, and creates it.
-    pub fn prepare(dir: &Path, inputs: &[&Path]) -> CmdResult<Self> {
+    /// Checks that `dir` can be used as an output folder, that none of the
+    /// files the command will write there (`planned`) is one of `inputs`,
+    /// and creates it. Checking up front means a refused run writes nothing.
+    pub fn prepare(dir: &Path, inputs: &[&Path], planned: &[&str]) -> CmdResult<Self> {
+        let canon_inputs: Vec<PathBuf> = inputs.iter().map(|p| canonical_or_self(p)).collect();
+        for name in planned {
+            let target = canonical_or_self(&dir.join(name));
+            if canon_inputs.contains(&target) {
+                return Err(Failure::bad(format!(
+                    "refusing to overwrite the input file {}",
+                    dir.join(name).display()
+                )));
+            }
+        }
         if dir.exists() && !dir.is_dir() {
             return Err(Failure::bad(format!(
                 "--out {}: exists and is not a folder",
@@ -33,7 +44,7 @@ impl OutDir {
         })?;
         Ok(Self {
             dir: dir.to_path_buf(),
-            inputs: inputs.iter().map(|p| canonical_or_self(p)).collect(),
+            inputs: canon_inputs,
         })
     }
 

@@ -35,6 +35,8 @@ pub enum ErrorKind {
     NotANumber,
     /// A cell that parses to NaN or ±infinity.
     NotFinite,
+    /// A value outside the physically possible range (an angle beyond the joint's range).
+    OutOfRange,
     /// Time equal to or smaller than the previous sample's.
     TimeNotIncreasing,
     /// A step in time much larger than the sampling interval (missing samples).

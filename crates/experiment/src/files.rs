@@ -442,6 +442,17 @@ fn parse_table(
                             format!("{} is not a finite number", quote(cell)),
                         ));
                     }
+                    if let Some((lo, hi)) = plausible_range(known[k]) {
+                        if !(lo..=hi).contains(&v) {
+                            return Err(cell_err(
+                                ErrorKind::OutOfRange,
+                                format!(
+                                    "{} degrees is outside the joint's range [{lo}, {hi}]",
+                                    quote(cell)
+                                ),
+                            ));
+                        }
+                    }
                     values[k].push(v);
                 }
                 row_lines.push(lineno);
@@ -562,6 +573,15 @@ fn parse_table(
         comments,
         ignored,
     })
+}
+
+/// Physically possible range of an angle column (degrees), if it has one.
+fn plausible_range(column: &str) -> Option<(f64, f64)> {
+    match column {
+        "ankle_angle_deg" => Some((-90.0, 90.0)),
+        "knee_angle_deg" => Some((-30.0, 180.0)),
+        _ => None,
+    }
 }
 
 /// A short human-readable number for messages (10 significant digits at most).

@@ -558,7 +558,11 @@ fn awkward_trial() -> Trial {
     ta[8] = 0.1 + 0.2;
     Trial {
         time_s: (0..n).map(|i| 3.25 + i as f64 / 2048.0).collect(),
-        ankle_angle_deg: col(20.0),
+        // awkward digits, but inside the ankle's range (the reader checks it)
+        ankle_angle_deg: col(20.0)
+            .into_iter()
+            .map(|x| x.clamp(-89.5, 89.5))
+            .collect(),
         torque_nm: col(100.0),
         emg_sol: col(1.0),
         emg_gm: col(1.0),
@@ -697,4 +701,23 @@ fn parser_never_panics_on_random_input() {
     // Corrupted files are mostly rejected, but some single-character edits keep them valid.
     assert!(errors > 8000, "errors {errors}");
     assert!(oks > 0, "no corrupted file was still valid");
+}
+
+#[test]
+fn angles_beyond_the_joint_range_are_rejected_with_line_and_column() {
+    let mut text = String::from("time_s,ankle_angle_deg,torque_nm,emg_sol,emg_gm,emg_gl\n");
+    for i in 0..2100 {
+        let angle = if i == 7 { 1.0e6 } else { 10.0 };
+        text.push_str(&format!("{},{angle},1,0.1,-0.2,0.3\n", i as f64 / 2048.0));
+    }
+    let e = parse_trial(&text, "t.csv").unwrap_err();
+    assert_eq!(e.kind(), ErrorKind::OutOfRange);
+    assert_eq!((e.line(), e.column()), (Some(9), Some(2)));
+    assert!(
+        e.to_string().starts_with("t.csv:9:2 (ankle_angle_deg): "),
+        "{e}"
+    );
+    // the range's edges are accepted
+    let ok = text.replace(",1000000,", ",-90,");
+    assert!(parse_trial(&ok, "t.csv").is_ok());
 }

@@ -195,9 +195,50 @@ impl MuscleParams {
                 ));
             }
         }
+        // Physiological plausibility: generous upper limits that no human
+        // calf muscle reaches, so a unit slip (mm for m, kN for N) is caught.
+        for (k, v, max, unit) in [
+            ("fom_n", self.fom_n, MAX_FOM_N, "N"),
+            ("lom_m", self.lom_m, MAX_LENGTH_M, "m"),
+            ("lst_m", self.lst_m, MAX_LENGTH_M, "m"),
+            (
+                "vmax_lom_per_s",
+                self.vmax_lom_per_s,
+                MAX_VMAX_LOM_PER_S,
+                "LOM/s",
+            ),
+        ] {
+            if v > max {
+                return Err(ModelError::invalid(
+                    key(k),
+                    format!("{v} {unit} is not physiological (at most {max} {unit})"),
+                ));
+            }
+        }
+        // the musculotendon path must be longer than the fibre over the ankle's range
+        for deg in [-50.0f64, -25.0, 0.0, 25.0, 50.0] {
+            let l = self.lmt(deg.to_radians());
+            if !(l.is_finite() && l > self.lom_m.min(self.lst_m) && l <= 2.0 * MAX_LENGTH_M) {
+                return Err(ModelError::invalid(
+                    key("lmt_poly_m"),
+                    format!(
+                        "gives a musculotendon length of {l} m at {deg}° (must be longer than \
+                         LOM or LST and at most {} m)",
+                        2.0 * MAX_LENGTH_M
+                    ),
+                ));
+            }
+        }
         Ok(())
     }
 }
+
+/// Largest accepted maximum isometric force (N).
+pub const MAX_FOM_N: f64 = 20_000.0;
+/// Largest accepted optimal fibre length or tendon slack length (m).
+pub const MAX_LENGTH_M: f64 = 1.0;
+/// Largest accepted maximum shortening velocity (optimal lengths per second).
+pub const MAX_VMAX_LOM_PER_S: f64 = 50.0;
 
 fn positive(key: &str, v: f64) -> Result<(), ModelError> {
     if v.is_finite() && v > 0.0 {
@@ -365,8 +406,18 @@ impl ModelParams {
         for m in Muscle::ALL {
             self.muscles[m.index()].validate(m)?;
         }
-        positive("activation.tau_act_s", self.activation.tau_act_s)?;
-        positive("activation.tau_deact_s", self.activation.tau_deact_s)?;
+        for (k, v) in [
+            ("activation.tau_act_s", self.activation.tau_act_s),
+            ("activation.tau_deact_s", self.activation.tau_deact_s),
+        ] {
+            positive(k, v)?;
+            if !(1e-3..=1.0).contains(&v) {
+                return Err(ModelError::invalid(
+                    k,
+                    format!("{v} s is outside [0.001, 1] s"),
+                ));
+            }
+        }
         let a = self.activation.shape_a;
         if !(a.is_finite() && (0.0..=0.12).contains(&a)) {
             return Err(ModelError::invalid(
@@ -381,6 +432,21 @@ impl ModelParams {
         positive("curves.e0m", c.e0m)?;
         positive("curves.e0t", c.e0t)?;
         positive("curves.damping", c.damping)?;
+        for (k, v, lo, hi) in [
+            ("curves.af", c.af, 0.01, 1.0),
+            ("curves.gamma", c.gamma, 0.01, 5.0),
+            ("curves.kpe", c.kpe, 0.1, 50.0),
+            ("curves.e0m", c.e0m, 0.01, 5.0),
+            ("curves.e0t", c.e0t, 0.001, 0.5),
+            ("curves.damping", c.damping, 1e-3, 10.0),
+        ] {
+            if !(lo..=hi).contains(&v) {
+                return Err(ModelError::invalid(
+                    k,
+                    format!("{v} is outside the plausible range [{lo}, {hi}]"),
+                ));
+            }
+        }
         if !(c.flen.is_finite() && (1.0..=10.0).contains(&c.flen)) {
             return Err(ModelError::invalid(
                 "curves.flen",

@@ -241,3 +241,32 @@ fn param_ids_parse_get_set() {
         .default_bounds(&n, &Effects::none());
     assert_eq!(b, (0.0, 150.0));
 }
+
+#[test]
+fn non_physiological_values_are_errors_naming_the_key() {
+    for (json, key) in [
+        (
+            r#"{"muscles": {"sol": {"fom_n": 1e300}}}"#,
+            "muscles.sol.fom_n",
+        ),
+        (r#"{"muscles": {"gm": {"lst_m": 10}}}"#, "muscles.gm.lst_m"),
+        (
+            r#"{"muscles": {"gl": {"lmt_poly_m": [0, 0, 0, 0]}}}"#,
+            "muscles.gl.lmt_poly_m",
+        ),
+        (
+            r#"{"activation": {"tau_act_s": 1e-12}}"#,
+            "activation.tau_act_s",
+        ),
+        (r#"{"curves": {"e0t": 1e-12}}"#, "curves.e0t"),
+    ] {
+        let e = muscle_model::ModelParams::from_json_str(json).unwrap_err();
+        assert!(e.to_string().contains(key), "{json}: {e}");
+    }
+    // the nominal values and twice the identification box stay valid
+    let p = muscle_model::ModelParams::from_json_str(
+        r#"{"muscles": {"sol": {"fom_n": 5000, "lst_m": 0.275}}}"#,
+    )
+    .unwrap();
+    assert_eq!(p.muscle(muscle_model::Muscle::Sol).fom_n, 5000.0);
+}

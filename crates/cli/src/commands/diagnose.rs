@@ -9,6 +9,17 @@ use crate::progress::Progress;
 use diagnose::{DiagnoseSettings, Diagnosis};
 use std::path::{Path, PathBuf};
 
+/// Files `surae diagnose` writes.
+const PLANNED: &[&str] = &[
+    "diagnosis.json",
+    "torque_fit.svg",
+    "residual_vs_angle.svg",
+    "residual_vs_time.svg",
+    "fit_comparison.svg",
+    "candidates.svg",
+    "report.html",
+];
+
 /// Arguments of `surae diagnose`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -40,6 +51,9 @@ pub struct Args {
 pub fn run(args: Args) -> CmdResult {
     let loaded = load_trial(args.trial.as_deref())?;
     let unloaded = load_unloaded(args.unloaded.as_deref(), args.trial.is_some())?;
+    if let Some((u, name)) = &unloaded {
+        super::check_unloaded(&loaded.trial, &loaded.name, u, name)?;
+    }
     let model_args = ModelArgs {
         emg_is_envelope: args.emg_is_envelope,
         ..ModelArgs::default()
@@ -54,7 +68,7 @@ pub fn run(args: Args) -> CmdResult {
         .out
         .clone()
         .unwrap_or_else(|| crate::default_out("diagnose"));
-    let out = OutDir::prepare(&out_dir, &inputs_read)?;
+    let out = OutDir::prepare(&out_dir, &inputs_read, PLANNED)?;
 
     let mut settings = DiagnoseSettings::default();
     settings.input_options.emg_is_envelope = args.emg_is_envelope;

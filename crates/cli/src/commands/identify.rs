@@ -29,6 +29,20 @@ impl Method {
     }
 }
 
+/// Files `surae identify` may write.
+const PLANNED: &[&str] = &[
+    "identify.json",
+    "chains.csv",
+    "torque_fit.svg",
+    "residual_vs_time.svg",
+    "residual_vs_angle.svg",
+    "traces.svg",
+    "rhat.svg",
+    "histograms.svg",
+    "corner.svg",
+    "report.html",
+];
+
 /// Arguments of `surae identify`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -93,6 +107,8 @@ pub struct Prepared {
     pub noise: Value,
     /// True parameters, if known.
     pub truth: Option<ModelParams>,
+    /// The unloaded run, if any (MCMC estimates its noise model from it).
+    pub unloaded: Option<experiment::Unloaded>,
     /// Files read (never overwritten).
     pub inputs: Vec<PathBuf>,
 }
@@ -107,6 +123,9 @@ pub fn prepare(
     let (params, effects, mut inputs_read) = load_model_config(model)?;
     let loaded = load_trial(trial)?;
     let unloaded = load_unloaded(unloaded, trial.is_some())?;
+    if let Some((u, name)) = &unloaded {
+        super::check_unloaded(&loaded.trial, &loaded.name, u, name)?;
+    }
     let truth = match truth {
         Some(p) => {
             let text = super::read_text(p)?;
@@ -163,6 +182,7 @@ pub fn prepare(
         measured_raw,
         noise,
         truth,
+        unloaded: unloaded.map(|(u, _)| u),
         inputs: inputs_read,
     })
 }
@@ -196,11 +216,16 @@ pub fn run(args: Args) -> CmdResult {
         .clone()
         .unwrap_or_else(|| crate::default_out("identify"));
     let input_refs: Vec<&Path> = prep.inputs.iter().map(|p| p.as_path()).collect();
-    let out = OutDir::prepare(&out_dir, &input_refs)?;
+    let out = OutDir::prepare(&out_dir, &input_refs, PLANNED)?;
     let show = !args.quiet;
-    let (mut doc, lines, prediction) = match args.method {
+    let Outcome {
+        mut doc,
+        lines,
+        prediction,
+        mcmc,
+    } = match args.method {
         Method::Sa => run_sa(&prep, args.seed, show)?,
-        Method::Mcmc => return Err(Failure::bad("--method mcmc is not available yet")),
+        Method::Mcmc => run_mcmc(&prep, args.seed, show)?,
     };
 
     // common fields
@@ -222,7 +247,20 @@ pub fn run(args: Args) -> CmdResult {
     }
     let text = serde_json::to_string_pretty(&doc).map_err(Failure::internal)? + "\n";
     let path = out.write("identify.json", text.as_bytes())?;
-    let files = write_figures(&out, &prep, &doc, &prediction, args.method)?;
+    let mut files = Vec::new();
+    if let Some(m) = &mcmc {
+        let mut csv = Vec::new();
+        m.write_chains_csv(&mut csv).map_err(Failure::internal)?;
+        files.push(out.write("chains.csv", &csv)?);
+    }
+    files.extend(write_figures(
+        &out,
+        &prep,
+        &doc,
+        &prediction,
+        args.method,
+        mcmc.as_ref(),
+    )?);
 
     if args.json {
         print!("{text}");
@@ -264,7 +302,19 @@ pub fn run(args: Args) -> CmdResult {
     Ok(())
 }
 
-fn run_sa(prep: &Prepared, seed: u64, show: bool) -> CmdResult<(Value, Vec<String>, Vec<f64>)> {
+/// What a method returns to the command.
+struct Outcome {
+    /// `identify.json` (without the common fields).
+    doc: Value,
+    /// Summary lines.
+    lines: Vec<String>,
+    /// Model torque at the estimate (on the corrected torque's scale).
+    prediction: Vec<f64>,
+    /// The MCMC result, for chains and figures.
+    mcmc: Option<identify_mcmc::McmcIdentification>,
+}
+
+fn run_sa(prep: &Prepared, seed: u64, show: bool) -> CmdResult<Outcome> {
     let settings = identify_sa::IdentifySettings::default().with_seed(seed);
     let total = u64::from(settings.chains) * settings.annealer.max_evaluations;
     let progress = Progress::new(show, total, "SA");
@@ -320,7 +370,12 @@ fn run_sa(prep: &Prepared, seed: u64, show: bool) -> CmdResult<(Value, Vec<Strin
             if at_bound { "  at bound" } else { "" }
         ));
     }
-    Ok((doc, lines, prediction))
+    Ok(Outcome {
+        doc,
+        lines,
+        prediction,
+        mcmc: None,
+    })
 }
 
 /// The fit figures and `report.html` of an identification.
@@ -330,6 +385,7 @@ fn write_figures(
     doc: &Value,
     prediction: &[f64],
     method: Method,
+    mcmc: Option<&identify_mcmc::McmcIdentification>,
 ) -> CmdResult<Vec<PathBuf>> {
     let inputs = prep.problem.inputs();
     let measured = prep.problem.measured();
@@ -423,5 +479,251 @@ fn write_figures(
             &figures::PHASE_NAMES,
         ),
     )?;
+    if let Some(m) = mcmc {
+        mcmc_figures(&mut set, prep, m)?;
+    }
     set.finish()
+}
+
+/// Trace plots, R̂ over iterations, marginal histograms and the corner plot.
+fn mcmc_figures(
+    set: &mut FigureSet<'_>,
+    prep: &Prepared,
+    m: &identify_mcmc::McmcIdentification,
+) -> CmdResult {
+    let labels: Vec<String> = m.names.iter().map(|n| report::param_label(n)).collect();
+    let names: Vec<&str> = labels.iter().map(|s| s.as_str()).collect();
+    let draws = &m.run.draws;
+    let pooled: Vec<Vec<f64>> = draws
+        .iter()
+        .map(|per| per.iter().flatten().copied().collect())
+        .collect();
+    let none = muscle_model::Effects::none();
+    let truth: Option<Vec<f64>> = prep.truth.as_ref().map(|t| {
+        prep.problem
+            .free()
+            .iter()
+            .map(|id| id.get(t, &none))
+            .collect()
+    });
+    let mut rows = Vec::new();
+    for p in &m.posterior {
+        let mut row = vec![
+            report::param_label(&p.name),
+            report::format_sig(p.mean, 5),
+            report::format_sig(p.sd, 3),
+            format!(
+                "[{}, {}]",
+                report::format_sig(p.q05, 5),
+                report::format_sig(p.q95, 5)
+            ),
+            format!("{:.4}", p.rhat),
+            format!("{:.0}", p.ess_bulk),
+            format!("{:.0}", p.ess_tail),
+            format!("{:.2}", p.prior_sd_ratio),
+            if p.identifiable { "yes" } else { "no" }.into(),
+        ];
+        if let Some(t) = &truth {
+            let i = m.names.iter().position(|n| *n == p.name).unwrap_or(0);
+            row.push(if p.covers(t[i]) { "inside" } else { "outside" }.into());
+        }
+        rows.push(row);
+    }
+    let mut headers = vec![
+        "parameter",
+        "mean",
+        "sd",
+        "90 % interval",
+        "R̂",
+        "bulk ESS",
+        "tail ESS",
+        "sd / prior sd",
+        "identifiable",
+    ];
+    if truth.is_some() {
+        headers.push("truth");
+    }
+    set.page()
+        .table("Posterior", &headers, &rows)
+        .map_err(|e| Failure::internal(e.to_string()))?;
+    let corr: Vec<Vec<String>> = m
+        .correlations
+        .iter()
+        .take(6)
+        .map(|c| vec![c.a.clone(), c.b.clone(), format!("{:+.2}", c.r)])
+        .collect();
+    set.page()
+        .table("Strongest posterior correlations", &["a", "b", "r"], &corr)
+        .map_err(|e| Failure::internal(e.to_string()))?;
+    set.add(
+        "traces",
+        "Trace plots of the kept draws, one colour per chain (dissertation Figs. 16–17)",
+        report::figures::traces(&names, draws, 0),
+    )?;
+    // R̂ over the kept draws, on growing prefixes (dissertation Fig. 15)
+    let n_draws = draws.first().and_then(|c| c.first()).map_or(0, |d| d.len());
+    if n_draws >= 40 {
+        let checkpoints: Vec<usize> = (1..=20).map(|k| (n_draws * k / 20).max(8)).collect();
+        let rhat: Vec<Vec<f64>> = draws
+            .iter()
+            .map(|per| {
+                checkpoints
+                    .iter()
+                    .map(|&k| {
+                        let chains: Vec<&[f64]> = per.iter().map(|c| &c[..k]).collect();
+                        identify_mcmc::diagnostics::rhat(&chains)
+                    })
+                    .collect()
+            })
+            .collect();
+        let its: Vec<f64> = checkpoints.iter().map(|&k| k as f64).collect();
+        set.add(
+            "rhat",
+            "Rank-normalised split R̂ over the kept draws (dissertation Fig. 15)",
+            report::figures::rhat_history(&names, &its, &rhat),
+        )?;
+    }
+    set.add(
+        "histograms",
+        "Marginal posteriors with the 90 % interval (truth marked when known)",
+        report::figures::histograms(&names, &pooled, truth.as_deref()),
+    )?;
+    set.add(
+        "corner",
+        "Pairwise posterior draws and correlations",
+        report::figures::corner(&names, &pooled, truth.as_deref()),
+    )?;
+    Ok(())
+}
+
+fn run_mcmc(prep: &Prepared, seed: u64, show: bool) -> CmdResult<Outcome> {
+    use identify_mcmc::{IdentifySettings, NoiseKind, NoiseSpec};
+    // The sampler corrects the raw torque itself (NoiseSpec carries the
+    // systematic part), so it gets the problem on the torque as measured.
+    let problem = Problem::new(
+        prep.problem.inputs().clone(),
+        prep.measured_raw.clone(),
+        *prep.problem.base_params(),
+        *prep.problem.base_effects(),
+        ParamId::identified().to_vec(),
+    )
+    .map_err(|e| Failure::internal(e.to_string()))?;
+    let noise = match &prep.unloaded {
+        Some(u) => NoiseSpec::from_unloaded(&prep.loaded.trial, u, NoiseKind::Ar1White)
+            .map_err(|e| Failure::bad(format!("{}: {e}", prep.loaded.name)))?,
+        None => NoiseSpec::from_residual(NoiseKind::Ar1White),
+    };
+    let mut settings = IdentifySettings::default();
+    settings.mcmc.seed = seed;
+    let cap = settings.mcmc.max_total as u64;
+    let progress = Progress::new(show, cap, "MCMC");
+    let m = identify_mcmc::identify(
+        &problem,
+        &noise,
+        &settings,
+        |p: &identify_mcmc::Progress| {
+            progress.chain(0, p.iterations as u64, f64::NAN);
+            progress.message(format!(
+                "{:?}: max R̂ {:.4}, min ESS {:.0}, acceptance {:.2}",
+                p.phase, p.max_rhat, p.min_ess_bulk, p.acceptance_rate
+            ));
+            std::ops::ControlFlow::Continue(())
+        },
+    )
+    .map_err(|e| Failure::bad(format!("{}: identification failed: {e}", prep.loaded.name)))?;
+    progress.finish();
+    let mean = m.mean();
+    // prediction on the corrected scale, like the SA figures
+    let prediction = prep
+        .problem
+        .predict(&mean)
+        .map_err(|e| Failure::internal(format!("simulation of the posterior mean failed: {e}")))?;
+    let params: Map<String, Value> = m
+        .posterior
+        .iter()
+        .map(|p| (p.name.clone(), json!(p.mean)))
+        .collect();
+    let posterior: Map<String, Value> = m
+        .posterior
+        .iter()
+        .map(|p| {
+            (
+                p.name.clone(),
+                json!({
+                    "mean": p.mean, "sd": p.sd, "q05": p.q05, "q95": p.q95,
+                    "rhat": p.rhat, "ess_bulk": p.ess_bulk, "ess_tail": p.ess_tail,
+                    "identifiable": p.identifiable, "prior_sd_ratio": p.prior_sd_ratio,
+                }),
+            )
+        })
+        .collect();
+    let (max_rhat, min_ess) = m.worst_diagnostics();
+    let doc = json!({
+        "method": Method::Mcmc.name(),
+        "params": params,
+        "rms_nm": m.rms_corrected_nm,
+        "rms_raw_nm": m.rms_nm,
+        "evaluations": m.evaluations,
+        "wall_s": m.wall_s,
+        "posterior": posterior,
+        "converged": m.converged,
+        "stop": format!("{:?}", m.stop),
+        "chains": m.run.draws.first().map_or(0, |c| c.len()),
+        "warmup_iterations": m.warmup_iterations,
+        "sampling_iterations": m.sampling_iterations,
+        "acceptance_rate": m.acceptance_rate,
+        "correlations": m.correlations.iter().take(10).map(|c| json!({"a": c.a, "b": c.b, "r": c.r})).collect::<Vec<_>>(),
+        "noise_model": m.noise,
+    });
+    let mut lines = vec![format!(
+        "identify (mcmc): {} — {} evaluations in {:.1} s; {}",
+        prep.loaded.name,
+        m.evaluations,
+        m.wall_s,
+        if m.converged {
+            format!("converged (max R̂ {max_rhat:.4}, min bulk ESS {min_ess:.0})")
+        } else {
+            format!(
+                "NOT converged: stopped ({:?}) with max R̂ {max_rhat:.4}, min bulk ESS {min_ess:.0}",
+                m.stop
+            )
+        }
+    )];
+    lines.push(format!(
+        "  torque RMS at the posterior mean {:.2} N·m after removing the dynamometer's cycle-locked error ({:.2} N·m against the raw torque)",
+        m.rms_corrected_nm, m.rms_nm
+    ));
+    lines.push(
+        "  parameter          mean        sd        90 % interval             R̂      ESS  identifiable"
+            .into(),
+    );
+    for p in &m.posterior {
+        lines.push(format!(
+            "  {:<16} {:>10.5} {:>9.5}  [{:>10.5}, {:>10.5}]  {:.4} {:>6.0}  {}",
+            p.name,
+            p.mean,
+            p.sd,
+            p.q05,
+            p.q95,
+            p.rhat,
+            p.ess_bulk,
+            if p.identifiable {
+                "yes"
+            } else {
+                "no (sd ≥ half the prior's)"
+            }
+        ));
+    }
+    if let Some(c) = m.correlations.first() {
+        lines.push(format!(
+            "  strongest correlation: {} ~ {} (r = {:+.2})",
+            c.a, c.b, c.r
+        ));
+    }
+    Ok(Outcome {
+        doc,
+        lines,
+        prediction,
+        mcmc: Some(m),
+    })
 }

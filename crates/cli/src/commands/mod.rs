@@ -63,11 +63,29 @@ pub fn load_unloaded(
 
 fn warn_ignored(name: &str, cols: &[String]) {
     if !cols.is_empty() {
-        eprintln!(
-            "warning: {name}: ignored unknown columns: {}",
+        crate::warn(format!(
+            "{name}: ignored unknown columns: {}",
             cols.join(", ")
-        );
+        ));
     }
+}
+
+/// Checks that an unloaded run can describe the trial's dynamometer: the same
+/// sampling rate.
+pub fn check_unloaded(
+    trial: &Trial,
+    trial_name: &str,
+    unloaded: &Unloaded,
+    unloaded_name: &str,
+) -> CmdResult {
+    let (ft, fu) = (trial.sample_rate_hz(), unloaded.sample_rate_hz());
+    if ((ft - fu) / ft).abs() > 1e-6 {
+        return Err(Failure::bad(format!(
+            "{unloaded_name}: sampled at {fu:.3} Hz but {trial_name} at {ft:.3} Hz; the unloaded \
+             run must be recorded like the trial"
+        )));
+    }
+    Ok(())
 }
 
 /// Resolves an `--out` that may name a file (`*.csv`) or a folder; returns the
@@ -110,6 +128,19 @@ pub fn read_text(path: &Path) -> CmdResult<String> {
         .map_err(|_| Failure::bad(format!("{}: not UTF-8 text", path.display())))
 }
 
+/// Reads a JSON file; syntax errors name the file, line and column.
+pub fn read_json(path: &Path) -> CmdResult<serde_json::Value> {
+    let text = read_text(path)?;
+    serde_json::from_str(&text).map_err(|e| {
+        Failure::bad(format!(
+            "{}:{}:{}: invalid JSON: {e}",
+            path.display(),
+            e.line(),
+            e.column()
+        ))
+    })
+}
+
 /// Reads `--params` and `--effects` (nominal / none when absent); also returns
 /// the paths read, so outputs never overwrite them.
 pub fn load_model_config(
@@ -122,19 +153,19 @@ pub fn load_model_config(
     let mut read = Vec::new();
     let params = match &args.params {
         Some(p) => {
-            let text = read_text(p)?;
+            let value = read_json(p)?;
             read.push(p.clone());
             muscle_model::ModelParams::nominal()
-                .merged_json_str(&text)
+                .merged_json(&value)
                 .map_err(|e| Failure::bad(format!("{}: {e}", p.display())))?
         }
         None => muscle_model::ModelParams::nominal(),
     };
     let effects = match &args.effects {
         Some(p) => {
-            let text = read_text(p)?;
+            let value = read_json(p)?;
             read.push(p.clone());
-            muscle_model::Effects::from_json_str(&text)
+            muscle_model::Effects::from_json(&value)
                 .map_err(|e| Failure::bad(format!("{}: {e}", p.display())))?
         }
         None => muscle_model::Effects::none(),
@@ -151,7 +182,7 @@ pub fn trial_inputs(
         emg_is_envelope: args.emg_is_envelope,
         ..experiment::InputOptions::default()
     };
-    experiment::model_inputs(&loaded.trial, &opts).map_err(|e| {
+    experiment::model_inputs_named(&loaded.trial, &opts, &loaded.name).map_err(|e| {
         let msg = e.to_string();
         // errors from a bundled trial are ours, not the user's
         if loaded.path.is_some() {

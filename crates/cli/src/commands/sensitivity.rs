@@ -66,7 +66,16 @@ pub fn run(args: Args) -> CmdResult {
         .unwrap_or_else(|| crate::default_out("sensitivity"));
     let mut input_paths: Vec<&Path> = loaded.path.iter().map(|p| p.as_path()).collect();
     input_paths.extend(cfg_inputs.iter().map(|p| p.as_path()));
-    let out = OutDir::prepare(&out_dir, &input_paths)?;
+    let out = OutDir::prepare(
+        &out_dir,
+        &input_paths,
+        &[
+            "sensitivity.csv",
+            "sensitivity.json",
+            "sensitivity.svg",
+            "report.html",
+        ],
+    )?;
     let csv = out.write("sensitivity.csv", table.to_csv().as_bytes())?;
     let json = out.write("sensitivity.json", table.to_json_string().as_bytes())?;
     let points: Vec<report::figures::SensitivityPoint<'_>> = table

@@ -1,0 +1,84 @@
+//! Determinism: `surae identify --method sa` and `surae diagnose` write the
+//! same JSON for the same seed whatever the number of threads
+//! (`RAYON_NUM_THREADS=1` and `=2`). The only field allowed to differ is
+//! `wall_s`, a measured time (docs/robustness.md). `identify --method mcmc` is
+//! left out: one run on the bundled trial takes about two minutes.
+
+use std::path::Path;
+use std::process::Command;
+
+/// Runs `surae ARGS --seed 7 --quiet` on the bundled trial with `threads`
+/// rayon threads and returns the JSON file `file` it wrote.
+fn run(args: &[&str], file: &str, threads: &str, dir: &Path) -> String {
+    let out = dir.join(format!("{}-{threads}", args.join("-")));
+    let o = Command::new(env!("CARGO_BIN_EXE_surae"))
+        .args(args)
+        .args(["--seed", "7", "--quiet", "--out", out.to_str().unwrap()])
+        .env("RAYON_NUM_THREADS", threads)
+        .current_dir(dir)
+        .output()
+        .expect("the surae binary runs");
+    assert!(
+        o.status.success(),
+        "{args:?} with {threads} threads: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    std::fs::read_to_string(out.join(file)).unwrap()
+}
+
+/// Asserts the two JSON texts are equal byte for byte but for `wall_s`.
+fn assert_same_but_wall_time(one: &str, two: &str, what: &str) {
+    let (a, b) = (without_wall_time(one), without_wall_time(two));
+    if a != b {
+        let diff: Vec<String> = a
+            .lines()
+            .zip(b.lines())
+            .filter(|(x, y)| x != y)
+            .map(|(x, y)| format!("1 thread: {x}\n2 threads: {y}"))
+            .collect();
+        panic!(
+            "{what} differs between 1 and 2 threads ({} vs {} lines):\n{}",
+            a.lines().count(),
+            b.lines().count(),
+            diff.join("\n")
+        );
+    }
+}
+
+/// The JSON text without its one `"wall_s"` line (a measured time).
+fn without_wall_time(json: &str) -> String {
+    let wall = json
+        .lines()
+        .filter(|l| l.trim_start().starts_with("\"wall_s\":"))
+        .count();
+    assert_eq!(wall, 1, "exactly one wall_s line in\n{json}");
+    json.lines()
+        .filter(|l| !l.trim_start().starts_with("\"wall_s\":"))
+        .map(|l| format!("{l}\n"))
+        .collect()
+}
+
+#[test]
+fn identify_sa_json_is_byte_identical_with_one_and_two_threads() {
+    let dir = tempfile::tempdir().unwrap();
+    let args = ["identify", "--method", "sa"];
+    let one = run(&args, "identify.json", "1", dir.path());
+    let two = run(&args, "identify.json", "2", dir.path());
+    let v: serde_json::Value = serde_json::from_str(&one).unwrap();
+    assert_eq!(v["method"], "sa");
+    assert_eq!(v["seed"], 7);
+    assert_eq!(v["params"].as_object().map(|m| m.len()), Some(9));
+    assert!(v["wall_s"].as_f64().is_some_and(|w| w > 0.0));
+    assert_same_but_wall_time(&one, &two, "identify.json (sa)");
+}
+
+#[test]
+fn diagnose_json_is_byte_identical_with_one_and_two_threads() {
+    let dir = tempfile::tempdir().unwrap();
+    let one = run(&["diagnose"], "diagnosis.json", "1", dir.path());
+    let two = run(&["diagnose"], "diagnosis.json", "2", dir.path());
+    let v: serde_json::Value = serde_json::from_str(&one).unwrap();
+    assert!(v["verdict"] == "adequate" || v["verdict"] == "deficient");
+    assert!(v["candidates"].as_array().is_some_and(|c| !c.is_empty()));
+    assert_same_but_wall_time(&one, &two, "diagnosis.json");
+}
