@@ -63,6 +63,19 @@
 //! `width/√12`; `identifiable` means `sd < prior_sd/2`. The pooled correlation
 //! matrix and the pairs sorted by `|r|` show which parameters trade off.
 //!
+//! # Identification of the muscle model ([`identify()`])
+//!
+//! The posterior of a [`muscle_model::Problem`] under a uniform prior on its bounds and the
+//! likelihood of the torque residual under a noise model ([`noise`]): the dynamometer's
+//! AR(1) + white error `e_t = x_t + w_t`, `x_t = φx_{t−1} + η_t`, whose exact Gaussian
+//! likelihood `ℓ = −½Σ(ln 2πF_t + v_t²/F_t)` comes from the scalar Kalman filter
+//! (innovations `v_t`, variances `F_t`). The measured torque is first corrected by the
+//! cycle-locked systematic error estimated from the unloaded run ([`NoiseSpec::from_unloaded`]).
+//! The chains run in coordinates where F0 sits on its exact Gaussian conditional and the other
+//! parameters are whitened by a Laplace fit (module `conditional`), which removes the curved
+//! F0–length ridge. Every step also yields the model's parameters
+//! ([`LogDensity::evaluate`]), so the chains store, monitor (R̂, ESS) and report those directly.
+//!
 //! # Example
 //!
 //! A correlated 2-D Gaussian (ρ = 0.9) in a box far wider than the posterior:
@@ -85,7 +98,10 @@
 //! assert!((result.correlation[0][1] - rho).abs() < 0.05);
 //! ```
 
+mod conditional;
 pub mod diagnostics;
+pub mod identify;
+pub mod noise;
 pub mod normal;
 mod sampler;
 mod settings;
@@ -96,6 +112,12 @@ pub use sampler::{run, run_with_observer, Phase, Progress, RunResult, StopReason
 pub use settings::{Proposal, Settings};
 pub use summary::{correlation_matrix, strongest_correlations, CorrelationPair, Summary};
 pub use target::{FnLogDensity, LogDensity};
+
+pub use identify::{
+    identify, IdentifySettings, McmcIdentification, NamedCorrelation, NoiseSource, NoiseSpec,
+    ParamPosterior, DEFAULT_MAX_LAG,
+};
+pub use noise::{Ar1White, Noise, NoiseKind, NoiseParams};
 
 /// Everything that can go wrong before sampling starts.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -173,4 +195,46 @@ pub enum McmcError {
         /// Draws tried.
         tries: usize,
     },
+    /// A noise-model parameter is out of range.
+    #[error("invalid noise parameter `{field}` = {value}")]
+    InvalidNoise {
+        /// Field name.
+        field: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// A noise model could not be fitted to a record.
+    #[error("cannot fit the noise model to {samples} samples: {reason}")]
+    NoiseFit {
+        /// Record length.
+        samples: usize,
+        /// Why.
+        reason: &'static str,
+    },
+    /// A vector has the wrong length.
+    #[error("{what} has {got} samples, expected {expected}")]
+    Length {
+        /// What.
+        what: &'static str,
+        /// Expected length.
+        expected: usize,
+        /// Its length.
+        got: usize,
+    },
+    /// The preliminary fit could not start.
+    #[error("the preliminary Nelder–Mead fit failed: {reason}")]
+    Start {
+        /// Why.
+        reason: String,
+    },
+    /// The model rejected the problem.
+    #[error(transparent)]
+    Model(#[from] muscle_model::ModelError),
+    /// Trial / unloaded input problems.
+    #[error(transparent)]
+    Experiment(#[from] experiment::ExperimentError),
+    /// A kept draw could not be mapped back to the model's parameters (its simulation failed
+    /// on re-evaluation; cannot happen for a deterministic model).
+    #[error("a kept draw could not be re-evaluated")]
+    Remap,
 }

@@ -59,9 +59,12 @@ pub struct RunResult {
     pub settings: Settings,
     /// Number of parameters.
     pub dim: usize,
-    /// Kept sampling draws, indexed `[parameter][chain][draw]`.
+    /// Kept sampling draws in the target's reported coordinates
+    /// ([`LogDensity::evaluate`]; the sampler's own coordinates by default), indexed
+    /// `[parameter][chain][draw]`.
     pub draws: Vec<Vec<Vec<f64>>>,
-    /// Log density of every kept draw, `[chain][draw]`.
+    /// Stored log density of every kept draw (the second value of
+    /// [`LogDensity::evaluate`]; `log π` by default), `[chain][draw]`.
     pub log_density: Vec<Vec<f64>>,
     /// Warm-up iterations per chain (chosen by monitoring).
     pub warmup_iterations: usize,
@@ -83,6 +86,9 @@ pub struct RunResult {
     pub failed_evaluations: u64,
     /// Proposals outside the bounds (rejected without evaluation).
     pub out_of_bounds: u64,
+    /// Largest `|coordinate|` of any state the chains visited during sampling, in the
+    /// sampler's own coordinates.
+    pub max_abs_coordinate: f64,
     /// Per-parameter posterior summary of the kept draws.
     pub summary: Vec<Summary>,
     /// Pooled posterior correlation matrix.
@@ -254,6 +260,12 @@ struct Chain {
     lp: f64,
     y: Vec<f64>,
     z: Vec<f64>,
+    /// Reported coordinates and stored log density of the current state / the proposal.
+    rx: Vec<f64>,
+    ry: Vec<f64>,
+    stored: f64,
+    /// Largest `|x_i|` (sampler coordinates) over the sampling phase's states.
+    max_abs: f64,
     adapt: Adaptation,
     /// Warm-up draws, `[parameter][draw]`.
     warm: Vec<Vec<f64>>,
@@ -280,7 +292,8 @@ impl Chain {
         rng.set_stream(chain as u64 + 1);
         let mut evaluations = 0u64;
         let mut failed = 0u64;
-        let (x, lp) = match init {
+        let mut rx = vec![0.0; d];
+        let (x, (lp, stored)) = match init {
             Some(x0) => {
                 if x0.len() != d {
                     return Err(McmcError::InitDimension {
@@ -299,8 +312,8 @@ impl Chain {
                     }
                 }
                 evaluations += 1;
-                match target.log_density(x0) {
-                    Some(v) if v.is_finite() => (x0.to_vec(), v),
+                match target.evaluate(x0, &mut rx) {
+                    Some(v) if v.0.is_finite() => (x0.to_vec(), v),
                     _ => return Err(McmcError::InitNotFinite { chain }),
                 }
             }
@@ -312,8 +325,8 @@ impl Chain {
                         *xi = lo + w * rng.random::<f64>();
                     }
                     evaluations += 1;
-                    match target.log_density(&x) {
-                        Some(v) if v.is_finite() => {
+                    match target.evaluate(&x, &mut rx) {
+                        Some(v) if v.0.is_finite() => {
                             found = Some(v);
                             break;
                         }
@@ -337,6 +350,10 @@ impl Chain {
             lp,
             y: vec![0.0; d],
             z: vec![0.0; d],
+            rx,
+            ry: vec![0.0; d],
+            stored,
+            max_abs: 0.0,
             adapt: Adaptation::new(&ctx.widths),
             warm: vec![Vec::new(); d],
             samp: vec![Vec::new(); d],
@@ -382,8 +399,8 @@ impl Chain {
             return (0.0, false);
         }
         self.evaluations += 1;
-        match target.log_density(&self.y) {
-            Some(v) if v.is_finite() => {
+        match target.evaluate(&self.y, &mut self.ry) {
+            Some((v, stored)) if v.is_finite() => {
                 let log_ratio = v - self.lp;
                 let alpha = if log_ratio >= 0.0 {
                     1.0
@@ -393,13 +410,15 @@ impl Chain {
                 let u: f64 = self.rng.random();
                 if u < alpha {
                     std::mem::swap(&mut self.x, &mut self.y);
+                    std::mem::swap(&mut self.rx, &mut self.ry);
                     self.lp = v;
+                    self.stored = stored;
                     (alpha, true)
                 } else {
                     (alpha, false)
                 }
             }
-            Some(v) if v == f64::NEG_INFINITY => (0.0, false),
+            Some((v, _)) if v == f64::NEG_INFINITY => (0.0, false),
             _ => {
                 self.failed += 1;
                 (0.0, false)
@@ -442,17 +461,22 @@ impl Chain {
                     &ctx.widths,
                 );
             }
+            if phase == Phase::Sampling {
+                for v in &self.x {
+                    self.max_abs = self.max_abs.max(v.abs());
+                }
+            }
             self.phase_iter += 1;
             if self.phase_iter % thin == 0 {
                 let store = match phase {
                     Phase::Warmup => &mut self.warm,
                     Phase::Sampling => &mut self.samp,
                 };
-                for (s, &v) in store.iter_mut().zip(&self.x) {
+                for (s, &v) in store.iter_mut().zip(&self.rx) {
                     s.push(v);
                 }
                 if phase == Phase::Sampling {
-                    self.samp_lp.push(self.lp);
+                    self.samp_lp.push(self.stored);
                 }
             }
         }
@@ -586,6 +610,13 @@ where
     check_target(target)?;
     let d = target.dim();
     let bounds = target.bounds().to_vec();
+    let report_bounds = target.report_bounds().to_vec();
+    if report_bounds.len() != d {
+        return Err(McmcError::BoundsLength {
+            expected: d,
+            got: report_bounds.len(),
+        });
+    }
     if let Some(points) = init {
         if points.len() != settings.n_chains {
             return Err(McmcError::InitCount {
@@ -695,7 +726,7 @@ where
         .into_par_iter()
         .map(|i| {
             let slices: Vec<&[f64]> = draws[i].iter().map(|c| c.as_slice()).collect();
-            Summary::from_chains(&slices, bounds[i])
+            Summary::from_chains(&slices, report_bounds[i])
         })
         .collect();
     let correlation = correlation_matrix(&draws);
@@ -718,6 +749,7 @@ where
         evaluations: chains.iter().map(|c| c.evaluations).sum(),
         failed_evaluations: chains.iter().map(|c| c.failed).sum(),
         out_of_bounds: chains.iter().map(|c| c.out_of_bounds).sum(),
+        max_abs_coordinate: chains.iter().fold(0.0, |m, c| m.max(c.max_abs)),
         summary,
         correlation,
         strongest_correlations: strongest,

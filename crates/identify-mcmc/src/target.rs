@@ -22,6 +22,20 @@ pub trait LogDensity: Sync {
     fn bounds(&self) -> &[(f64, f64)];
     /// `log π(x)` up to a constant, for `x` inside the bounds; `None` on failure.
     fn log_density(&self, x: &[f64]) -> Option<f64>;
+    /// Bounds of the reported coordinates (see [`LogDensity::evaluate`]); used for the
+    /// identifiability summary. Default: [`LogDensity::bounds`].
+    fn report_bounds(&self) -> &[(f64, f64)] {
+        self.bounds()
+    }
+    /// `log π(x)` together with what a kept draw records: the reported coordinates, written
+    /// into `report` (`dim()` long), and the value stored as the draw's log density. The draws,
+    /// the R̂/ESS monitoring and the summaries all use the reported coordinates, so a target
+    /// sampled in transformed coordinates is monitored in the quantities it reports. Default:
+    /// `report = x` and the stored value `log π(x)`.
+    fn evaluate(&self, x: &[f64], report: &mut [f64]) -> Option<(f64, f64)> {
+        report.copy_from_slice(x);
+        self.log_density(x).map(|v| (v, v))
+    }
 }
 
 impl<T: LogDensity + ?Sized> LogDensity for &T {
@@ -33,6 +47,12 @@ impl<T: LogDensity + ?Sized> LogDensity for &T {
     }
     fn log_density(&self, x: &[f64]) -> Option<f64> {
         (**self).log_density(x)
+    }
+    fn report_bounds(&self) -> &[(f64, f64)] {
+        (**self).report_bounds()
+    }
+    fn evaluate(&self, x: &[f64], report: &mut [f64]) -> Option<(f64, f64)> {
+        (**self).evaluate(x, report)
     }
 }
 

@@ -453,3 +453,52 @@ fn narrow_correlated_posterior_in_a_wide_box() {
     assert_eq!(top.j, top.i + 1);
     assert!((top.r - 0.8).abs() < 0.1, "r = {}", top.r);
 }
+
+/// A target sampled in `v` that reports `x = 3 + 2v` (bounds `(−7, 13)`) and stores
+/// `log π + 1`: draws, summaries and the stored log density are the reported ones, the
+/// monitored coordinates too.
+struct Shifted;
+
+impl LogDensity for Shifted {
+    fn dim(&self) -> usize {
+        1
+    }
+    fn bounds(&self) -> &[(f64, f64)] {
+        &[(-5.0, 5.0)]
+    }
+    fn log_density(&self, v: &[f64]) -> Option<f64> {
+        Some(-0.5 * v[0] * v[0])
+    }
+    fn report_bounds(&self) -> &[(f64, f64)] {
+        &[(-7.0, 13.0)]
+    }
+    fn evaluate(&self, v: &[f64], report: &mut [f64]) -> Option<(f64, f64)> {
+        report[0] = 3.0 + 2.0 * v[0];
+        self.log_density(v).map(|l| (l, l + 1.0))
+    }
+}
+
+#[test]
+fn draws_and_summaries_are_in_reported_coordinates() {
+    let settings = Settings {
+        seed: 5,
+        warmup_min: 1_000,
+        block: 500,
+        max_total: 20_000,
+        ..Settings::default()
+    };
+    let r = run(&Shifted, &settings, None).unwrap();
+    assert!(r.converged);
+    check_moment(&r, "mean x", 3.0, |x| x[0]);
+    check_moment(&r, "E (x − 3)²", 4.0, |x| (x[0] - 3.0) * (x[0] - 3.0));
+    for (xs, lps) in r.draws[0].iter().zip(&r.log_density) {
+        for (x, lp) in xs.iter().zip(lps) {
+            let v = (x - 3.0) / 2.0;
+            assert!((lp - (1.0 - 0.5 * v * v)).abs() < 1e-12);
+        }
+    }
+    // The prior sd is that of the reported bounds: 20/√12.
+    assert!((r.summary[0].prior_sd - 20.0 / 12f64.sqrt()).abs() < 1e-12);
+    // The sampler's own coordinate stays within |v| ≲ 5.
+    assert!(r.max_abs_coordinate > 2.0 && r.max_abs_coordinate <= 5.0);
+}

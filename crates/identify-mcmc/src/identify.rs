@@ -1,0 +1,573 @@
+//! Bayesian identification of the muscle model (SPEC §7–8): noise model, start points, chains, report.
+//!
+//! [`identify`] samples the posterior of a [`Problem`]'s free parameters:
+//!
+//! 1. the measured torque is corrected by the dynamometer's systematic error
+//!    ([`NoiseSpec::systematic`], e.g. the cycle-locked part estimated from the unloaded run);
+//! 2. a Nelder–Mead fit of the sum of squares (identify-sa's [`nelder_mead`]) from the base
+//!    values gives the optimum `x̂`;
+//! 3. the noise model is the one given, or (no unloaded run) fitted to the residual at `x̂`;
+//! 4. `n_chains` chains start at `x̂ + spread·w·z` (`z ~ N(0, I)` from the seed's stream 0,
+//!    clamped into the box, `w` the bound widths) and run the adaptive Metropolis–Hastings
+//!    sampler of this crate on `log π(x) = ℓ(x)` (uniform prior on the bounds; a failed
+//!    simulation is a rejected proposal) until every R̂ < 1.01 and bulk ESS ≥ 400 on the
+//!    model's parameters (which the chains store at every step), or the cap;
+//! 5. the report names each parameter (`sol.lst_m`, …) with its summary, identifiability and
+//!    the strongest posterior correlations.
+
+use std::io::Write;
+use std::ops::ControlFlow;
+use std::time::Instant;
+
+use identify_sa::{nelder_mead, FnObjective, NelderMeadSettings};
+use muscle_model::Problem;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+use serde::{Deserialize, Serialize};
+
+use crate::conditional::Conditional;
+use crate::noise::{NoiseKind, NoiseParams};
+use crate::{run_with_observer, LogDensity, McmcError, Progress, RunResult, Settings, StopReason};
+
+/// Where the likelihood's noise model comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NoiseSource {
+    /// Given (e.g. fitted to the unloaded run's random remainder).
+    Fixed(NoiseParams),
+    /// Fitted by moments ([`NoiseParams::fit`]) to the residual of the preliminary
+    /// Nelder–Mead fit (fallback when no unloaded run is available; the residual then also
+    /// holds any systematic error not removed, which inflates σ and widens the intervals).
+    FromResidual(NoiseKind),
+}
+
+/// The noise side of the likelihood: systematic correction and random model.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct NoiseSpec {
+    /// Systematic dynamometer error at every trial sample (N·m), subtracted from the measured
+    /// torque before anything else; `None` leaves the torque as measured.
+    pub systematic: Option<Vec<f64>>,
+    /// The random part.
+    pub source: NoiseSource,
+    /// Lags `1..=max_lag` used by moment fits of [`NoiseKind::Ar1White`] (at 2048 Hz, 20 lags
+    /// ≈ 10 ms, a third of the SPEC's 30 ms correlation time).
+    pub max_lag: usize,
+}
+
+/// Default lags of the [`NoiseKind::Ar1White`] moment fit.
+pub const DEFAULT_MAX_LAG: usize = 20;
+
+impl NoiseSpec {
+    /// A fixed noise model with an optional systematic correction.
+    pub fn fixed(noise: NoiseParams, systematic: Option<Vec<f64>>) -> Self {
+        Self {
+            systematic,
+            source: NoiseSource::Fixed(noise),
+            max_lag: DEFAULT_MAX_LAG,
+        }
+    }
+
+    /// The fallback without an unloaded run: no correction, `kind` fitted to the residual of the
+    /// preliminary fit.
+    pub fn from_residual(kind: NoiseKind) -> Self {
+        Self {
+            systematic: None,
+            source: NoiseSource::FromResidual(kind),
+            max_lag: DEFAULT_MAX_LAG,
+        }
+    }
+
+    /// The SPEC's pipeline with an unloaded run: [`experiment::noise::NoiseEstimate`] of the
+    /// unloaded run (offset, cycle-locked transient template, remainder σ, lag-one ρ₁ and the
+    /// AR(1)+white split), the trial corrected by the systematic part at its own detected
+    /// events, and the random part of `kind`: `Iid {σ}`, `Ar1 {φ = ρ₁, σ_innov = σ√(1−ρ₁²)}`
+    /// or `Ar1White {φ, σ_a, σ_w}` as estimated.
+    ///
+    /// # Errors
+    /// The unloaded run or the trial's angle cannot be analysed, or invalid noise values.
+    pub fn from_unloaded(
+        trial: &experiment::Trial,
+        unloaded: &experiment::Unloaded,
+        kind: NoiseKind,
+    ) -> Result<Self, McmcError> {
+        let est = experiment::noise::NoiseEstimate::from_unloaded(unloaded)?;
+        let events = experiment::noise::detect_events(&trial.time_s, &trial.ankle_angle_deg)?;
+        let systematic = est.systematic_for(&trial.time_s, &events);
+        let noise = match kind {
+            NoiseKind::Iid => NoiseParams::Iid {
+                sigma: est.sigma_nm,
+            },
+            NoiseKind::Ar1 => NoiseParams::Ar1 {
+                phi: est.lag1,
+                sigma_innov: est.sigma_nm * (1.0 - est.lag1 * est.lag1).max(0.0).sqrt(),
+            },
+            NoiseKind::Ar1White => NoiseParams::Ar1White {
+                phi: est.ar1_phi,
+                sigma_ar: est.ar1_sd_nm,
+                sigma_white: est.white_sd_nm,
+            },
+        };
+        noise.model()?;
+        Ok(Self::fixed(noise, Some(systematic)))
+    }
+
+    /// Fit `kind` to an unloaded run's torque `unloaded_torque` after removing its systematic
+    /// part `unloaded_systematic` (same length), and correct the trial by `trial_systematic`.
+    ///
+    /// # Errors
+    /// Lengths differ, or the remainder cannot be fitted ([`McmcError::NoiseFit`]).
+    pub fn from_remainder(
+        kind: NoiseKind,
+        unloaded_torque: &[f64],
+        unloaded_systematic: &[f64],
+        trial_systematic: Option<Vec<f64>>,
+    ) -> Result<Self, McmcError> {
+        if unloaded_torque.len() != unloaded_systematic.len() {
+            return Err(McmcError::Length {
+                what: "unloaded systematic part",
+                expected: unloaded_torque.len(),
+                got: unloaded_systematic.len(),
+            });
+        }
+        let rem: Vec<f64> = unloaded_torque
+            .iter()
+            .zip(unloaded_systematic)
+            .map(|(t, s)| t - s)
+            .collect();
+        let mean = rem.iter().sum::<f64>() / rem.len().max(1) as f64;
+        let rem: Vec<f64> = rem.iter().map(|v| v - mean).collect();
+        let noise = NoiseParams::fit(kind, &rem, DEFAULT_MAX_LAG)?;
+        Ok(Self::fixed(noise, trial_systematic))
+    }
+}
+
+/// Settings of [`identify`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct IdentifySettings {
+    /// The sampler (seed, chains, warm-up, caps, targets).
+    pub mcmc: Settings,
+    /// Budget of the preliminary Nelder–Mead fit (0: start from the base values).
+    pub nelder_mead_evaluations: u64,
+    /// Start dispersion: chain starts are `z ~ N(0, spread²·I)` in whitened coordinates (1 = the
+    /// Laplace posterior's own spread), redrawn while outside the bounds.
+    pub start_spread: f64,
+    /// Number of strongest posterior correlations reported.
+    pub correlations: usize,
+    /// The sampler runs in its own coordinates `(z, u)` but stores, monitors and summarises the
+    /// model's parameters. It stops at the stricter targets `ESS ≥ margin·ess_target`,
+    /// `R̂ < 1 + (rhat_target − 1)/margin` (≥ 1; 1 by default: the monitored numbers are the
+    /// reported ones), and `converged` is decided with the targets of `mcmc`.
+    pub monitor_margin: f64,
+    /// Half-width `K` of the sampling box in whitened coordinates `z` (see [`identify`]).
+    pub z_half_width: f64,
+}
+
+impl Default for IdentifySettings {
+    /// 4 chains, warm-up ≥ 1 000 and checks every 500 iterations, cap 100 000 iterations per
+    /// chain; Nelder–Mead budget 3 000; starts `z ~ N(0, 1.5²I)`; 5 correlations; `K = 20`; monitor margin 1.
+    fn default() -> Self {
+        Self {
+            mcmc: Settings {
+                warmup_min: 1_000,
+                block: 500,
+                max_total: 100_000,
+                ..Settings::default()
+            },
+            nelder_mead_evaluations: 3_000,
+            start_spread: 1.5,
+            correlations: 5,
+            z_half_width: 20.0,
+            monitor_margin: 1.0,
+        }
+    }
+}
+
+impl IdentifySettings {
+    /// Cheaper settings for replicate studies (coverage): warm-up ≥ 1 000, checks every 250,
+    /// cap 40 000 iterations per chain, bulk ESS target 150 (R̂ target stays 1.01); Nelder–Mead
+    /// budget 1 500. (An earlier cap of 8 000 stopped most runs inside warm-up, R̂ up to 1.65,
+    /// and the intervals then covered the truth only 78 % of the time.)
+    pub fn fast(seed: u64) -> Self {
+        let d = Self::default();
+        Self {
+            mcmc: Settings {
+                seed,
+                warmup_min: 1_000,
+                block: 250,
+                max_total: 40_000,
+                ess_target: 150.0,
+                ..d.mcmc
+            },
+            nelder_mead_evaluations: 1_500,
+            ..d
+        }
+    }
+}
+
+/// Posterior summary of one named parameter (SPEC §7 `posterior` entry).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ParamPosterior {
+    /// SPEC name, e.g. `sol.lst_m`.
+    pub name: String,
+    /// Posterior mean.
+    pub mean: f64,
+    /// Posterior sd.
+    pub sd: f64,
+    /// 5 % quantile.
+    pub q05: f64,
+    /// 95 % quantile.
+    pub q95: f64,
+    /// Rank-normalised split R̂.
+    pub rhat: f64,
+    /// Bulk ESS.
+    pub ess_bulk: f64,
+    /// Tail ESS.
+    pub ess_tail: f64,
+    /// `sd < prior_sd/2`.
+    pub identifiable: bool,
+    /// Sd of the uniform prior, `width/√12`.
+    pub prior_sd: f64,
+    /// `sd / prior_sd`.
+    pub prior_sd_ratio: f64,
+}
+
+impl ParamPosterior {
+    /// Whether `v` lies in the central 90 % interval `[q05, q95]`.
+    pub fn covers(&self, v: f64) -> bool {
+        v >= self.q05 && v <= self.q95
+    }
+}
+
+/// A posterior correlation between two named parameters.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct NamedCorrelation {
+    /// First parameter.
+    pub a: String,
+    /// Second parameter.
+    pub b: String,
+    /// Pearson correlation of the pooled draws.
+    pub r: f64,
+}
+
+/// What [`identify`] found.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct McmcIdentification {
+    /// Parameter names in vector order.
+    pub names: Vec<String>,
+    /// Bounds (the uniform prior).
+    pub bounds: Vec<(f64, f64)>,
+    /// Posterior per parameter.
+    pub posterior: Vec<ParamPosterior>,
+    /// Strongest posterior correlations (by |r|).
+    pub correlations: Vec<NamedCorrelation>,
+    /// The sampler converged and every parameter's R̂ < target and bulk ESS ≥ target (false:
+    /// the cap was hit or the run stopped).
+    pub converged: bool,
+    /// Largest `|z|` over the kept draws; near `z_half_width` the box would truncate the
+    /// posterior (then raise `IdentifySettings::z_half_width`).
+    pub max_abs_z: f64,
+    /// The `K` used.
+    pub z_half_width: f64,
+    /// Why sampling stopped.
+    pub stop: StopReason,
+    /// Warm-up iterations per chain.
+    pub warmup_iterations: usize,
+    /// Sampling iterations per chain.
+    pub sampling_iterations: usize,
+    /// Mean acceptance rate over chains during sampling.
+    pub acceptance_rate: f64,
+    /// Model evaluations: Nelder–Mead + residual + chains.
+    pub evaluations: u64,
+    /// Failed simulations among them (rejected proposals).
+    pub failed_evaluations: u64,
+    /// The Nelder–Mead optimum the chains started around.
+    pub optimum: Vec<f64>,
+    /// RMS torque error at the posterior mean against the torque as measured (N·m).
+    pub rms_nm: f64,
+    /// RMS at the posterior mean against the corrected torque (measured − systematic).
+    pub rms_corrected_nm: f64,
+    /// The noise model used.
+    pub noise: NoiseParams,
+    /// Whether a systematic correction was applied.
+    pub corrected: bool,
+    /// Wall time of the whole identification (s).
+    pub wall_s: f64,
+    /// The sampler result, mapped back to the model's parameters: draws `[parameter][chain][draw]`,
+    /// summaries and correlations in `x` (the sampler itself ran in `z`).
+    pub run: RunResult,
+}
+
+impl McmcIdentification {
+    /// Posterior means in vector order.
+    pub fn mean(&self) -> Vec<f64> {
+        self.posterior.iter().map(|p| p.mean).collect()
+    }
+
+    /// The posterior of parameter `name`.
+    pub fn get(&self, name: &str) -> Option<&ParamPosterior> {
+        self.posterior.iter().find(|p| p.name == name)
+    }
+
+    /// Largest R̂ and smallest bulk ESS over the parameters.
+    pub fn worst_diagnostics(&self) -> (f64, f64) {
+        self.posterior
+            .iter()
+            .fold((f64::NEG_INFINITY, f64::INFINITY), |(r, e), p| {
+                (r.max(p.rhat), e.min(p.ess_bulk))
+            })
+    }
+
+    /// Write the kept draws as CSV (`log_density` is the log-likelihood `ℓ(x)` of the draw): header `chain,iteration,<names…>,log_density`, one row per
+    /// chain and kept draw (`iteration` counts kept draws of the sampling phase from 0); numbers
+    /// in Rust's shortest round-trip form.
+    ///
+    /// # Errors
+    /// I/O errors of `w`.
+    pub fn write_chains_csv<W: Write>(&self, mut w: W) -> std::io::Result<()> {
+        write!(w, "chain,iteration")?;
+        for n in &self.names {
+            write!(w, ",{n}")?;
+        }
+        writeln!(w, ",log_density")?;
+        let draws = &self.run.draws;
+        for (c, lp) in self.run.log_density.iter().enumerate() {
+            for (k, l) in lp.iter().enumerate() {
+                write!(w, "{c},{k}")?;
+                for p in draws {
+                    write!(w, ",{}", p[c][k])?;
+                }
+                writeln!(w, ",{l}")?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// `problem` with its measured torque replaced by `measured` (everything else kept).
+fn with_measured(problem: &Problem, measured: Vec<f64>) -> Result<Problem, McmcError> {
+    let mut p = Problem::new(
+        problem.inputs().clone(),
+        measured,
+        *problem.base_params(),
+        *problem.base_effects(),
+        problem.free().to_vec(),
+    )?
+    .with_bounds(problem.bounds().to_vec())?
+    .with_settings(*problem.settings());
+    if let Some(w) = problem.weights() {
+        p = p.with_weights(w.to_vec())?;
+    }
+    Ok(p)
+}
+
+/// Sample the posterior of `problem`'s free parameters (see the module documentation).
+///
+/// `observer` sees the sampler's [`Progress`] after every block and may stop the run.
+///
+/// # Errors
+/// Invalid settings, a systematic correction of the wrong length, a Nelder–Mead start where the
+/// model fails, a noise fit that fails, or a start point without finite density.
+pub fn identify<F>(
+    problem: &Problem,
+    noise: &NoiseSpec,
+    settings: &IdentifySettings,
+    observer: F,
+) -> Result<McmcIdentification, McmcError>
+where
+    F: FnMut(&Progress) -> ControlFlow<()>,
+{
+    let started = Instant::now();
+    settings.mcmc.validate()?;
+    if !(settings.start_spread.is_finite() && settings.start_spread >= 0.0) {
+        return Err(McmcError::InvalidSetting {
+            name: "start_spread",
+            value: settings.start_spread.to_string(),
+            reason: "must be finite and ≥ 0",
+        });
+    }
+    let corrected = match &noise.systematic {
+        None => problem.clone(),
+        Some(s) => {
+            if s.len() != problem.measured().len() {
+                return Err(McmcError::Length {
+                    what: "systematic correction",
+                    expected: problem.measured().len(),
+                    got: s.len(),
+                });
+            }
+            let m: Vec<f64> = problem
+                .measured()
+                .iter()
+                .zip(s)
+                .map(|(m, s)| m - s)
+                .collect();
+            with_measured(problem, m)?
+        }
+    };
+    let d = corrected.dim();
+    let bounds = corrected.bounds().to_vec();
+    let mut evaluations = 0u64;
+    let mut failed = 0u64;
+
+    // Preliminary least-squares fit.
+    let base = corrected.base_vector();
+    let x0: Vec<f64> = base
+        .iter()
+        .zip(&bounds)
+        .map(|(v, (lo, hi))| v.clamp(*lo, *hi))
+        .collect();
+    let optimum = if settings.nelder_mead_evaluations > 0 {
+        let mut objective = FnObjective::new(bounds.clone(), |x: &[f64]| corrected.sse(x).ok());
+        let nm = NelderMeadSettings {
+            max_evaluations: settings.nelder_mead_evaluations,
+            ..NelderMeadSettings::default()
+        };
+        let out = nelder_mead(&mut objective, &x0, &nm).map_err(|e| McmcError::Start {
+            reason: e.to_string(),
+        })?;
+        evaluations += out.evaluations;
+        failed += out.failed_evaluations;
+        out.x
+    } else {
+        x0
+    };
+
+    // Noise model.
+    let noise_params = match noise.source {
+        NoiseSource::Fixed(p) => p,
+        NoiseSource::FromResidual(kind) => {
+            let pred = corrected.predict(&optimum)?;
+            evaluations += 1;
+            let r: Vec<f64> = corrected
+                .measured()
+                .iter()
+                .zip(&pred)
+                .map(|(m, p)| m - p)
+                .collect();
+            let mean = r.iter().sum::<f64>() / r.len().max(1) as f64;
+            let r: Vec<f64> = r.iter().map(|v| v - mean).collect();
+            NoiseParams::fit(kind, &r, noise.max_lag)?
+        }
+    };
+    let noise_model = noise_params.model()?;
+
+    // Sampling coordinates: F0 on its exact conditional, the rest Laplace-whitened.
+    let k = settings.z_half_width;
+    let (target, sims) = Conditional::new(&corrected, &noise_model, &optimum, k);
+    evaluations += sims;
+
+    // Dispersed starts z ~ N(0, spread²·I) (seed's stream 0; chains use streams 1..).
+    let mut rng = ChaCha8Rng::seed_from_u64(settings.mcmc.seed);
+    rng.set_stream(0);
+    let mut inits = Vec::with_capacity(settings.mcmc.n_chains);
+    for _ in 0..settings.mcmc.n_chains {
+        let mut chosen = vec![0.0; d];
+        for _ in 0..50 {
+            let cand: Vec<f64> = (0..d)
+                .map(|_| {
+                    let z: f64 = StandardNormal.sample(&mut rng);
+                    (settings.start_spread * z).clamp(-k, k)
+                })
+                .collect();
+            evaluations += 1;
+            if target.log_density(&cand).is_some_and(f64::is_finite) {
+                chosen = cand;
+                break;
+            }
+            failed += 1;
+        }
+        inits.push(chosen);
+    }
+
+    let margin = settings.monitor_margin;
+    if !(margin.is_finite() && margin >= 1.0) {
+        return Err(McmcError::InvalidSetting {
+            name: "monitor_margin",
+            value: margin.to_string(),
+            reason: "must be finite and ≥ 1",
+        });
+    }
+    let inner = Settings {
+        ess_target: settings.mcmc.ess_target * margin,
+        rhat_target: 1.0 + (settings.mcmc.rhat_target - 1.0) / margin,
+        ..settings.mcmc
+    };
+    let mut run = run_with_observer(&target, &inner, Some(&inits), observer)?;
+    run.settings = settings.mcmc;
+    evaluations += run.evaluations;
+    failed += run.failed_evaluations;
+
+    // The chains stored the model's parameters and ℓ(x) of every kept draw (the target's
+    // reported coordinates), and the sampler monitored and summarised those.
+    let max_abs_z = run.max_abs_coordinate;
+    let targets_met = run
+        .summary
+        .iter()
+        .all(|s| s.rhat < settings.mcmc.rhat_target && s.ess_bulk >= settings.mcmc.ess_target);
+
+    let names = corrected.names().to_vec();
+    let posterior: Vec<ParamPosterior> = run
+        .summary
+        .iter()
+        .zip(&names)
+        .map(|(s, n)| ParamPosterior {
+            name: n.clone(),
+            mean: s.mean,
+            sd: s.sd,
+            q05: s.q05,
+            q95: s.q95,
+            rhat: s.rhat,
+            ess_bulk: s.ess_bulk,
+            ess_tail: s.ess_tail,
+            identifiable: s.identifiable,
+            prior_sd: s.prior_sd,
+            prior_sd_ratio: s.prior_sd_ratio,
+        })
+        .collect();
+    let correlations = run
+        .strongest_correlations
+        .iter()
+        .take(settings.correlations)
+        .map(|c| NamedCorrelation {
+            a: names[c.i].clone(),
+            b: names[c.j].clone(),
+            r: c.r,
+        })
+        .collect();
+    let mean: Vec<f64> = posterior.iter().map(|p| p.mean).collect();
+    let rms_nm = problem.rms(&mean).unwrap_or(f64::NAN);
+    let rms_corrected_nm = corrected.rms(&mean).unwrap_or(f64::NAN);
+    evaluations += 2;
+    let acc: Vec<f64> = run
+        .acceptance_rate
+        .iter()
+        .copied()
+        .filter(|v| v.is_finite())
+        .collect();
+    let acceptance_rate = acc.iter().sum::<f64>() / acc.len().max(1) as f64;
+    debug_assert_eq!(d, posterior.len());
+    Ok(McmcIdentification {
+        names,
+        bounds,
+        posterior,
+        correlations,
+        converged: run.converged && targets_met,
+        max_abs_z,
+        z_half_width: k,
+        stop: run.stop,
+        warmup_iterations: run.warmup_iterations,
+        sampling_iterations: run.sampling_iterations,
+        acceptance_rate,
+        evaluations,
+        failed_evaluations: failed,
+        optimum,
+        rms_nm,
+        rms_corrected_nm,
+        noise: noise_params,
+        corrected: noise.systematic.is_some(),
+        wall_s: started.elapsed().as_secs_f64(),
+        run,
+    })
+}
