@@ -268,7 +268,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         causes: &["eccentric_enhancement"],
         unexplained_structure: false,
         baseline_rms_nm: 5.8,
-        baseline_heldout_rms_nm: Some(6.02),
+        baseline_heldout_rms_nm: 6.02,
         extended_heldout_rms_nm: Some(1.31),
         heldout_rms_reduction_pct: 78.2,
         delta_bic: 5100.0,
