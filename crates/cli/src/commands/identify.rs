@@ -63,6 +63,11 @@ pub struct Args {
     /// adds `errors_pct`. The bundled trial's truth is used when no `--trial` is given.
     #[arg(long)]
     pub truth: Option<PathBuf>,
+    /// MCMC only: cap on the iterations per chain (warm-up and sampling). A
+    /// run that reaches it before R̂ < 1.01 and bulk ESS ≥ 400 reports
+    /// `"converged": false`. Default: the sampler's documented cap.
+    #[arg(long, value_name = "N")]
+    pub max_iterations: Option<usize>,
     #[command(flatten)]
     pub model: ModelArgs,
     /// Output folder (default `out/identify`).
@@ -205,6 +210,11 @@ fn rms(a: &[f64], b: &[f64]) -> f64 {
 
 /// Runs the command.
 pub fn run(args: Args) -> CmdResult {
+    if args.max_iterations.is_some() && args.method != Method::Mcmc {
+        return Err(Failure::bad(
+            "--max-iterations applies to --method mcmc only",
+        ));
+    }
     let prep = prepare(
         args.trial.as_deref(),
         args.unloaded.as_deref(),
@@ -225,7 +235,7 @@ pub fn run(args: Args) -> CmdResult {
         mcmc,
     } = match args.method {
         Method::Sa => run_sa(&prep, args.seed, show)?,
-        Method::Mcmc => run_mcmc(&prep, args.seed, show)?,
+        Method::Mcmc => run_mcmc(&prep, args.seed, args.max_iterations, show)?,
     };
 
     // common fields
@@ -596,7 +606,12 @@ fn mcmc_figures(
     Ok(())
 }
 
-fn run_mcmc(prep: &Prepared, seed: u64, show: bool) -> CmdResult<Outcome> {
+fn run_mcmc(
+    prep: &Prepared,
+    seed: u64,
+    max_iterations: Option<usize>,
+    show: bool,
+) -> CmdResult<Outcome> {
     use identify_mcmc::{IdentifySettings, NoiseKind, NoiseSpec};
     // The sampler corrects the raw torque itself (NoiseSpec carries the
     // systematic part), so it gets the problem on the torque as measured.
@@ -615,6 +630,13 @@ fn run_mcmc(prep: &Prepared, seed: u64, show: bool) -> CmdResult<Outcome> {
     };
     let mut settings = IdentifySettings::default();
     settings.mcmc.seed = seed;
+    if let Some(n) = max_iterations {
+        settings.mcmc.max_total = n;
+        settings
+            .mcmc
+            .validate()
+            .map_err(|e| Failure::bad(format!("--max-iterations {n}: {e}")))?;
+    }
     let cap = settings.mcmc.max_total as u64;
     let progress = Progress::new(show, cap, "MCMC");
     let m = identify_mcmc::identify(
