@@ -1,9 +1,11 @@
 //! Confusion table and detection limits over random hidden-effect trials.
 //!
-//! `cargo run --release -p diagnose --example confusion -- [N] [BASE_SEED] [--limits]`
+//! `cargo run --release -p diagnose --example confusion -- [N] [BASE_SEED] [--limits [--effects a,b:size]]`
 //! prints, per scenario, how often the named causes equal the hidden ones, what was named
 //! instead, the magnitude error and the time; with `--limits`, the detection rate per effect
-//! at sizes below the realistic range.
+//! at sizes below and at the bottom of the realistic range (`--effects` keeps only the listed
+//! effects, or with `:size` only that size; trial `i` of an effect uses seed `BASE_SEED + 1000·kind + i` at every size, so a
+//! run split by `--effects` gives the same rows as one run).
 use std::collections::BTreeMap;
 use std::time::Instant;
 
@@ -18,20 +20,41 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let settings = DiagnoseSettings::default();
     if args.iter().any(|a| a == "--limits") {
         let sizes: Vec<(EffectKind, Vec<f64>)> = vec![
-            (EffectKind::TorqueOffset, vec![0.5, 1.0, 2.0, 3.0]),
+            (EffectKind::TorqueOffset, vec![0.5, 1.0, 2.0, 3.0, 5.0]),
             (EffectKind::PassiveJointTorque, vec![1.0, 2.0, 3.5, 5.0]),
-            (EffectKind::Gravity, vec![1.0, 2.0, 3.0]),
+            (EffectKind::Gravity, vec![1.0, 2.0, 3.0, 5.0, 8.0]),
             (
                 EffectKind::ElectromechanicalDelay,
                 vec![3.0, 6.0, 10.0, 20.0],
             ),
             (EffectKind::Fatigue, vec![0.002, 0.005, 0.01]),
-            (EffectKind::AntagonistCoactivation, vec![0.5, 1.0, 2.0, 3.0]),
+            (
+                EffectKind::AntagonistCoactivation,
+                vec![0.5, 1.0, 2.0, 3.0, 5.0, 8.0],
+            ),
             (EffectKind::EccentricEnhancement, vec![0.03, 0.06, 0.1, 0.2]),
+            (EffectKind::ViscousDamping, vec![0.5, 1.0, 2.0, 4.0]),
+            (EffectKind::Inertia, vec![0.01, 0.02, 0.05, 0.1]),
         ];
+        let only: Option<Vec<String>> = args
+            .iter()
+            .position(|a| a == "--effects")
+            .and_then(|i| args.get(i + 1))
+            .map(|s| s.split(',').map(str::to_string).collect());
         println!("effect, size, detected/N, other named");
         for (kind, ss) in sizes {
             for s in ss {
+                let wanted = only.as_ref().is_none_or(|o| {
+                    o.iter().any(|item| match item.split_once(':') {
+                        Some((name, size)) => {
+                            name == kind.name() && size.parse::<f64>().is_ok_and(|x| x == s)
+                        }
+                        None => item == kind.name(),
+                    })
+                });
+                if !wanted {
+                    continue;
+                }
                 let mut hit = 0;
                 let mut other = 0;
                 for i in 0..n {
@@ -47,6 +70,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         hit += 1;
                     } else if d.causes.iter().any(|c| c != kind.name()) {
                         other += 1;
+                        eprintln!("seed {seed} {} {s}: named {:?}", kind.name(), d.causes);
                     }
                 }
                 println!("{}, {s}, {hit}/{n}, {other}", kind.name());

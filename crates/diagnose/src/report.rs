@@ -209,13 +209,13 @@ impl Diagnosis {
             ));
         }
         l.push(format!(
-            "structure    {} (evidence {:.0})",
+            "structure    {} (p = {:.1e})",
             if self.unexplained_structure {
                 "UNEXPLAINED structure remains in the residual"
             } else {
                 "no unexplained structure"
             },
-            self.residual_analysis.structure_evidence
+            self.residual_analysis.structure_p_value
         ));
         l.push("candidates   effect                   evidence  held-out  ΔBIC".into());
         for c in self.candidates.iter().take(20 - l.len() - 1) {

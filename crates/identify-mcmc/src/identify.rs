@@ -265,8 +265,8 @@ pub struct McmcIdentification {
     /// The sampler converged and every parameter's R̂ < target and bulk ESS ≥ target (false:
     /// the cap was hit or the run stopped).
     pub converged: bool,
-    /// Largest `|z|` over the kept draws; near `z_half_width` the box would truncate the
-    /// posterior (then raise `IdentifySettings::z_half_width`).
+    /// Largest `|z|` over the states visited while sampling; near `z_half_width` the box
+    /// truncates the posterior (then raise `IdentifySettings::z_half_width`).
     pub max_abs_z: f64,
     /// The `K` used.
     pub z_half_width: f64,
@@ -294,8 +294,9 @@ pub struct McmcIdentification {
     pub corrected: bool,
     /// Wall time of the whole identification (s).
     pub wall_s: f64,
-    /// The sampler result, mapped back to the model's parameters: draws `[parameter][chain][draw]`,
-    /// summaries and correlations in `x` (the sampler itself ran in `z`).
+    /// The sampler result in the model's parameters: draws `[parameter][chain][draw]`,
+    /// log-likelihood `ℓ(x)` per draw, summaries and correlations in `x` (the sampler itself
+    /// ran in `z`; the chains stored `x` at every step).
     pub run: RunResult,
 }
 
