@@ -104,6 +104,19 @@ fn channel_envelope(
     match filter {
         Some(f) => {
             let mut env = f.envelope(raw).map_err(|e| signal_error(path, m, &e))?;
+            // A constant (DC-only) or slowly drifting channel has nothing in the
+            // 10–350 Hz band: normalising its numerical noise would fake activity.
+            let raw_amp = raw.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+            let env_max = env.iter().fold(0.0f64, |a, x| a.max(*x));
+            if !(env_max > 1e-9 * raw_amp) {
+                return Err(column_error(
+                    path,
+                    m,
+                    ErrorKind::ZeroChannel,
+                    "no EMG activity in the 10–350 Hz band (a constant or drifting channel?)"
+                        .into(),
+                ));
+            }
             let reference = mvc.map_or(Normalisation::TrialMax, Normalisation::Mvc);
             normalise(&mut env, reference).map_err(|e| signal_error(path, m, &e))?;
             Ok(env)

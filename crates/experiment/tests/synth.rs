@@ -434,3 +434,15 @@ fn random_params_stay_inside_the_spec_bounds() {
     let syn = synthesize(&cfg).unwrap();
     assert_eq!(syn.truth_json["params"], draws[1].to_json_value());
 }
+
+#[test]
+fn model_inputs_rejects_a_constant_emg_channel_naming_it() {
+    let cfg = experiment::SynthConfig::new("seed".parse().unwrap(), 5);
+    let mut trial = experiment::synthesize(&cfg).unwrap().trial;
+    trial.emg_gm.iter_mut().for_each(|x| *x = 0.37);
+    let e = experiment::model_inputs_named(&trial, &experiment::InputOptions::default(), "t.csv")
+        .unwrap_err();
+    assert_eq!(e.kind(), experiment::ErrorKind::ZeroChannel);
+    let msg = e.to_string();
+    assert!(msg.starts_with("t.csv") && msg.contains("emg_gm"), "{msg}");
+}
