@@ -108,7 +108,7 @@ fn channel_envelope(
             // 10–350 Hz band: normalising its numerical noise would fake activity.
             let raw_amp = raw.iter().fold(0.0f64, |a, x| a.max(x.abs()));
             let env_max = env.iter().fold(0.0f64, |a, x| a.max(*x));
-            if !(env_max > 1e-9 * raw_amp) {
+            if env_max.is_nan() || env_max <= 1e-9 * raw_amp {
                 return Err(column_error(
                     path,
                     m,
