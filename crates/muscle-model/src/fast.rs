@@ -1,6 +1,6 @@
 //! The fast forward model ([`crate::Formulation::Fast`]): activation and musculotendon length
-//! precomputed once per trial, then each fibre length integrated alone (scalar Dormand–Prince
-//! 5(4) with dense output at the samples).
+//! precomputed once per trial, then each fibre length integrated alone ([`ode::DoPri5`] with
+//! dense output at the samples; the activation's error estimate joins the step-size control).
 //!
 //! Activation `a(t)`, `â = f_A(a)`, the fatigue factor `exp(−k∫â)` and `LMT(q(t))` do not
 //! depend on the identified parameters (LST, F0, α0), so a [`Channel`] holds them at every
@@ -13,7 +13,7 @@ use crate::curves::Curves;
 use crate::inputs::TrialInputs;
 use crate::simulate::{SimSettings, SimStats};
 use crate::unit::{MuscleUnit, IX_A, IX_FATIGUE, IX_FT, IX_LM, IX_LMT, STATE_DIM};
-use ode::OdeError;
+use ode::{DoPri5, OdeError, OdeSystem};
 use std::sync::Arc;
 
 /// RK4 substeps per sample interval when the activation is precomputed.
@@ -310,53 +310,31 @@ fn drive_at(drive: &[[f64; 4]], t0: f64, fs: f64, t: f64) -> (f64, f64, f64) {
     )
 }
 
-// Dormand–Prince 5(4) coefficients (Hairer, Nørsett & Wanner, table 5.2) and the
-// 4th-order dense-output weights.
-const C2: f64 = 1.0 / 5.0;
-const C3: f64 = 3.0 / 10.0;
-const C4: f64 = 4.0 / 5.0;
-const C5: f64 = 8.0 / 9.0;
-const A21: f64 = 1.0 / 5.0;
-const A31: f64 = 3.0 / 40.0;
-const A32: f64 = 9.0 / 40.0;
-const A41: f64 = 44.0 / 45.0;
-const A42: f64 = -56.0 / 15.0;
-const A43: f64 = 32.0 / 9.0;
-const A51: f64 = 19372.0 / 6561.0;
-const A52: f64 = -25360.0 / 2187.0;
-const A53: f64 = 64448.0 / 6561.0;
-const A54: f64 = -212.0 / 729.0;
-const A61: f64 = 9017.0 / 3168.0;
-const A62: f64 = -355.0 / 33.0;
-const A63: f64 = 46732.0 / 5247.0;
-const A64: f64 = 49.0 / 176.0;
-const A65: f64 = -5103.0 / 18656.0;
-const A71: f64 = 35.0 / 384.0;
-const A73: f64 = 500.0 / 1113.0;
-const A74: f64 = 125.0 / 192.0;
-const A75: f64 = -2187.0 / 6784.0;
-const A76: f64 = 11.0 / 84.0;
-const E1: f64 = 71.0 / 57600.0;
-const E3: f64 = -71.0 / 16695.0;
-const E4: f64 = 71.0 / 1920.0;
-const E5: f64 = -17253.0 / 339200.0;
-const E6: f64 = 22.0 / 525.0;
-const E7: f64 = -1.0 / 40.0;
-const D1: f64 = -12715105075.0 / 11282082432.0;
-const D3: f64 = 87487479700.0 / 32700410799.0;
-const D4: f64 = -10690763975.0 / 1880347072.0;
-const D5: f64 = 701980252875.0 / 199316789632.0;
-const D6: f64 = -1453857185.0 / 822651844.0;
-const D7: f64 = 69997945.0 / 29380423.0;
-const SAFETY: f64 = 0.9;
-const BETA: f64 = 0.04;
-const FAC_MIN: f64 = 0.2;
-const FAC_MAX: f64 = 10.0;
-const H_MIN: f64 = 1e-14;
-const LN_1E_4: f64 = -9.210_340_371_976_184;
+/// The fibre ODE on `[LM, act]`: `(L̇M, d(act)/dt)` with the drive interpolated at `t`.
+struct FibreSystem<'a> {
+    drive: &'a [[f64; 4]],
+    t0: f64,
+    fs: f64,
+    fib: &'a Fibre,
+}
+
+impl OdeSystem<2> for FibreSystem<'_> {
+    #[inline(always)]
+    fn rhs(&mut self, t: f64, y: &[f64; 2], dy: &mut [f64; 2]) {
+        let (act, dact, lmt) = drive_at(self.drive, self.t0, self.fs, t);
+        dy[0] = self.fib.velocity(act, lmt, y[0]);
+        dy[1] = dact;
+    }
+}
 
 /// Integrates the fibre length of `fib` over the samples of `inputs` (channel prepared) and
 /// writes `LM` at every sample into `lm_out` (length = samples).
+///
+/// The integrator is [`ode::DoPri5`] on the two-component state `[LM, act]` with
+/// `d(act)/dt` read from the drive: the activation input itself needs no integration (it is
+/// tabulated), but its embedded error estimate enters the step-size control, which shrinks
+/// steps that straddle a fast change of the input (an onset), whose effect on `LM` the `LM`
+/// estimate alone misses in the dense output.
 pub(crate) fn run(
     ch: &Channel,
     inputs: &TrialInputs,
@@ -371,144 +349,27 @@ pub(crate) fn run(
     let t0 = times[0];
     let fs = inputs.fs();
     let t_end = times[n - 1];
-    // returns (L̇M, d(act)/dt): the activation input feeds the step-size control too
-    let f = |t: f64, lm: f64| -> (f64, f64) {
-        let (act, dact, lmt) = drive_at(drive, t0, fs, t);
-        (fib.velocity(act, lmt, lm), dact)
-    };
-    let (rtol, atol, h_max) = (settings.rtol, settings.atol, settings.h_max);
-    let mut stats = SimStats::default();
+    let mut sys = FibreSystem { drive, t0, fs, fib };
     if !lm0.is_finite() {
         return Err(OdeError::NonFinite { t: t0 });
     }
     lm_out[0] = lm0;
-    let mut t = t0;
-    let mut y = lm0;
-    let (mut k1, mut a1) = f(t, y);
-    stats.rhs_calls += 1;
-    if !k1.is_finite() {
-        return Err(OdeError::NonFinite { t });
+    if n < 2 {
+        return Ok(SimStats::default());
     }
-    // initial step (Hairer & Wanner's heuristic, one component)
-    let sc = atol + rtol * y.abs();
-    let (d0, d1) = ((y / sc).abs(), (k1 / sc).abs());
-    let mut h0 = if d0 < 1e-5 || d1 < 1e-5 {
-        1e-6
-    } else {
-        0.01 * d0 / d1
-    };
-    h0 = h0.min(h_max).min(t_end - t);
-    let k2 = f(t + h0, y + h0 * k1).0;
-    stats.rhs_calls += 1;
-    let mut h = if k2.is_finite() {
-        let d2 = ((k2 - k1) / sc).abs() / h0;
-        let dmax = d1.max(d2);
-        let h1 = if dmax <= 1e-15 {
-            (h0 * 1e-3).max(1e-6)
-        } else {
-            (0.01 / dmax).powf(0.2)
-        };
-        (100.0 * h0).min(h1)
-    } else {
-        h0 * 1e-3
-    }
-    .min(h_max)
-    .min(t_end - t);
-    let mut err_prev_pow = (BETA * LN_1E_4).exp();
-    let mut rejected_last = false;
-    let expo1 = 0.2 - BETA * 0.75;
+    let mut stepper = DoPri5::<2>::new(settings.adaptive())?.with_log_controller();
+    stepper.init(&mut sys, t0, [lm0, drive[0][0]], t_end)?;
     let mut next = 1;
     while next < n {
-        if stats.accepted + stats.rejected >= settings.max_steps {
-            return Err(OdeError::MaxSteps {
-                t,
-                steps: settings.max_steps,
-            });
-        }
-        let remaining = t_end - t;
-        let mut hh = h.min(h_max);
-        if hh >= remaining || remaining - hh < 1e-12 * remaining.abs().max(1.0) {
-            hh = remaining;
-        }
-        if hh < H_MIN || t + hh == t {
-            return Err(OdeError::StepSizeUnderflow { t, h: hh });
-        }
-        let (k2, _) = f(t + C2 * hh, y + hh * A21 * k1);
-        let (k3, a3) = f(t + C3 * hh, y + hh * (A31 * k1 + A32 * k2));
-        let (k4, a4) = f(t + C4 * hh, y + hh * (A41 * k1 + A42 * k2 + A43 * k3));
-        let (k5, a5) = f(
-            t + C5 * hh,
-            y + hh * (A51 * k1 + A52 * k2 + A53 * k3 + A54 * k4),
-        );
-        let (k6, a6) = f(
-            t + hh,
-            y + hh * (A61 * k1 + A62 * k2 + A63 * k3 + A64 * k4 + A65 * k5),
-        );
-        let ynew = y + hh * (A71 * k1 + A73 * k3 + A74 * k4 + A75 * k5 + A76 * k6);
-        let (k7, a7) = f(t + hh, ynew);
-        stats.rhs_calls += 6;
-        let e = hh * (E1 * k1 + E3 * k3 + E4 * k4 + E5 * k5 + E6 * k6 + E7 * k7);
-        let e_lm = e / (atol + rtol * y.abs().max(ynew.abs()));
-        // Error estimate of the activation over the step (the embedded estimate of
-        // ∫ d(act)/dt dt), scaled like the activation state of the two-state system: it
-        // shrinks steps that straddle a fast change of the input (an onset), whose effect on
-        // LM the LM estimate alone misses in the dense output.
-        let ea = hh * (E1 * a1 + E3 * a3 + E4 * a4 + E5 * a5 + E6 * a6 + E7 * a7);
-        let act_end = drive_at(drive, t0, fs, t + hh).0;
-        let e_a = ea / (atol + rtol * act_end.abs());
-        let err = (0.5 * (e_lm * e_lm + e_a * e_a)).sqrt();
-        if !(err.is_finite() && ynew.is_finite() && k7.is_finite()) {
-            stats.rejected += 1;
-            rejected_last = true;
-            h = hh * 0.25;
-            if h < H_MIN {
-                return Err(OdeError::NonFinite { t });
-            }
-            continue;
-        }
-        // err^expo1 and err^BETA from one logarithm (cheaper than two powf)
-        let ln_err = err.max(1e-300).ln();
-        let fac11 = (expo1 * ln_err).exp();
-        if err > 1.0 {
-            stats.rejected += 1;
-            rejected_last = true;
-            h = hh / (1.0 / FAC_MIN).min(fac11 / SAFETY);
-            continue;
-        }
-        let fac = (fac11 / err_prev_pow / SAFETY).clamp(1.0 / FAC_MAX, 1.0 / FAC_MIN);
-        let mut h_new = hh / fac;
-        if rejected_last {
-            h_new = h_new.min(hh);
-        }
-        err_prev_pow = (BETA * ln_err.max(LN_1E_4)).exp();
-        rejected_last = false;
-        // dense output on [t, t + hh]
-        let ydiff = ynew - y;
-        let bspl = hh * k1 - ydiff;
-        let r3 = bspl;
-        let r4 = ydiff - hh * k7 - bspl;
-        let r5 = hh * (D1 * k1 + D3 * k3 + D4 * k4 + D5 * k5 + D6 * k6 + D7 * k7);
-        let t_new = if hh == remaining { t_end } else { t + hh };
-        let inv_h = 1.0 / hh;
-        while next < n && times[next] <= t_new {
-            let lm = if times[next] == t_new {
-                ynew
-            } else {
-                let th = (times[next] - t) * inv_h;
-                let th1 = 1.0 - th;
-                y + th * (ydiff + th1 * (r3 + th * (r4 + th1 * r5)))
-            };
-            lm_out[next] = lm;
+        stepper.step(&mut sys)?;
+        let dense = stepper.dense();
+        let t = dense.t();
+        while next < n && times[next] <= t {
+            lm_out[next] = dense.component(times[next], 0);
             next += 1;
         }
-        t = t_new;
-        y = ynew;
-        k1 = k7;
-        a1 = a7;
-        h = h_new;
-        stats.accepted += 1;
     }
-    Ok(stats)
+    Ok(stepper.stats().into())
 }
 
 /// The recorded state `[a, F̃T, LM, LMT, ∫â]` at sample `i`.

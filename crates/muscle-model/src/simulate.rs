@@ -90,7 +90,7 @@ impl SimSettings {
         self
     }
 
-    fn adaptive(&self) -> AdaptiveSettings {
+    pub(crate) fn adaptive(&self) -> AdaptiveSettings {
         AdaptiveSettings {
             rtol: self.rtol,
             atol: self.atol,

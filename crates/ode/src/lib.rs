@@ -269,6 +269,8 @@ const SAFETY: f64 = 0.9;
 const BETA: f64 = 0.04;
 const FAC_MIN: f64 = 0.2;
 const FAC_MAX: f64 = 10.0;
+/// `ln(1e-4)`, the floor of the previous error in the PI controller.
+const LN_1E_4: f64 = -9.210_340_371_976_184;
 
 /// Dormand–Prince 5(4) stepper with PI step control and dense output.
 ///
@@ -299,6 +301,9 @@ pub struct DoPri5<const N: usize> {
     r4: [f64; N],
     r5: [f64; N],
     err_prev: f64,
+    /// `err_prev^β`, kept when the controller works with logarithms.
+    err_prev_pow: f64,
+    log_controller: bool,
     rejected_last: bool,
     stats: Stats,
     initialised: bool,
@@ -330,10 +335,23 @@ impl<const N: usize> DoPri5<N> {
             r4: [0.0; N],
             r5: [0.0; N],
             err_prev: 1e-4,
+            err_prev_pow: (BETA * LN_1E_4).exp(),
+            log_controller: false,
             rejected_last: false,
             stats: Stats::default(),
             initialised: false,
         })
+    }
+
+    /// The same stepper with the powers of the PI controller, `err^α` and `err_prev^β`,
+    /// evaluated as `exp(α ln err)` from one logarithm per step (and `err_prev^β` kept from
+    /// the previous step) instead of two `powf` calls. The controller is mathematically the
+    /// same; step sizes differ only by rounding. Meant for cheap right-hand sides, where the
+    /// controller is a visible part of a step's cost.
+    #[must_use]
+    pub fn with_log_controller(mut self) -> Self {
+        self.log_controller = true;
+        self
     }
 
     /// Starts an integration from `(t0, y0)` towards `t_end > t0`.
@@ -358,6 +376,7 @@ impl<const N: usize> DoPri5<N> {
         self.y = y0;
         self.stats = Stats::default();
         self.err_prev = 1e-4;
+        self.err_prev_pow = (BETA * LN_1E_4).exp();
         self.rejected_last = false;
         sys.rhs(t0, &self.y, &mut self.k1);
         self.stats.rhs_calls += 1;
@@ -485,15 +504,28 @@ impl<const N: usize> DoPri5<N> {
                 }
                 continue;
             }
-            let fac11 = err.powf(expo1);
+            let (fac11, ln_err) = if self.log_controller {
+                let ln_err = err.max(1e-300).ln();
+                ((expo1 * ln_err).exp(), ln_err)
+            } else {
+                (err.powf(expo1), 0.0)
+            };
             if err <= 1.0 {
-                let mut fac = fac11 / self.err_prev.powf(BETA);
+                let prev_pow = if self.log_controller {
+                    self.err_prev_pow
+                } else {
+                    self.err_prev.powf(BETA)
+                };
+                let mut fac = fac11 / prev_pow;
                 fac = (fac / SAFETY).clamp(1.0 / FAC_MAX, 1.0 / FAC_MIN);
                 let mut h_new = h / fac;
                 if self.rejected_last {
                     h_new = h_new.min(h);
                 }
                 self.err_prev = err.max(1e-4);
+                if self.log_controller {
+                    self.err_prev_pow = (BETA * ln_err.max(LN_1E_4)).exp();
+                }
                 self.rejected_last = false;
                 // dense output coefficients
                 for i in 0..N {
@@ -604,6 +636,60 @@ impl<const N: usize> DoPri5<N> {
                         + theta1 * (self.r3[i] + theta * (self.r4[i] + theta1 * self.r5[i])));
         }
     }
+
+    /// The dense output of the last accepted step `[t_prev, t]` as a value that reads many
+    /// times inside the step cheaply (the step's `1/h` computed once), component by
+    /// component if only some are wanted.
+    pub fn dense(&self) -> DenseStep<'_, N> {
+        let h = self.t - self.t_prev;
+        DenseStep {
+            s: self,
+            inv_h: if h > 0.0 { 1.0 / h } else { 0.0 },
+        }
+    }
+}
+
+/// Dense output of the last accepted step of a [`DoPri5`] (see [`DoPri5::dense`]).
+///
+/// Same continuous extension as [`DoPri5::interpolate`], with `θ = (t − t_prev)·(1/h)`;
+/// exact at the end of the step (returns the stepper's state there).
+#[derive(Clone, Copy, Debug)]
+pub struct DenseStep<'a, const N: usize> {
+    s: &'a DoPri5<N>,
+    inv_h: f64,
+}
+
+impl<const N: usize> DenseStep<'_, N> {
+    /// Start of the step.
+    pub fn t_prev(&self) -> f64 {
+        self.s.t_prev
+    }
+    /// End of the step.
+    pub fn t(&self) -> f64 {
+        self.s.t
+    }
+    /// Component `i` of the solution at `t` in `[t_prev, t]`.
+    ///
+    /// # Panics
+    ///
+    /// If `i >= N` (a programming error, like an out-of-range index).
+    #[inline]
+    pub fn component(&self, t: f64, i: usize) -> f64 {
+        let s = self.s;
+        if t == s.t {
+            return s.y[i];
+        }
+        let theta = (t - s.t_prev) * self.inv_h;
+        let theta1 = 1.0 - theta;
+        s.r1[i] + theta * (s.r2[i] + theta1 * (s.r3[i] + theta * (s.r4[i] + theta1 * s.r5[i])))
+    }
+    /// The whole solution at `t` in `[t_prev, t]`.
+    #[inline]
+    pub fn at(&self, t: f64, out: &mut [f64; N]) {
+        for i in 0..N {
+            out[i] = self.component(t, i);
+        }
+    }
 }
 
 fn all_finite<const N: usize>(v: &[f64; N]) -> bool {
@@ -686,6 +772,77 @@ mod tests {
             |_, _| {},
         );
         assert!(matches!(r, Err(OdeError::InvalidInput { .. })));
+    }
+
+    /// Harmonic oscillator `y'' = −y` as `[y, y']`, exact solution `[cos t, −sin t]`.
+    fn oscillator(_t: f64, y: &[f64; 2], d: &mut [f64; 2]) {
+        d[0] = y[1];
+        d[1] = -y[0];
+    }
+
+    #[test]
+    fn log_controller_is_the_same_controller() {
+        let set = AdaptiveSettings::default().with_rtol(1e-8).with_atol(1e-10);
+        let t_end = 10.0;
+        let run = |log: bool| {
+            let mut s = DoPri5::<2>::new(set).unwrap();
+            if log {
+                s = s.with_log_controller();
+            }
+            let mut sys = oscillator;
+            s.init(&mut sys, 0.0, [1.0, 0.0], t_end).unwrap();
+            let mut hs = Vec::new();
+            while s.t() < t_end {
+                s.step(&mut sys).unwrap();
+                hs.push(s.t() - s.t_prev());
+            }
+            (*s.y(), s.stats(), hs)
+        };
+        let (y_pow, st_pow, h_pow) = run(false);
+        let (y_log, st_log, h_log) = run(true);
+        assert!((y_log[0] - t_end.cos()).abs() < 1e-6, "{y_log:?}");
+        assert!((y_log[1] + t_end.sin()).abs() < 1e-6, "{y_log:?}");
+        // same controller: same number of steps, step sizes equal up to rounding (which the
+        // feedback of the controller amplifies a little along the run)
+        assert_eq!(st_pow, st_log);
+        for (a, b) in h_pow.iter().zip(&h_log) {
+            assert!((a - b).abs() <= 1e-6 * a, "{a} vs {b}");
+        }
+        assert!((y_pow[0] - y_log[0]).abs() < 1e-9);
+        assert!((y_pow[1] - y_log[1]).abs() < 1e-9);
+    }
+
+    #[test]
+    fn dense_step_agrees_with_interpolate() {
+        let set = AdaptiveSettings::default().with_rtol(1e-9).with_atol(1e-12);
+        let mut s = DoPri5::<2>::new(set).unwrap();
+        let mut sys = oscillator;
+        s.init(&mut sys, 0.0, [1.0, 0.0], 6.0).unwrap();
+        let mut buf = [0.0; 2];
+        let mut at = [0.0; 2];
+        let mut checked = 0;
+        while s.t() < 6.0 {
+            s.step(&mut sys).unwrap();
+            let d = s.dense();
+            assert_eq!(d.t_prev(), s.t_prev());
+            assert_eq!(d.t(), s.t());
+            // exact at the end of the step
+            assert_eq!(d.component(s.t(), 0), s.y()[0]);
+            assert_eq!(d.component(s.t(), 1), s.y()[1]);
+            for f in [0.0, 0.25, 0.5, 0.9] {
+                let t = s.t_prev() + f * (s.t() - s.t_prev());
+                s.interpolate(t, &mut buf);
+                d.at(t, &mut at);
+                for i in 0..2 {
+                    assert!((at[i] - buf[i]).abs() < 1e-14, "t = {t}");
+                    assert_eq!(at[i], d.component(t, i));
+                }
+                assert!((at[0] - t.cos()).abs() < 1e-7, "t = {t}");
+                assert!((at[1] + t.sin()).abs() < 1e-7, "t = {t}");
+                checked += 1;
+            }
+        }
+        assert!(checked >= 8);
     }
 
     #[test]
