@@ -15,11 +15,12 @@
 //! `ν_t = y_t − φ x̂_{t−1}` with variances `S_t`; `ν_t/√S_t` are i.i.d. N(0, 1) under the model,
 //! and `log L = −½ Σ_t (ln 2π S_t + ν_t²/S_t)` is the exact Gaussian log-likelihood.
 //! Masked (held-out) samples are skipped by the filter (prediction only), which keeps the
-//! likelihood of the remaining samples exact.
+//! likelihood of the remaining samples exact. The random part, its moment fit, whitening and
+//! likelihood are the shared [`muscle_model::Ar1White`] (module `muscle_model::noise`).
 
+use muscle_model::noise::autocovariance;
+use muscle_model::{Ar1White, MomentFit};
 use serde::Serialize;
-
-const LN_2PI: f64 = 1.837_877_066_409_345_5;
 
 /// Where the noise model came from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -95,19 +96,26 @@ impl NoiseModel {
 
     /// Whitening plan for a mask (`None`: every sample observed).
     pub fn plan(&self, n: usize, mask: Option<&[bool]>) -> WhitenPlan {
-        WhitenPlan::new(self, n, mask)
+        self.random_part().plan(n, mask)
+    }
+
+    /// The random part as the shared AR(1)-plus-white model (white SD at least `10⁻⁵`).
+    pub fn random_part(&self) -> Ar1White {
+        Ar1White {
+            phi: self.phi,
+            sigma_ar: self.sd_ar_nm,
+            sigma_white: self.sd_white_nm.max(1e-5),
+        }
     }
 
     /// Lag-`k` autocorrelation of the random part (for comparison with the residual's).
     pub fn autocorrelation(&self, k: usize) -> f64 {
-        let g0 = self.sd_ar_nm.powi(2) + self.sd_white_nm.powi(2);
-        if k == 0 {
-            1.0
-        } else if g0 > 0.0 {
-            self.sd_ar_nm.powi(2) * self.phi.powi(k as i32) / g0
-        } else {
-            0.0
-        }
+        let m = Ar1White {
+            phi: self.phi,
+            sigma_ar: self.sd_ar_nm,
+            sigma_white: self.sd_white_nm,
+        };
+        m.autocorrelation(k.min(i32::MAX as usize) as u32)
     }
 
     /// Fits the systematic and random parts to a recording `y` (the unloaded run, or a
@@ -271,123 +279,34 @@ fn fit_linear(
     }
 }
 
-/// `(φ, σ_ar, σ_w)` from the autocovariances of `u` (see the module docs).
+/// `(φ, σ_ar, σ_w)` from the autocovariances of `u` (see the module docs): the shared moment fit
+/// [`muscle_model::Ar1White::fit`] about the mean over lags up to `min(80, n/4)`, ending below
+/// `0.1·γ̂_1`, with at least 3 lags and `σ_w² ≥ max(10⁻⁴γ̂_0, 10⁻⁸)`; white noise alone when
+/// the record is shorter than 16 samples or the fit fails.
 pub fn fit_ar1_white(u: &[f64]) -> (f64, f64, f64) {
     let n = u.len();
     if n < 16 {
         let v = u.iter().map(|x| x * x).sum::<f64>() / n.max(1) as f64;
         return (0.0, 0.0, v.sqrt().max(1e-6));
     }
-    let mean = u.iter().sum::<f64>() / n as f64;
-    let g = |k: usize| -> f64 {
-        (0..n - k)
-            .map(|i| (u[i] - mean) * (u[i + k] - mean))
-            .sum::<f64>()
-            / n as f64
+    let opts = MomentFit {
+        max_lag: 80.min(n / 4),
+        demean: true,
+        stop_fraction: 0.1,
+        min_lags: 3,
+        min_white_fraction: 1e-4,
+        min_white_var: 1e-8,
     };
-    let g0 = g(0);
-    let kmax = 80.min(n / 4);
-    let mut pts = Vec::new();
-    let g1 = g(1);
-    for k in 1..=kmax {
-        let gk = g(k);
-        if gk <= 0.1 * g1 {
-            break;
+    match Ar1White::fit(u, &opts) {
+        Ok(m) => (m.phi, m.sigma_ar, m.sigma_white),
+        Err(_) => {
+            let mean = u.iter().sum::<f64>() / n as f64;
+            let g0 = autocovariance(u, mean, 0);
+            (0.0, 0.0, g0.max(1e-12).sqrt())
         }
-        pts.push((k as f64, gk.ln()));
     }
-    if pts.len() < 3 || g1 <= 0.0 {
-        return (0.0, 0.0, g0.max(1e-12).sqrt());
-    }
-    let m = pts.len() as f64;
-    let mx = pts.iter().map(|p| p.0).sum::<f64>() / m;
-    let my = pts.iter().map(|p| p.1).sum::<f64>() / m;
-    let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
-    let sxx: f64 = pts.iter().map(|p| (p.0 - mx) * (p.0 - mx)).sum();
-    let slope = (sxy / sxx).min(-1e-6);
-    let phi = slope.exp().clamp(0.0, 0.9999);
-    let var_ar = (my - slope * mx).exp().min(g0);
-    let var_w = (g0 - var_ar).max(1e-4 * g0).max(1e-8);
-    (phi, var_ar.sqrt(), var_w.sqrt())
 }
 
-/// Precomputed Kalman gains for one mask: whitening is then one pass per vector.
-#[derive(Clone, Debug)]
-pub struct WhitenPlan {
-    phi: f64,
-    gain: Vec<f64>,
-    inv_sqrt_s: Vec<f64>,
-    observed: Vec<bool>,
-    log_det: f64,
-    n_obs: usize,
-}
-
-impl WhitenPlan {
-    fn new(m: &NoiseModel, n: usize, mask: Option<&[bool]>) -> Self {
-        let phi = m.phi;
-        let var_ar = m.sd_ar_nm * m.sd_ar_nm;
-        let q = var_ar * (1.0 - phi * phi);
-        let r = (m.sd_white_nm * m.sd_white_nm).max(1e-10);
-        let mut p = var_ar;
-        let mut gain = vec![0.0; n];
-        let mut inv_sqrt_s = vec![0.0; n];
-        let mut observed = vec![true; n];
-        let mut log_det = 0.0;
-        let mut n_obs = 0;
-        for t in 0..n {
-            let pp = if t == 0 { var_ar } else { phi * phi * p + q };
-            let obs = mask.is_none_or(|mk| mk[t]);
-            observed[t] = obs;
-            if obs {
-                let s = pp + r;
-                let k = pp / s;
-                gain[t] = k;
-                inv_sqrt_s[t] = 1.0 / s.sqrt();
-                log_det += s.ln();
-                n_obs += 1;
-                p = (1.0 - k) * pp;
-            } else {
-                p = pp;
-            }
-        }
-        WhitenPlan {
-            phi,
-            gain,
-            inv_sqrt_s,
-            observed,
-            log_det,
-            n_obs,
-        }
-    }
-
-    /// Number of observed samples.
-    pub fn n_obs(&self) -> usize {
-        self.n_obs
-    }
-
-    /// Whether sample `t` is observed.
-    pub fn observed(&self) -> &[bool] {
-        &self.observed
-    }
-
-    /// Whitens `e` into `out` (`ν_t/√S_t`; 0 at unobserved samples).
-    pub fn whiten(&self, e: &[f64], out: &mut [f64]) {
-        let mut x = 0.0;
-        for t in 0..e.len() {
-            let xp = self.phi * x;
-            if self.observed[t] {
-                let nu = e[t] - xp;
-                out[t] = nu * self.inv_sqrt_s[t];
-                x = xp + self.gain[t] * nu;
-            } else {
-                out[t] = 0.0;
-                x = xp;
-            }
-        }
-    }
-
-    /// Exact log-likelihood given the whitened residual's sum of squares.
-    pub fn log_likelihood(&self, whitened_ss: f64) -> f64 {
-        -0.5 * (self.n_obs as f64 * LN_2PI + self.log_det + whitened_ss)
-    }
-}
+/// Precomputed Kalman gains for one mask ([`muscle_model::WhitenPlan`]): whitening is then one
+/// pass per vector.
+pub type WhitenPlan = muscle_model::WhitenPlan;

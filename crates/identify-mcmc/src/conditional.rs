@@ -122,7 +122,7 @@ impl<'a> Conditional<'a> {
         for &(a, b) in &self.segments {
             let start = out.len();
             out.resize(start + (b - a), 0.0);
-            self.whitener.apply(&e[a..b], &mut out[start..]);
+            self.whitener.whiten(&e[a..b], &mut out[start..]);
         }
     }
 

@@ -44,6 +44,7 @@ pub mod error;
 mod fast;
 pub mod geometry;
 pub mod inputs;
+pub mod noise;
 pub mod params;
 pub mod problem;
 pub mod sensitivity;
@@ -54,6 +55,7 @@ pub mod unit;
 pub use effects::{EffectKind, Effects, ParamSpec};
 pub use error::ModelError;
 pub use inputs::TrialInputs;
+pub use noise::{Ar1White, MomentFit, WhitenPlan};
 pub use params::{ActivationParams, CurveParams, ModelParams, Muscle, MuscleParams};
 pub use problem::{
     Ar1Gaussian, GaussianIid, MuscleField, NoiseModel, ParamId, Problem, ProblemWorkspace,
