@@ -39,12 +39,8 @@ pub struct Args {
     /// Output folder (default `out/diagnose`).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// No progress display and no summary.
-    #[arg(long)]
-    pub quiet: bool,
-    /// Print `diagnosis.json` to standard output (the summary goes to standard error).
-    #[arg(long)]
-    pub json: bool,
+    #[command(flatten)]
+    pub report: super::ReportArgs,
 }
 
 /// Runs the command.
@@ -72,7 +68,7 @@ pub fn run(args: Args) -> CmdResult {
 
     let mut settings = DiagnoseSettings::default();
     settings.input_options.emg_is_envelope = args.emg_is_envelope;
-    let show = !args.quiet;
+    let show = args.report.show();
     let progress = Progress::new(show, 0, "diag");
     let mut observer = |p: &diagnose::Progress| {
         progress.message(format!("{} ({} simulations)", p.message, p.evaluations));
@@ -105,17 +101,9 @@ pub fn run(args: Args) -> CmdResult {
     let path = out.write("diagnosis.json", text.as_bytes())?;
     let files = write_figures(&out, &loaded.name, &loaded.trial.torque_nm, &inputs, &d)?;
 
-    if args.json {
-        print!("{text}");
-    }
+    args.report.print_json(&text);
     if show {
-        let say = |s: &str| {
-            if args.json {
-                eprintln!("{s}");
-            } else {
-                println!("{s}");
-            }
-        };
+        let say = |s: &str| args.report.say(s);
         say(&format!("diagnose: {}", loaded.name));
         if unloaded.is_none() {
             say("  (no unloaded run: the dynamometer's own error cannot be told from a torque offset)");

@@ -73,12 +73,8 @@ pub struct Args {
     /// Output folder (default `out/identify`).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// No progress display and no summary.
-    #[arg(long)]
-    pub quiet: bool,
-    /// Print `identify.json` to standard output (the summary goes to standard error).
-    #[arg(long)]
-    pub json: bool,
+    #[command(flatten)]
+    pub report: super::ReportArgs,
 }
 
 /// Reads a truth file: a parameters JSON, or an object with a `params` member.
@@ -227,7 +223,7 @@ pub fn run(args: Args) -> CmdResult {
         .unwrap_or_else(|| crate::default_out("identify"));
     let input_refs: Vec<&Path> = prep.inputs.iter().map(|p| p.as_path()).collect();
     let out = OutDir::prepare(&out_dir, &input_refs, PLANNED)?;
-    let show = !args.quiet;
+    let show = args.report.show();
     let Outcome {
         mut doc,
         lines,
@@ -272,17 +268,9 @@ pub fn run(args: Args) -> CmdResult {
         mcmc.as_ref(),
     )?);
 
-    if args.json {
-        print!("{text}");
-    }
+    args.report.print_json(&text);
     if show {
-        let say = |s: &str| {
-            if args.json {
-                eprintln!("{s}");
-            } else {
-                println!("{s}");
-            }
-        };
+        let say = |s: &str| args.report.say(s);
         for l in &lines {
             say(l);
         }

@@ -192,3 +192,42 @@ pub fn trial_inputs(
         }
     })
 }
+
+/// How a command reports: a progress display and summary (unless `--quiet`),
+/// and the JSON result on standard output with `--json`.
+#[derive(clap::Args, Debug, Clone, Copy, Default)]
+pub struct ReportArgs {
+    /// No progress display and no summary.
+    #[arg(long)]
+    pub quiet: bool,
+    /// Print the JSON result to standard output (the summary goes to standard error).
+    #[arg(long)]
+    pub json: bool,
+}
+
+impl ReportArgs {
+    /// Whether progress and the summary are shown.
+    pub fn show(&self) -> bool {
+        !self.quiet
+    }
+
+    /// Prints the JSON result when `--json` was given.
+    pub fn print_json(&self, text: &str) {
+        if self.json {
+            print!("{text}");
+        }
+    }
+
+    /// Prints a summary line: on standard output, or on standard error when
+    /// standard output carries the JSON; nothing with `--quiet`.
+    pub fn say(&self, line: &str) {
+        if self.quiet {
+            return;
+        }
+        if self.json {
+            eprintln!("{line}");
+        } else {
+            println!("{line}");
+        }
+    }
+}
