@@ -1,6 +1,6 @@
 //! Interval coverage over simulated trials with random true parameters.
 //!
-//! `cargo run --release -p identify-mcmc --example coverage -- [N=30] [ar1_white|ar1|iid]`
+//! `cargo run --release -p identify-mcmc --example coverage -- [N=30] [ar1_white|ar1|iid] [exact] [from=K]`
 //! synthesises N seed-protocol trials (seeds 1…N, truth drawn uniformly in the bounds by
 //! `experiment::random_params`, SPEC noise, unloaded run), identifies each with
 //! [`IdentifySettings::fast`] and the noise model estimated from the unloaded run, and prints
@@ -21,17 +21,37 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some("ar1") => NoiseKind::Ar1,
         _ => NoiseKind::Ar1White,
     };
+    // `exact`: correct the trial by the true systematic error instead of the unloaded run's
+    // estimate (isolates the estimate's share of any miscalibration).
+    let exact = args.iter().any(|a| a == "exact");
+    // `from=K`: seeds K…K+N−1 instead of 1…N.
+    let first: u64 = args
+        .iter()
+        .find_map(|a| a.strip_prefix("from="))
+        .map(str::parse)
+        .transpose()?
+        .unwrap_or(1);
     let ids = ParamId::identified();
     let mut hits = [0usize; 9];
     let mut width = [0.0f64; 9];
     let mut conv = 0;
     let start = std::time::Instant::now();
-    for seed in 1..=n {
+    for seed in first..first + n {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         let truth = random_params(&mut rng, &ModelParams::nominal());
-        let syn = synthesize(&SynthConfig::new("seed".parse()?, seed).with_params(truth))?;
+        let cfg = SynthConfig::new("seed".parse()?, seed).with_params(truth);
+        let syn = synthesize(&cfg)?;
         let problem = Problem::standard(syn.inputs.clone(), syn.trial.torque_nm.clone())?;
-        let noise = NoiseSpec::from_unloaded(&syn.trial, &syn.unloaded, kind)?;
+        let mut noise = NoiseSpec::from_unloaded(&syn.trial, &syn.unloaded, kind)?;
+        if exact {
+            let events =
+                experiment::noise::detect_events(&syn.trial.time_s, &syn.trial.ankle_angle_deg)?;
+            noise.systematic = Some(experiment::dynamometer::systematic_error(
+                &syn.trial.time_s,
+                &events.all(),
+                &cfg.dynamometer,
+            ));
+        }
         let res = identify(&problem, &noise, &IdentifySettings::fast(seed), |_| {
             ControlFlow::Continue(())
         })?;

@@ -1,20 +1,33 @@
-//! The sampling coordinates: F0 collapsed onto its exact Gaussian conditional, the rest whitened by a Laplace fit.
+//! The sampling coordinates: no walls, F0 on its exact truncated Gaussian conditional, the rest
+//! on the logit scale and whitened by a Laplace fit.
 //!
 //! The joint torque is linear in every muscle's F0 (the normalised tendon force does not depend
 //! on it): `τ = Σ_j F0_j·g_j(t; θ) + c(t; θ)`, `θ` the other parameters. With the whitening
 //! filter `W` of the noise model, `ỹ = W(y − c)`, `G̃ = W[g_j]`, `A = G̃ᵀG̃ = RRᵀ`,
 //! `f̂ = A⁻¹G̃ᵀỹ`, `RSS = ỹᵀỹ − ỹᵀG̃f̂`:
 //!
-//! `ℓ(θ, f) = N(θ) − ½·RSS(θ) − ½·|Rᵀ(f − f̂)|²`.
+//! `ℓ(θ, f) = N(θ) − ½·RSS(θ) − ½·(f − f̂)ᵀA(f − f̂)`,
 //!
-//! The sampler runs on `v = (z, u)` with `θ = θ̂ + L_θ·z` (`L_θ` the Cholesky factor of the
-//! Laplace covariance of `θ` at the optimum) and `f = c(θ) + R⁻ᵀ·u`, `c` = `f̂` clamped into the
-//! bounds (a shift for each `θ`, so the Jacobian is unchanged); then
-//! `log π(v) = ℓ + ln|det ∂(θ, f)/∂(z, u)| = N − ½RSS − ½|Rᵀ(c − f̂) + u|² − ln det R + const`:
-//! `u` is Gaussian with unit covariance given `θ` (up to the bounds), and near 0 even when the
-//! unconstrained `f̂` lies outside the bounds. This removes the curved ridge between
-//! F0 and the length parameters that a random walk in `(θ, f)` mixes across very slowly.
-//! Outside the bounds the density is 0 (`−∞`).
+//! so `f | θ ~ N(f̂, Σ)`, `Σ = A⁻¹ = LLᵀ`, truncated to the F0 box.
+//!
+//! **θ** (LST and α0 of every muscle): `θ_i = lo_i + w_i·σ(φ_i)`, `σ` the logistic function,
+//! `φ = φ_c + L_φ·z` with `L_φ` the Laplace factor of the best mode carried to the logit scale
+//! ([`Conditional::with_chol_logit`]); the Jacobian `Σ ln(w_i σ(1 − σ))` is added.
+//!
+//! **f** (F0): `f = f̂ + L·ω`, where `ω` comes from `u ∈ ℝ^p` by the GHK map (Geweke,
+//! Hajivassiliou, Keane): in turn for `k = 1..p`, `ω_k` is the standard normal truncated to the
+//! interval `[l_k, h_k]` that keeps `f_k` in its bounds given `ω_1..ω_{k−1}`, taken at probability
+//! level `Φ(u_k)`: `ω_k = Φ⁻¹(Φ(l_k) + Φ(u_k)·(Φ(h_k) − Φ(l_k)))`. The map is a bijection of
+//! `ℝ^p` onto the part of the F0 box, and its Jacobian gives
+//!
+//! `log π(z, u) = N − ½RSS − ln det R + Σ_k ln(Φ(h_k) − Φ(l_k)) − ½|u|² + Σ ln(w_i σ(1 − σ))`.
+//!
+//! Without truncation `u` is exactly standard normal and independent of θ; with it, the mass
+//! terms make the density smooth where the box cuts the conditional. Either way the sampler
+//! sees no hard wall: the uniform prior's box is the image of the whole space. (An earlier
+//! version sampled θ linearly and put F0 at `f̂` clamped plus `R⁻ᵀu`: about 28 % of its
+//! random-walk proposals landed outside the box, and on random truths the chains mixed five
+//! to ten times more slowly.)
 
 use std::cell::RefCell;
 
@@ -52,6 +65,11 @@ pub(crate) struct Point {
 pub(crate) struct Conditional<'a> {
     problem: &'a Problem,
     whitener: Whitener,
+    /// Prior sd `s` of a residual torque offset integrated out of the likelihood (0: none).
+    offset_sd: f64,
+    /// The whitened vector of ones `õ` (masked samples dropped) and `|õ|²`.
+    ones_w: Vec<f64>,
+    ones_ww: f64,
     /// Runs `[start, end)` of included samples (the whole trial without weights).
     segments: Vec<(usize, usize)>,
     /// Free-parameter indices of the nonlinear parameters θ.
@@ -59,6 +77,11 @@ pub(crate) struct Conditional<'a> {
     /// `(free index, muscle index)` of the F0 parameters.
     lin: Vec<(usize, usize)>,
     center: Vec<f64>,
+    /// Whether the nonlinear parameters are sampled on the logit scale (see
+    /// [`Conditional::with_chol_logit`]).
+    logit: bool,
+    /// Centre of the logit-scale coordinates `φ` (one per nonlinear parameter).
+    phi_center: Vec<f64>,
     /// Lower Cholesky factor of θ's Laplace covariance, row-major |nl|×|nl|.
     chol_nl: Vec<f64>,
     zbounds: Vec<(f64, f64)>,
@@ -68,6 +91,14 @@ impl<'a> Conditional<'a> {
     /// Build the target around `center` (inside the bounds) with box half-width `k`.
     /// Returns the target and the simulations used for the Laplace factor.
     pub fn new(problem: &'a Problem, noise: &Noise, center: &[f64], k: f64) -> (Self, u64) {
+        let mut target = Self::build(problem, noise, center, k);
+        let (chol, sims) = target.laplace_at(center);
+        target.chol_nl = chol;
+        (target, sims)
+    }
+
+    /// Everything but the scaling (`chol_nl` left empty).
+    fn build(problem: &'a Problem, noise: &Noise, center: &[f64], k: f64) -> Self {
         let n = problem.measured().len();
         let segments = match problem.weights() {
             None => vec![(0, n)],
@@ -101,19 +132,139 @@ impl<'a> Conditional<'a> {
             }
         }
         let d = center.len();
-        let mut target = Self {
+        Self {
             problem,
             whitener,
+            offset_sd: 0.0,
+            ones_w: Vec::new(),
+            ones_ww: 0.0,
             segments,
             nl,
             lin,
             center: center.to_vec(),
+            logit: false,
+            phi_center: Vec::new(),
             chol_nl: Vec::new(),
             zbounds: vec![(-k, k); d],
-        };
-        let (chol, sims) = target.laplace_nl();
-        target.chol_nl = chol;
-        (target, sims)
+        }
+    }
+
+    /// Integrate a residual constant torque offset `δ ~ N(0, sd²)` out of the likelihood (the
+    /// offset carried over from the unloaded run is itself an estimate). With `õ` the whitened
+    /// vector of ones and `κ = sd²/(1 + sd²|õ|²)`, the whitened residual's covariance
+    /// `I + sd²õõᵀ` turns every inner product `⟨a, b⟩` of the conditional into
+    /// `⟨a, b⟩ − κ⟨õ, a⟩⟨õ, b⟩`, and the normalisation loses `½ ln(1 + sd²|õ|²)`.
+    pub fn set_offset_sd(&mut self, sd: f64) {
+        self.offset_sd = if sd.is_finite() && sd > 0.0 { sd } else { 0.0 };
+        if self.offset_sd > 0.0 {
+            let ones = vec![1.0; self.problem.measured().len()];
+            let mut w = Vec::new();
+            self.whiten(&ones, &mut w);
+            self.ones_ww = w.iter().map(|v| v * v).sum();
+            self.ones_w = w;
+        } else {
+            self.ones_w.clear();
+            self.ones_ww = 0.0;
+        }
+    }
+
+    /// The target on the logit scale: every nonlinear parameter `θ_i ∈ (lo_i, hi_i)` is
+    /// `θ_i = lo_i + w_i·σ(φ_i)`, `σ` the logistic function, and `φ = φ_c + L_φ·z` with
+    /// `φ_c` the logit of `center` (each fraction clamped into [0.03, 0.97]) and
+    /// `L_φ = D⁻¹·chol_nl`, `D = diag(w_i·σ(1 − σ))` at `φ_c` (the Laplace factor carried
+    /// to the new scale). The log target gains the Jacobian `Σ ln(w_i·σ(φ_i)(1 − σ(φ_i)))`,
+    /// so the posterior is the same, but the prior box has no walls for `θ`: a uniform prior
+    /// becomes a smooth logistic density, and a random walk no longer wastes proposals
+    /// outside the box in the directions the data do not constrain.
+    pub fn with_chol_logit(
+        problem: &'a Problem,
+        noise: &Noise,
+        center: &[f64],
+        chol_nl: &[f64],
+        k: f64,
+    ) -> Self {
+        let mut t = Self::build(problem, noise, center, k);
+        t.phi_center =
+            t.nl.iter()
+                .map(|&i| {
+                    let (lo, hi) = problem.bounds()[i];
+                    let f = ((center[i] - lo) / (hi - lo)).clamp(0.03, 0.97);
+                    (f / (1.0 - f)).ln()
+                })
+                .collect();
+        t.chol_nl = t.phi_factor(center, chol_nl);
+        t.logit = true;
+        t
+    }
+
+    /// A factor `L` of θ's covariance at `x` carried to the logit scale: `D⁻¹L`,
+    /// `D = diag(w_i·f_i(1 − f_i))`, `f_i` the fraction of θ_i in its bounds clamped into
+    /// [0.03, 0.97].
+    pub fn phi_factor(&self, x: &[f64], chol_nl: &[f64]) -> Vec<f64> {
+        let m = self.nl.len();
+        let mut out = chol_nl.to_vec();
+        for (a, &i) in self.nl.iter().enumerate() {
+            let (lo, hi) = self.problem.bounds()[i];
+            let f = ((x[i] - lo) / (hi - lo)).clamp(0.03, 0.97);
+            let dd = (hi - lo) * f * (1.0 - f);
+            for v in &mut out[a * m..(a + 1) * m] {
+                *v /= dd;
+            }
+        }
+        out
+    }
+
+    /// The target without a Laplace factor: `θ = mid + diag(w/2)·z`, `mid` the middle of the
+    /// bounds and `w` their widths, so `z ∈ [−1, 1]` spans the box (the scout of the mode
+    /// search).
+    pub fn box_scaled(problem: &'a Problem, noise: &Noise) -> Self {
+        let center: Vec<f64> = problem
+            .bounds()
+            .iter()
+            .map(|(lo, hi)| 0.5 * (lo + hi))
+            .collect();
+        let mut t = Self::build(problem, noise, &center, 1.0);
+        let m = t.nl.len();
+        let mut chol = vec![0.0; m * m];
+        for (a, &i) in t.nl.iter().enumerate() {
+            let (lo, hi) = problem.bounds()[i];
+            chol[a * m + a] = 0.5 * (hi - lo);
+        }
+        t.chol_nl = chol;
+        t
+    }
+
+    /// Free-parameter indices of the nonlinear parameters (sampled in whitened coordinates).
+    pub fn nl(&self) -> &[usize] {
+        &self.nl
+    }
+
+    /// The lower Cholesky factor of the nonlinear parameters' scaling.
+    pub fn chol_nl(&self) -> &[f64] {
+        &self.chol_nl
+    }
+
+    /// Whitened coordinates of the nonlinear parameters of `x` (model vector):
+    /// `z = L⁻¹(θ − θ_centre)`, or `L⁻¹(φ(θ) − φ_c)` on the logit scale.
+    #[allow(clippy::needless_range_loop)] // triangular solve
+    pub fn z_of(&self, x: &[f64]) -> Vec<f64> {
+        let m = self.nl.len();
+        let mut z = vec![0.0; m];
+        for a in 0..m {
+            let i = self.nl[a];
+            let mut acc = if self.logit {
+                let (lo, hi) = self.problem.bounds()[i];
+                let f = ((x[i] - lo) / (hi - lo)).clamp(1e-12, 1.0 - 1e-12);
+                (f / (1.0 - f)).ln() - self.phi_center[a]
+            } else {
+                x[i] - self.center[i]
+            };
+            for b in 0..a {
+                acc -= self.chol_nl[a * m + b] * z[b];
+            }
+            z[a] = acc / self.chol_nl[a * m + a];
+        }
+        z
     }
 
     /// Whiten `e` segment by segment into `out` (masked samples dropped).
@@ -126,12 +277,12 @@ impl<'a> Conditional<'a> {
         }
     }
 
-    /// Cholesky factor of θ's block of `(Jᵀ_w J_w + diag(12/w²))⁻¹` at the centre: `J_w` the
+    /// Cholesky factor of θ's block of `(Jᵀ_w J_w + diag(12/w²))⁻¹` at `x` (a model vector): `J_w` the
     /// whitened Jacobian of the predicted torque (central differences of step `10⁻³·w`,
     /// one-sided at a bound), `diag(12/w²)` the precision of a Gaussian with the uniform
     /// prior's variance. The prior's diagonal if a simulation or a factorisation fails.
-    fn laplace_nl(&self) -> (Vec<f64>, u64) {
-        let x = &self.center;
+    pub fn laplace_at(&self, x: &[f64]) -> (Vec<f64>, u64) {
+        let x = &x.to_vec();
         let d = x.len();
         let bounds = self.problem.bounds();
         let widths: Vec<f64> = bounds.iter().map(|(lo, hi)| hi - lo).collect();
@@ -192,16 +343,29 @@ impl<'a> Conditional<'a> {
         });
         let m = self.nl.len();
         x.copy_from_slice(&self.center);
+        let mut log_jac = 0.0;
         for (a, &i) in self.nl.iter().enumerate() {
             let row = &self.chol_nl[a * m..=a * m + a];
-            x[i] += row
+            let lz = row
                 .iter()
                 .zip(&self.nl)
                 .map(|(l, &j)| l * v[j])
                 .sum::<f64>();
             let (lo, hi) = self.problem.bounds()[i];
-            if !(x[i] >= lo && x[i] <= hi) {
-                return outside;
+            if self.logit {
+                // θ = lo + w·σ(φ); ln σ = −softplus(−φ), ln(1 − σ) = −softplus(φ).
+                let phi = self.phi_center[a] + lz;
+                let softplus = |t: f64| t.max(0.0) + (-t.abs()).exp().ln_1p();
+                x[i] = lo + (hi - lo) / (1.0 + (-phi).exp());
+                log_jac += (hi - lo).ln() - softplus(-phi) - softplus(phi);
+                if !(x[i] > lo && x[i] < hi) {
+                    return outside;
+                }
+            } else {
+                x[i] += lz;
+                if !(x[i] >= lo && x[i] <= hi) {
+                    return outside;
+                }
             }
         }
         let (params, effects) = self.problem.params_from_vector(x).ok()?;
@@ -255,7 +419,25 @@ impl<'a> Conditional<'a> {
                 }
                 b[k] = s.gw[k].iter().zip(&s.yw).map(|(p, q)| p * q).sum();
             }
-            let yy: f64 = s.yw.iter().map(|v| v * v).sum();
+            let mut yy: f64 = s.yw.iter().map(|v| v * v).sum();
+            let mut log_offset = 0.0;
+            if self.offset_sd > 0.0 {
+                let s2 = self.offset_sd * self.offset_sd;
+                let kappa = s2 / (1.0 + s2 * self.ones_ww);
+                let oy: f64 = self.ones_w.iter().zip(&s.yw).map(|(o, y)| o * y).sum();
+                let mut og = [0.0; 3];
+                for (k, o) in og.iter_mut().enumerate().take(p) {
+                    *o = self.ones_w.iter().zip(&s.gw[k]).map(|(a, b)| a * b).sum();
+                }
+                for k in 0..p {
+                    for l in 0..p {
+                        a[k * p + l] -= kappa * og[k] * og[l];
+                    }
+                    b[k] -= kappa * og[k] * oy;
+                }
+                yy -= kappa * oy * oy;
+                log_offset = -0.5 * (s2 * self.ones_ww).ln_1p();
+            }
             let r = cholesky(&a[..p * p], p)?;
             // f̂ = A⁻¹b via R w = b, Rᵀ f̂ = w; RSS = yy − |w|².
             let mut w = [0.0; 3];
@@ -267,36 +449,28 @@ impl<'a> Conditional<'a> {
                 w[k] = acc / r[k * p + k];
             }
             let rss = yy - w[..p].iter().map(|v| v * v).sum::<f64>();
-            // f̂ from Rᵀ f̂ = w; centre c = f̂ clamped into the bounds; f = c + R⁻ᵀ u, so that
-            // Rᵀ(f − f̂) = Rᵀ(c − f̂) + u =: q and |ỹ − G̃f|² = RSS + |q|².
+            // f̂ from Rᵀ f̂ = w. The conditional f | θ is N(f̂, Σ), Σ = A⁻¹ = L Lᵀ, truncated to
+            // the box; f = f̂ + L ω with ω from the GHK map of u (module documentation).
             let mut fh = [0.0; 3];
             solve_upper(&r, p, &w, &mut fh);
-            let mut c = [0.0; 3];
-            let mut uvec = [0.0; 3];
-            for (k, &(i, _)) in self.lin.iter().enumerate() {
-                let (lo, hi) = self.problem.bounds()[i];
-                c[k] = fh[k].clamp(lo, hi);
-                uvec[k] = v[i];
-            }
-            let mut delta = [0.0; 3];
-            solve_upper(&r, p, &uvec, &mut delta);
-            let mut f = [0.0; 3];
+            let sigma_l = conditional_factor(&r, p)?;
+            let mut omega = [0.0; 3];
+            let mut log_mass = 0.0;
             let mut uu = 0.0;
-            for k in 0..p {
-                f[k] = c[k] + delta[k];
-                let rt: f64 = (k..p).map(|l| r[l * p + k] * (c[l] - fh[l])).sum();
-                let q = rt + uvec[k];
-                uu += q * q;
-            }
-            let mut log_det_r = 0.0;
             for (k, &(i, _)) in self.lin.iter().enumerate() {
-                x[i] = f[k];
-                log_det_r += r[k * p + k].ln();
                 let (lo, hi) = self.problem.bounds()[i];
-                if !(f[k] >= lo && f[k] <= hi) {
-                    return outside;
-                }
+                let shift: f64 = fh[k] + (0..k).map(|j| sigma_l[k * p + j] * omega[j]).sum::<f64>();
+                let lkk = sigma_l[k * p + k];
+                let (wl, wh) = ((lo - shift) / lkk, (hi - shift) / lkk);
+                let u = v[i];
+                uu += u * u;
+                let (om, mass) = ghk_step(wl, wh, crate::normal::cdf(u))?;
+                omega[k] = om;
+                log_mass += mass.ln();
+                x[i] = (shift + lkk * om).clamp(lo, hi);
             }
+            let ww: f64 = omega[..p].iter().map(|v| v * v).sum();
+            let log_det_r: f64 = (0..p).map(|k| r[k * p + k].ln()).sum();
             let n_used: usize = self.segments.iter().map(|(a, b)| b - a).sum();
             let norm: f64 = if self.segments.len() == 1 {
                 self.whitener.log_norm(n_used)
@@ -305,10 +479,11 @@ impl<'a> Conditional<'a> {
                     .iter()
                     .map(|(a, b)| self.whitener.log_norm(b - a))
                     .sum()
-            };
-            let ll = norm - 0.5 * (rss.max(0.0) + uu);
-            ll.is_finite().then_some(Point {
-                log_target: ll - log_det_r,
+            } + log_offset;
+            let ll = norm - 0.5 * (rss.max(0.0) + ww);
+            let log_target = norm - 0.5 * rss.max(0.0) - log_det_r + log_mass - 0.5 * uu + log_jac;
+            (ll.is_finite() && !log_target.is_nan()).then_some(Point {
+                log_target,
                 log_likelihood: ll,
             })
         })
@@ -342,6 +517,49 @@ impl LogDensity for Conditional<'_> {
         self.eval(v, report)
             .map(|p| (p.log_target, p.log_likelihood))
     }
+}
+
+/// The lower Cholesky factor `L` of `Σ = A⁻¹` for `A = R Rᵀ` (`R` lower triangular, row-major
+/// `p×p`, `p ≤ 3`): `Σ = R⁻ᵀ R⁻¹`, then its Cholesky factor. `None` if not positive definite.
+fn conditional_factor(r: &[f64], p: usize) -> Option<[f64; 9]> {
+    // R⁻¹ (lower triangular) by forward substitution on the identity.
+    let mut ri = [0.0; 9];
+    for col in 0..p {
+        for row in col..p {
+            let mut acc = if row == col { 1.0 } else { 0.0 };
+            for k in col..row {
+                acc -= r[row * p + k] * ri[k * p + col];
+            }
+            ri[row * p + col] = acc / r[row * p + row];
+        }
+    }
+    let mut sigma = [0.0; 9];
+    for i in 0..p {
+        for j in 0..p {
+            sigma[i * p + j] = (0..p).map(|k| ri[k * p + i] * ri[k * p + j]).sum();
+        }
+    }
+    let l = cholesky(&sigma[..p * p], p)?;
+    let mut out = [0.0; 9];
+    out[..p * p].copy_from_slice(&l);
+    Some(out)
+}
+
+/// One step of the GHK map: the standard normal truncated to `[lo, hi]` at probability level
+/// `q ∈ (0, 1)`, and the interval's mass `Φ(hi) − Φ(lo)`. Computed on the upper tail when
+/// `lo > 0` so that far-tail intervals keep their precision. `None` when the mass underflows.
+fn ghk_step(lo: f64, hi: f64, q: f64) -> Option<(f64, f64)> {
+    use crate::normal::{cdf, quantile};
+    let (w, mass) = if lo > 0.0 {
+        let (ql, qh) = (cdf(-lo), cdf(-hi));
+        let mass = ql - qh;
+        (-quantile(ql - q * mass), mass)
+    } else {
+        let (pl, ph) = (cdf(lo), cdf(hi));
+        let mass = ph - pl;
+        (quantile(pl + q * mass), mass)
+    };
+    (mass > 0.0 && w.is_finite()).then_some((w.clamp(lo, hi), mass))
 }
 
 /// Solve `Rᵀ x = b` for the lower-triangular `R` (row-major p×p).

@@ -27,8 +27,10 @@ use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
 use crate::conditional::Conditional;
+use crate::mixture::{ComponentSpec, MixtureProposal};
+use crate::modes::{find_modes, Mode};
 use crate::noise::{NoiseKind, NoiseParams};
-use crate::{run_with_observer, LogDensity, McmcError, Progress, RunResult, Settings, StopReason};
+use crate::{run_with_proposal, LogDensity, McmcError, Progress, RunResult, Settings, StopReason};
 
 /// Where the likelihood's noise model comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -50,10 +52,25 @@ pub struct NoiseSpec {
     pub systematic: Option<Vec<f64>>,
     /// The random part.
     pub source: NoiseSource,
+    /// Prior sd of a constant torque offset left after the correction, integrated out of the
+    /// likelihood (N·m; 0: none). The unloaded run's offset is an estimate: over 12 synthetic
+    /// seed-protocol trials its error was −0.10 ± 0.09 N·m and the trial's remainder kept a mean
+    /// of +0.16 ± 0.14 N·m (`cargo run --release -p identify-mcmc --example offset_check`);
+    /// left in, such an offset biases LST and α0 by about their posterior sd.
+    #[serde(default)]
+    pub offset_sd_nm: f64,
     /// Lags `1..=max_lag` used by moment fits of [`NoiseKind::Ar1White`] (at 2048 Hz, 20 lags
     /// ≈ 10 ms, a third of the SPEC's 30 ms correlation time).
     pub max_lag: usize,
 }
+
+/// [`NoiseSpec::offset_sd_nm`] after the unloaded run's correction (N·m): a few times the
+/// offset errors measured on synthetic trials.
+pub const UNLOADED_OFFSET_SD_NM: f64 = 0.5;
+
+/// [`NoiseSpec::offset_sd_nm`] without an unloaded run (N·m): the dynamometer's offset is then
+/// not removed at all (the SPEC's nominal is −1.5 N·m).
+pub const NO_UNLOADED_OFFSET_SD_NM: f64 = 5.0;
 
 /// Default lags of the [`NoiseKind::Ar1White`] moment fit.
 pub const DEFAULT_MAX_LAG: usize = 20;
@@ -64,6 +81,7 @@ impl NoiseSpec {
         Self {
             systematic,
             source: NoiseSource::Fixed(noise),
+            offset_sd_nm: 0.0,
             max_lag: DEFAULT_MAX_LAG,
         }
     }
@@ -74,6 +92,7 @@ impl NoiseSpec {
         Self {
             systematic: None,
             source: NoiseSource::FromResidual(kind),
+            offset_sd_nm: NO_UNLOADED_OFFSET_SD_NM,
             max_lag: DEFAULT_MAX_LAG,
         }
     }
@@ -109,7 +128,10 @@ impl NoiseSpec {
             },
         };
         noise.model()?;
-        Ok(Self::fixed(noise, Some(systematic)))
+        Ok(Self {
+            offset_sd_nm: UNLOADED_OFFSET_SD_NM,
+            ..Self::fixed(noise, Some(systematic))
+        })
     }
 
     /// Fit `kind` to an unloaded run's torque `unloaded_torque` after removing its systematic
@@ -138,7 +160,15 @@ impl NoiseSpec {
         let mean = rem.iter().sum::<f64>() / rem.len().max(1) as f64;
         let rem: Vec<f64> = rem.iter().map(|v| v - mean).collect();
         let noise = NoiseParams::fit(kind, &rem, DEFAULT_MAX_LAG)?;
-        Ok(Self::fixed(noise, trial_systematic))
+        let offset_sd_nm = if trial_systematic.is_some() {
+            UNLOADED_OFFSET_SD_NM
+        } else {
+            NO_UNLOADED_OFFSET_SD_NM
+        };
+        Ok(Self {
+            offset_sd_nm,
+            ..Self::fixed(noise, trial_systematic)
+        })
     }
 }
 
@@ -148,8 +178,33 @@ impl NoiseSpec {
 pub struct IdentifySettings {
     /// The sampler (seed, chains, warm-up, caps, targets).
     pub mcmc: Settings,
-    /// Budget of the preliminary Nelder–Mead fit (0: start from the base values).
+    /// Nelder–Mead budget of each start of the mode search (and of the preliminary fit when
+    /// the noise model comes from the residual).
     pub nelder_mead_evaluations: u64,
+    /// Starts of the mode search (module `modes`: the middle of the bounds and Latin-hypercube
+    /// points); 0 skips the search and centres everything on the base values.
+    #[serde(default = "default_mode_starts")]
+    pub mode_starts: usize,
+    /// A second optimum is kept as a mode when its marginal log density is within this much
+    /// of the best one (mass ratio `e^−gap`).
+    #[serde(default = "default_mode_gap")]
+    pub mode_gap: f64,
+    /// Probability of a mode-jumping step (an independence draw of the nonlinear parameters
+    /// from a Student-t mixture on the modes, [`crate::MixtureProposal`]) instead of a
+    /// random-walk step; 0 turns it off.
+    #[serde(default = "default_jump_probability")]
+    pub jump_probability: f64,
+    /// Degrees of freedom of the mixture components.
+    #[serde(default = "default_jump_nu")]
+    pub jump_nu: f64,
+    /// Scale of each component relative to its mode's Laplace standard deviations (and to
+    /// its cluster's standard deviations after a refit).
+    #[serde(default = "default_jump_inflation")]
+    pub jump_inflation: f64,
+    /// During warm-up the jump mixture is refitted to the pooled warm-up states with up to
+    /// this many k-means clusters ([`crate::MixtureProposal::with_refit`]); 0 keeps the modes.
+    #[serde(default = "default_jump_refit")]
+    pub jump_refit_components: usize,
     /// Start dispersion: chain starts are `z ~ N(0, spread²·I)` in whitened coordinates (1 = the
     /// Laplace posterior's own spread), redrawn while outside the bounds.
     pub start_spread: f64,
@@ -164,6 +219,25 @@ pub struct IdentifySettings {
     pub z_half_width: f64,
 }
 
+fn default_mode_starts() -> usize {
+    12
+}
+fn default_mode_gap() -> f64 {
+    12.0
+}
+fn default_jump_probability() -> f64 {
+    0.2
+}
+fn default_jump_nu() -> f64 {
+    4.0
+}
+fn default_jump_inflation() -> f64 {
+    1.3
+}
+fn default_jump_refit() -> usize {
+    4
+}
+
 impl Default for IdentifySettings {
     /// 4 chains, warm-up ≥ 1 000 and checks every 500 iterations, cap 100 000 iterations per
     /// chain; Nelder–Mead budget 3 000; starts `z ~ N(0, 1.5²I)`; 5 correlations; `K = 20`; monitor margin 1.
@@ -175,7 +249,13 @@ impl Default for IdentifySettings {
                 max_total: 100_000,
                 ..Settings::default()
             },
-            nelder_mead_evaluations: 3_000,
+            nelder_mead_evaluations: 600,
+            mode_starts: default_mode_starts(),
+            mode_gap: default_mode_gap(),
+            jump_probability: default_jump_probability(),
+            jump_nu: default_jump_nu(),
+            jump_inflation: default_jump_inflation(),
+            jump_refit_components: default_jump_refit(),
             start_spread: 1.5,
             correlations: 5,
             z_half_width: 20.0,
@@ -200,7 +280,6 @@ impl IdentifySettings {
                 ess_target: 150.0,
                 ..d.mcmc
             },
-            nelder_mead_evaluations: 1_500,
             ..d
         }
     }
@@ -251,6 +330,97 @@ pub struct NamedCorrelation {
     pub r: f64,
 }
 
+/// One mode of the marginal posterior of the nonlinear parameters.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ModeInfo {
+    /// Model parameters at the mode (F0 at its conditional optimum), in vector order.
+    pub x: Vec<f64>,
+    /// `ln p(θ_best) − ln p(θ_mode)` of the marginal posterior (0 for the best mode).
+    pub log_density_gap: f64,
+    /// Weight of the mode's component in the jump proposal.
+    pub weight: f64,
+}
+
+/// The jump proposal of `modes` in `target`'s whitened coordinates: component `m` has mean
+/// `z_m = L⁻¹(θ_m − θ_best)` and covariance `s²·(L⁻¹L_m)(L⁻¹L_m)ᵀ` (`s` the inflation),
+/// weight `0.7·w_m/Σw + 0.3/M` with the Laplace mass `w_m = p(θ_m)·det L_m`.
+fn mode_mixture(
+    target: &Conditional<'_>,
+    modes: &[Mode],
+    settings: &IdentifySettings,
+) -> Result<(MixtureProposal, Vec<ModeInfo>), McmcError> {
+    let nl = target.nl().to_vec();
+    let m = nl.len();
+    let lb = target.chol_nl();
+    let best_ld = modes[0].log_density;
+    let log_det = |l: &[f64]| (0..m).map(|i| l[i * m + i].ln()).sum::<f64>();
+    let ld0 = log_det(&modes[0].chol_nl);
+    let mut raw: Vec<f64> = modes
+        .iter()
+        .map(|md| {
+            let gap = md.log_density - best_ld;
+            let w = (gap + log_det(&md.chol_nl) - ld0).exp();
+            if w.is_finite() && w > 0.0 {
+                w
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let total: f64 = raw.iter().sum();
+    let n = modes.len() as f64;
+    for w in raw.iter_mut() {
+        *w = 0.7 * *w / total + 0.3 / n;
+    }
+    let s2 = settings.jump_inflation * settings.jump_inflation;
+    let mut specs = Vec::with_capacity(modes.len());
+    for (md, &w) in modes.iter().zip(&raw) {
+        // A = L_best⁻¹ L_m (both on the sampling scale), column by column.
+        let lm = target.phi_factor(&md.x, &md.chol_nl);
+        let mut a = vec![0.0; m * m];
+        for col in 0..m {
+            for r in 0..m {
+                let mut acc = lm[r * m + col];
+                for b in 0..r {
+                    acc -= lb[r * m + b] * a[b * m + col];
+                }
+                a[r * m + col] = acc / lb[r * m + r];
+            }
+        }
+        let mut cov = vec![0.0; m * m];
+        for i in 0..m {
+            for j in 0..m {
+                cov[i * m + j] = s2 * (0..m).map(|k| a[i * m + k] * a[j * m + k]).sum::<f64>();
+            }
+        }
+        specs.push(ComponentSpec {
+            weight: w,
+            mean: target.z_of(&md.x),
+            cov,
+        });
+    }
+    let mixture = MixtureProposal::new(
+        nl,
+        &specs,
+        settings.jump_nu,
+        settings.jump_probability.clamp(0.0, 1.0),
+    )?;
+    let info = modes
+        .iter()
+        .zip(&raw)
+        .map(|(md, &w)| ModeInfo {
+            x: md.x.clone(),
+            log_density_gap: if best_ld.is_finite() {
+                best_ld - md.log_density
+            } else {
+                0.0
+            },
+            weight: w,
+        })
+        .collect();
+    Ok((mixture, info))
+}
+
 /// What [`identify`] found.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct McmcIdentification {
@@ -282,8 +452,14 @@ pub struct McmcIdentification {
     pub evaluations: u64,
     /// Failed simulations among them (rejected proposals).
     pub failed_evaluations: u64,
-    /// The Nelder–Mead optimum the chains started around.
+    /// The best mode found by the multi-start search (the centre of the sampling coordinates).
     pub optimum: Vec<f64>,
+    /// Every mode the search kept, best first.
+    #[serde(default)]
+    pub modes: Vec<ModeInfo>,
+    /// Mean acceptance rate of the mode-jumping steps during sampling (NaN when off).
+    #[serde(default)]
+    pub jump_acceptance_rate: f64,
     /// RMS torque error at the posterior mean against the torque as measured (N·m).
     pub rms_nm: f64,
     /// RMS at the posterior mean against the corrected torque (measured − systematic).
@@ -412,35 +588,27 @@ where
     let mut evaluations = 0u64;
     let mut failed = 0u64;
 
-    // Preliminary least-squares fit.
-    let base = corrected.base_vector();
-    let x0: Vec<f64> = base
-        .iter()
-        .zip(&bounds)
-        .map(|(v, (lo, hi))| v.clamp(*lo, *hi))
-        .collect();
-    let optimum = if settings.nelder_mead_evaluations > 0 {
-        let mut objective = FnObjective::new(bounds.clone(), |x: &[f64]| corrected.sse(x).ok());
-        let nm = NelderMeadSettings {
-            max_evaluations: settings.nelder_mead_evaluations,
-            ..NelderMeadSettings::default()
-        };
-        let out = nelder_mead(&mut objective, &x0, &nm).map_err(|e| McmcError::Start {
-            reason: e.to_string(),
-        })?;
-        evaluations += out.evaluations;
-        failed += out.failed_evaluations;
-        out.x
-    } else {
-        x0
-    };
-
-    // Noise model.
+    // Noise model (a preliminary least-squares fit only when it comes from the residual).
     let noise_params = match noise.source {
         NoiseSource::Fixed(p) => p,
         NoiseSource::FromResidual(kind) => {
-            let pred = corrected.predict(&optimum)?;
-            evaluations += 1;
+            let base = corrected.base_vector();
+            let x0: Vec<f64> = base
+                .iter()
+                .zip(&bounds)
+                .map(|(v, (lo, hi))| v.clamp(*lo, *hi))
+                .collect();
+            let mut objective = FnObjective::new(bounds.clone(), |x: &[f64]| corrected.sse(x).ok());
+            let nm = NelderMeadSettings {
+                max_evaluations: settings.nelder_mead_evaluations.max(1) * 5,
+                ..NelderMeadSettings::default()
+            };
+            let out = nelder_mead(&mut objective, &x0, &nm).map_err(|e| McmcError::Start {
+                reason: e.to_string(),
+            })?;
+            evaluations += out.evaluations + 1;
+            failed += out.failed_evaluations;
+            let pred = corrected.predict(&out.x)?;
             let r: Vec<f64> = corrected
                 .measured()
                 .iter()
@@ -454,24 +622,71 @@ where
     };
     let noise_model = noise_params.model()?;
 
-    // Sampling coordinates: F0 on its exact conditional, the rest Laplace-whitened.
+    // Modes of the marginal posterior of the nonlinear parameters.
     let k = settings.z_half_width;
-    let (target, sims) = Conditional::new(&corrected, &noise_model, &optimum, k);
-    evaluations += sims;
+    let modes = if settings.mode_starts > 0 {
+        let search = find_modes(
+            &corrected,
+            &noise_model,
+            settings.mode_starts,
+            settings.nelder_mead_evaluations.max(1),
+            settings.mcmc.seed,
+            settings.mode_gap,
+            noise.offset_sd_nm,
+        );
+        evaluations += search.evaluations;
+        failed += search.failed;
+        search.modes
+    } else {
+        let x0: Vec<f64> = corrected
+            .base_vector()
+            .iter()
+            .zip(&bounds)
+            .map(|(v, (lo, hi))| v.clamp(*lo, *hi))
+            .collect();
+        let (t, sims) = Conditional::new(&corrected, &noise_model, &x0, k);
+        evaluations += sims;
+        vec![Mode {
+            x: x0,
+            log_density: f64::NAN,
+            chol_nl: t.chol_nl().to_vec(),
+        }]
+    };
+    let best = &modes[0];
+    let optimum = best.x.clone();
 
-    // Dispersed starts z ~ N(0, spread²·I) (seed's stream 0; chains use streams 1..).
+    // Sampling coordinates: F0 on its exact conditional, the rest whitened by the best mode's
+    // Laplace factor; the mixture of all modes proposes the jumps.
+    let mut target =
+        Conditional::with_chol_logit(&corrected, &noise_model, &best.x, &best.chol_nl, k);
+    target.set_offset_sd(noise.offset_sd_nm);
+    let (mixture, mode_info) = mode_mixture(&target, &modes, settings)?;
+
+    // Dispersed starts: chain c from mixture component c (mod the number of modes), u ~
+    // N(0, spread²) (seed's stream 0; chains use streams 1..).
     let mut rng = ChaCha8Rng::seed_from_u64(settings.mcmc.seed);
     rng.set_stream(0);
+    let nl = target.nl().to_vec();
     let mut inits = Vec::with_capacity(settings.mcmc.n_chains);
-    for _ in 0..settings.mcmc.n_chains {
+    for c in 0..settings.mcmc.n_chains {
         let mut chosen = vec![0.0; d];
         for _ in 0..50 {
-            let cand: Vec<f64> = (0..d)
+            let mut cand: Vec<f64> = (0..d)
                 .map(|_| {
                     let z: f64 = StandardNormal.sample(&mut rng);
-                    (settings.start_spread * z).clamp(-k, k)
+                    settings.start_spread * z
                 })
                 .collect();
+            if settings.start_spread > 0.0 {
+                mixture.sample_component(c, &mut rng, &mut cand);
+            } else {
+                for &i in &nl {
+                    cand[i] = 0.0;
+                }
+            }
+            for v in cand.iter_mut() {
+                *v = v.clamp(-k, k);
+            }
             evaluations += 1;
             if target.log_density(&cand).is_some_and(f64::is_finite) {
                 chosen = cand;
@@ -495,7 +710,9 @@ where
         rhat_target: 1.0 + (settings.mcmc.rhat_target - 1.0) / margin,
         ..settings.mcmc
     };
-    let mut run = run_with_observer(&target, &inner, Some(&inits), observer)?;
+    let mixture = mixture.with_refit(settings.jump_refit_components, settings.jump_inflation);
+    let jumps = (settings.jump_probability > 0.0).then_some(&mixture);
+    let mut run = run_with_proposal(&target, &inner, Some(&inits), jumps, observer)?;
     run.settings = settings.mcmc;
     evaluations += run.evaluations;
     failed += run.failed_evaluations;
@@ -564,6 +781,20 @@ where
         evaluations,
         failed_evaluations: failed,
         optimum,
+        modes: mode_info,
+        jump_acceptance_rate: {
+            let j: Vec<f64> = run
+                .jump_acceptance_rate
+                .iter()
+                .copied()
+                .filter(|v| v.is_finite())
+                .collect();
+            if j.is_empty() {
+                f64::NAN
+            } else {
+                j.iter().sum::<f64>() / j.len() as f64
+            }
+        },
         rms_nm,
         rms_corrected_nm,
         noise: noise_params,

@@ -71,9 +71,14 @@
 //! likelihood `ℓ = −½Σ(ln 2πF_t + v_t²/F_t)` comes from the scalar Kalman filter
 //! (innovations `v_t`, variances `F_t`). The measured torque is first corrected by the
 //! cycle-locked systematic error estimated from the unloaded run ([`NoiseSpec::from_unloaded`]).
-//! The chains run in coordinates where F0 sits on its exact Gaussian conditional and the other
-//! parameters are whitened by a Laplace fit (module `conditional`), which removes the curved
-//! F0–length ridge. Every step also yields the model's parameters
+//! Before sampling, a multi-start Nelder–Mead search (module `modes`) finds the modes of the
+//! posterior of the nonlinear parameters (F0 integrated out exactly). The chains then run in
+//! coordinates without walls (module `conditional`): LST and α0 on the logit scale of their
+//! bounds, whitened by the best mode's Laplace fit, and F0 on its exact truncated Gaussian
+//! conditional through the GHK map, which removes the curved F0–length ridge. Each step is,
+//! with probability `jump_probability`, an independence proposal from a Student-t mixture on
+//! the modes (refitted by k-means to the pooled warm-up states; [`MixtureProposal`]) and
+//! otherwise the adaptive random walk; the chains start from draws of that mixture. Every step also yields the model's parameters
 //! ([`LogDensity::evaluate`]), so the chains store, monitor (R̂, ESS) and report those directly.
 //!
 //! # Example
@@ -101,6 +106,8 @@
 mod conditional;
 pub mod diagnostics;
 pub mod identify;
+pub mod mixture;
+mod modes;
 pub mod noise;
 pub mod normal;
 mod sampler;
@@ -108,14 +115,18 @@ mod settings;
 mod summary;
 mod target;
 
-pub use sampler::{run, run_with_observer, Phase, Progress, RunResult, StopReason, MAX_INIT_TRIES};
+pub use mixture::{ComponentSpec, MixtureProposal};
+pub use sampler::{
+    run, run_with_observer, run_with_proposal, Phase, Progress, RunResult, StopReason,
+    MAX_INIT_TRIES,
+};
 pub use settings::{Proposal, Settings};
 pub use summary::{correlation_matrix, strongest_correlations, CorrelationPair, Summary};
 pub use target::{FnLogDensity, LogDensity};
 
 pub use identify::{
-    identify, IdentifySettings, McmcIdentification, NamedCorrelation, NoiseSource, NoiseSpec,
-    ParamPosterior, DEFAULT_MAX_LAG,
+    identify, IdentifySettings, McmcIdentification, ModeInfo, NamedCorrelation, NoiseSource,
+    NoiseSpec, ParamPosterior, DEFAULT_MAX_LAG, NO_UNLOADED_OFFSET_SD_NM, UNLOADED_OFFSET_SD_NM,
 };
 pub use noise::{Ar1White, Noise, NoiseKind, NoiseParams};
 

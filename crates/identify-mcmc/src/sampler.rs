@@ -8,6 +8,7 @@ use rand_distr::StandardNormal;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use crate::mixture::MixtureProposal;
 use crate::summary::{correlation_matrix, strongest_correlations, CorrelationPair, Summary};
 use crate::{diagnostics, LogDensity, McmcError, Proposal, Settings};
 
@@ -80,12 +81,20 @@ pub struct RunResult {
     pub acceptance_rate: Vec<f64>,
     /// Acceptance rate of every chain during warm-up.
     pub warmup_acceptance_rate: Vec<f64>,
+    /// Acceptance rate of the mixture (mode-jumping) steps of every chain during sampling
+    /// (NaN without a mixture proposal).
+    #[serde(default)]
+    pub jump_acceptance_rate: Vec<f64>,
     /// Calls of `log_density` over all chains (start-point search included).
     pub evaluations: u64,
     /// Calls that failed (`None`, NaN or +∞): rejected proposals.
     pub failed_evaluations: u64,
     /// Proposals outside the bounds (rejected without evaluation).
     pub out_of_bounds: u64,
+    /// Proposals where the target returned a zero density (`−∞`; e.g. outside the prior box
+    /// of a target sampled in transformed coordinates).
+    #[serde(default)]
+    pub zero_density: u64,
     /// Largest `|coordinate|` of any state the chains visited during sampling, in the
     /// sampler's own coordinates.
     pub max_abs_coordinate: f64,
@@ -235,6 +244,7 @@ struct Context<'a> {
     upper: Vec<f64>,
     widths: Vec<f64>,
     settings: &'a Settings,
+    mixture: Option<MixtureProposal>,
 }
 
 #[derive(Default, Clone, Copy)]
@@ -269,15 +279,21 @@ struct Chain {
     adapt: Adaptation,
     /// Warm-up draws, `[parameter][draw]`.
     warm: Vec<Vec<f64>>,
+    /// Warm-up states in sampler coordinates, the mixture's coordinates only (kept when the
+    /// mixture refits), `[draw][coordinate]`.
+    warm_x: Vec<Vec<f64>>,
     /// Sampling draws, `[parameter][draw]`.
     samp: Vec<Vec<f64>>,
     samp_lp: Vec<f64>,
     phase_iter: usize,
     warm_counts: Counters,
     samp_counts: Counters,
+    /// Mixture (mode-jumping) steps of the sampling phase.
+    jump_counts: Counters,
     evaluations: u64,
     failed: u64,
     out_of_bounds: u64,
+    zero_density: u64,
 }
 
 impl Chain {
@@ -356,19 +372,41 @@ impl Chain {
             max_abs: 0.0,
             adapt: Adaptation::new(&ctx.widths),
             warm: vec![Vec::new(); d],
+            warm_x: Vec::new(),
             samp: vec![Vec::new(); d],
             samp_lp: Vec::new(),
             phase_iter: 0,
             warm_counts: Counters::default(),
             samp_counts: Counters::default(),
+            jump_counts: Counters::default(),
             evaluations,
             failed,
             out_of_bounds: 0,
+            zero_density: 0,
         })
     }
 
-    /// One Metropolis–Hastings step; returns `(acceptance probability, accepted)`.
-    fn step<T: LogDensity + ?Sized>(&mut self, target: &T, ctx: &Context<'_>) -> (f64, bool) {
+    /// One Metropolis–Hastings step; returns `(acceptance probability, accepted, mixture step)`.
+    fn step<T: LogDensity + ?Sized>(&mut self, target: &T, ctx: &Context<'_>) -> (f64, bool, bool) {
+        // ln q(x) − ln q(y) of an independence step (0 for the symmetric random walk).
+        let mut log_q_ratio = 0.0;
+        let jump = match &ctx.mixture {
+            Some(mix) if mix.probability() > 0.0 => self.rng.random::<f64>() < mix.probability(),
+            _ => false,
+        };
+        if let (true, Some(mix)) = (jump, &ctx.mixture) {
+            self.y.copy_from_slice(&self.x);
+            mix.sample(&mut self.rng, &mut self.y);
+            log_q_ratio = mix.log_density(&self.x) - mix.log_density(&self.y);
+        } else {
+            self.random_walk(ctx);
+        }
+        let (alpha, accepted) = self.accept(target, ctx, log_q_ratio);
+        (alpha, accepted, jump)
+    }
+
+    /// Write the random-walk proposal into `y`.
+    fn random_walk(&mut self, ctx: &Context<'_>) {
         let d = self.x.len();
         match ctx.settings.proposal {
             Proposal::Dissertation { scale } => {
@@ -389,6 +427,15 @@ impl Chain {
                 }
             }
         }
+    }
+
+    /// Accept or reject the proposal in `y` given `ln q(x) − ln q(y)`.
+    fn accept<T: LogDensity + ?Sized>(
+        &mut self,
+        target: &T,
+        ctx: &Context<'_>,
+        log_q_ratio: f64,
+    ) -> (f64, bool) {
         let inside = self
             .y
             .iter()
@@ -401,8 +448,10 @@ impl Chain {
         self.evaluations += 1;
         match target.evaluate(&self.y, &mut self.ry) {
             Some((v, stored)) if v.is_finite() => {
-                let log_ratio = v - self.lp;
-                let alpha = if log_ratio >= 0.0 {
+                let log_ratio = v - self.lp + log_q_ratio;
+                let alpha = if log_ratio.is_nan() {
+                    0.0
+                } else if log_ratio >= 0.0 {
                     1.0
                 } else {
                     log_ratio.exp()
@@ -418,7 +467,10 @@ impl Chain {
                     (alpha, false)
                 }
             }
-            Some((v, _)) if v == f64::NEG_INFINITY => (0.0, false),
+            Some((v, _)) if v == f64::NEG_INFINITY => {
+                self.zero_density += 1;
+                (0.0, false)
+            }
             _ => {
                 self.failed += 1;
                 (0.0, false)
@@ -445,14 +497,19 @@ impl Chain {
             }
         }
         for _ in 0..iters {
-            let (alpha, accepted) = self.step(target, ctx);
+            let (alpha, accepted, jump) = self.step(target, ctx);
             let counts = match phase {
                 Phase::Warmup => &mut self.warm_counts,
                 Phase::Sampling => &mut self.samp_counts,
             };
             counts.proposed += 1;
             counts.accepted += u64::from(accepted);
-            if adaptive && phase == Phase::Warmup {
+            if jump && phase == Phase::Sampling {
+                self.jump_counts.proposed += 1;
+                self.jump_counts.accepted += u64::from(accepted);
+            }
+            // The random walk's scale adapts to its own acceptance only.
+            if adaptive && phase == Phase::Warmup && !jump {
                 self.adapt.update(
                     &self.x,
                     alpha,
@@ -474,6 +531,12 @@ impl Chain {
                 };
                 for (s, &v) in store.iter_mut().zip(&self.rx) {
                     s.push(v);
+                }
+                if phase == Phase::Warmup {
+                    if let Some(mix) = ctx.mixture.as_ref().filter(|m| m.refit_components() > 0) {
+                        self.warm_x
+                            .push(mix.coords().iter().map(|&i| self.x[i]).collect());
+                    }
                 }
                 if phase == Phase::Sampling {
                     self.samp_lp.push(self.stored);
@@ -583,6 +646,26 @@ fn mean_rate(chains: &[Chain], phase: Phase) -> f64 {
     }
 }
 
+/// Replace a refitting mixture by its refit to the pooled second halves of the chains'
+/// warm-up states (at most 1 500 per chain, evenly thinned). Deterministic: the k-means
+/// seeding draws from the seed's stream `2²² + iterations`.
+fn refit_mixture(ctx: &mut Context<'_>, chains: &[Chain], seed: u64, iterations: u64) {
+    let Some(mix) = ctx.mixture.as_ref().filter(|m| m.refit_components() > 0) else {
+        return;
+    };
+    let mut pooled = Vec::new();
+    for c in chains {
+        let half = &c.warm_x[c.warm_x.len() / 2..];
+        let step = half.len().div_ceil(1_500).max(1);
+        pooled.extend(half.iter().step_by(step).cloned());
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    rng.set_stream((1 << 22) + iterations);
+    if let Some(new) = mix.refitted(&pooled, &mut rng) {
+        ctx.mixture = Some(new);
+    }
+}
+
 /// Run `settings.n_chains` Metropolis–Hastings chains on `target`.
 ///
 /// `init`: one start point per chain, or `None` for points drawn uniformly
@@ -600,6 +683,28 @@ pub fn run_with_observer<T, F>(
     target: &T,
     settings: &Settings,
     init: Option<&[Vec<f64>]>,
+    observer: F,
+) -> Result<RunResult, McmcError>
+where
+    T: LogDensity + ?Sized,
+    F: FnMut(&Progress) -> ControlFlow<()>,
+{
+    run_with_proposal(target, settings, init, None, observer)
+}
+
+/// [`run_with_observer`] with an optional mode-jumping [`MixtureProposal`]: at every step of
+/// warm-up and sampling, with the mixture's probability, the chain proposes an independence
+/// draw from the mixture for the mixture's coordinates instead of a random-walk step (and the
+/// random walk's scale adapts to its own steps only). The mixture is fixed, so the kept draws
+/// still come from one Metropolis–Hastings kernel.
+///
+/// # Errors
+/// As [`run_with_observer`], and a mixture coordinate outside the target's dimension.
+pub fn run_with_proposal<T, F>(
+    target: &T,
+    settings: &Settings,
+    init: Option<&[Vec<f64>]>,
+    mixture: Option<&MixtureProposal>,
     mut observer: F,
 ) -> Result<RunResult, McmcError>
 where
@@ -609,6 +714,18 @@ where
     settings.validate()?;
     check_target(target)?;
     let d = target.dim();
+    if let Some(mix) = mixture {
+        let mut seen = vec![false; d];
+        for &i in mix.coords() {
+            if i >= d || std::mem::replace(&mut seen[i], true) {
+                return Err(McmcError::InvalidSetting {
+                    name: "mixture.coords",
+                    value: i.to_string(),
+                    reason: "coordinates must be distinct and below the target's dimension",
+                });
+            }
+        }
+    }
     let bounds = target.bounds().to_vec();
     let report_bounds = target.report_bounds().to_vec();
     if report_bounds.len() != d {
@@ -625,11 +742,12 @@ where
             });
         }
     }
-    let ctx = Context {
+    let mut ctx = Context {
         lower: bounds.iter().map(|b| b.0).collect(),
         upper: bounds.iter().map(|b| b.1).collect(),
         widths: bounds.iter().map(|b| b.1 - b.0).collect(),
         settings,
+        mixture: mixture.cloned(),
     };
     let built: Vec<Result<Chain, McmcError>> = (0..settings.n_chains)
         .into_par_iter()
@@ -673,10 +791,12 @@ where
             warmup_converged = true;
             break;
         }
+        refit_mixture(&mut ctx, &chains, settings.seed, warm as u64);
     }
     for c in &mut chains {
         c.phase_iter = 0;
         c.warm = Vec::new();
+        c.warm_x = Vec::new();
     }
 
     // Sampling with the frozen proposal.
@@ -746,9 +866,11 @@ where
         stop,
         acceptance_rate: chains.iter().map(|c| c.samp_counts.rate()).collect(),
         warmup_acceptance_rate: chains.iter().map(|c| c.warm_counts.rate()).collect(),
+        jump_acceptance_rate: chains.iter().map(|c| c.jump_counts.rate()).collect(),
         evaluations: chains.iter().map(|c| c.evaluations).sum(),
         failed_evaluations: chains.iter().map(|c| c.failed).sum(),
         out_of_bounds: chains.iter().map(|c| c.out_of_bounds).sum(),
+        zero_density: chains.iter().map(|c| c.zero_density).sum(),
         max_abs_coordinate: chains.iter().fold(0.0, |m, c| m.max(c.max_abs)),
         summary,
         correlation,

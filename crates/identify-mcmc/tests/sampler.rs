@@ -502,3 +502,67 @@ fn draws_and_summaries_are_in_reported_coordinates() {
     // The sampler's own coordinate stays within |v| ≲ 5.
     assert!(r.max_abs_coordinate > 2.0 && r.max_abs_coordinate <= 5.0);
 }
+
+/// Two well separated 2-D Gaussian modes with weights 0.3 / 0.7: a local random walk started
+/// in one mode never reaches the other, the mode-jumping mixture proposal recovers the weights.
+#[test]
+fn mixture_proposal_crosses_between_separated_modes() {
+    use identify_mcmc::{run_with_proposal, ComponentSpec, MixtureProposal};
+    let (w1, w2) = (0.3f64, 0.7f64);
+    let log_pdf = move |x: &[f64]| {
+        let a = -0.5 * ((x[0] + 6.0).powi(2) + (x[1] - 1.0).powi(2));
+        let b = -0.5 * ((x[0] - 6.0).powi(2) + (x[1] + 1.0).powi(2));
+        let m = a.max(b);
+        Some(m + (w1 * (a - m).exp() + w2 * (b - m).exp()).ln())
+    };
+    let target = FnLogDensity::new(vec![(-20.0, 20.0), (-20.0, 20.0)], log_pdf);
+    let settings = Settings {
+        seed: 11,
+        warmup_min: 2_000,
+        block: 1_000,
+        max_total: 40_000,
+        ..Settings::default()
+    };
+    // Every chain starts in the left mode (weight 0.3).
+    let inits = vec![vec![-6.0, 1.0]; settings.n_chains];
+    let local = Settings {
+        proposal: Proposal::Dissertation { scale: 0.02 },
+        ..settings
+    };
+    let rw = run(&target, &local, Some(&inits)).unwrap();
+    let right = |r: &RunResult| {
+        let all: Vec<f64> = r.draws[0].iter().flatten().copied().collect();
+        all.iter().filter(|v| **v > 0.0).count() as f64 / all.len() as f64
+    };
+    assert!(right(&rw) < 0.01, "the random walk crossed: {}", right(&rw));
+    // Components deliberately off-centre and too wide: the MH correction must fix that.
+    let comps = [
+        ComponentSpec {
+            weight: 1.0,
+            mean: vec![-5.5, 0.5],
+            cov: vec![2.0, 0.3, 0.3, 1.5],
+        },
+        ComponentSpec {
+            weight: 1.0,
+            mean: vec![6.5, -0.5],
+            cov: vec![1.5, 0.0, 0.0, 2.0],
+        },
+    ];
+    let mix = MixtureProposal::new(vec![0, 1], &comps, 4.0, 0.3).unwrap();
+    let res = run_with_proposal(&target, &settings, Some(&inits), Some(&mix), |_| {
+        ControlFlow::Continue(())
+    })
+    .unwrap();
+    assert!(res.converged, "stopped by {:?}", res.stop);
+    let z = check_moment(&res, "P(right mode)", w2, |x| {
+        f64::from(u8::from(x[0] > 0.0))
+    });
+    assert!(z.abs() < 4.0);
+    check_moment(&res, "E x", w1 * -6.0 + w2 * 6.0, |x| x[0]);
+    check_moment(&res, "E y", w1 - w2, |x| x[1]);
+    let jump: Vec<f64> = res.jump_acceptance_rate.clone();
+    assert!(
+        jump.iter().all(|r| *r > 0.05 && *r < 1.0),
+        "jump acceptance {jump:?}"
+    );
+}
