@@ -464,9 +464,9 @@ impl<'a> Conditional<'a> {
                 let (wl, wh) = ((lo - shift) / lkk, (hi - shift) / lkk);
                 let u = v[i];
                 uu += u * u;
-                let (om, mass) = ghk_step(wl, wh, crate::normal::cdf(u))?;
+                let (om, lm) = ghk_step(wl, wh, crate::normal::cdf(u))?;
                 omega[k] = om;
-                log_mass += mass.ln();
+                log_mass += lm;
                 x[i] = (shift + lkk * om).clamp(lo, hi);
             }
             let ww: f64 = omega[..p].iter().map(|v| v * v).sum();
@@ -545,21 +545,73 @@ fn conditional_factor(r: &[f64], p: usize) -> Option<[f64; 9]> {
     Some(out)
 }
 
+/// `ln Q(x)`, `Q(x) = 1 − Φ(x)` the upper tail: from `erfc` below 30, above by the asymptotic
+/// series `Q(x) = φ(x)/x·(1 − 1/x² + 3/x⁴ − 15/x⁶ + 105/x⁸)` (relative error < 10⁻¹¹ there),
+/// which never underflows.
+fn ln_upper_tail(x: f64) -> f64 {
+    if x < 30.0 {
+        crate::normal::cdf(-x).ln()
+    } else {
+        let r = 1.0 / (x * x);
+        let series = 1.0 - r * (1.0 - r * (3.0 - r * (15.0 - 105.0 * r)));
+        -0.5 * x * x - x.ln() - 0.5 * (2.0 * std::f64::consts::PI).ln() + series.ln()
+    }
+}
+
+/// The `w ≥ 0` with `ln Q(w) = target`, by Newton's method on `ln Q` (its slope is
+/// `−φ(w)/Q(w)`), started from `w₀ = max(start, √(−2·target) − 1)`.
+fn upper_tail_quantile(target: f64, start: f64) -> f64 {
+    if target > (1e-300f64).ln() + 10.0 {
+        return -crate::normal::quantile(target.exp());
+    }
+    let mut w = start.max((-2.0 * target).sqrt() - 1.0);
+    for _ in 0..50 {
+        let lq = ln_upper_tail(w);
+        let ln_phi = -0.5 * w * w - 0.5 * (2.0 * std::f64::consts::PI).ln();
+        let slope = -(ln_phi - lq).exp();
+        let step = (lq - target) / slope;
+        w -= step;
+        if step.abs() <= 1e-12 * w.abs().max(1.0) {
+            break;
+        }
+    }
+    w
+}
+
 /// One step of the GHK map: the standard normal truncated to `[lo, hi]` at probability level
-/// `q ∈ (0, 1)`, and the interval's mass `Φ(hi) − Φ(lo)`. Computed on the upper tail when
-/// `lo > 0` so that far-tail intervals keep their precision. `None` when the mass underflows.
+/// `q ∈ (0, 1)`, and the log of the interval's mass `Φ(hi) − Φ(lo)`. Intervals in a tail are
+/// computed on that tail in log space, so that an interval many standard deviations out keeps
+/// a finite (very negative) log mass instead of underflowing. `None` only for an empty or
+/// non-finite interval.
 fn ghk_step(lo: f64, hi: f64, q: f64) -> Option<(f64, f64)> {
     use crate::normal::{cdf, quantile};
-    let (w, mass) = if lo > 0.0 {
-        let (ql, qh) = (cdf(-lo), cdf(-hi));
-        let mass = ql - qh;
-        (-quantile(ql - q * mass), mass)
-    } else {
-        let (pl, ph) = (cdf(lo), cdf(hi));
-        let mass = ph - pl;
-        (quantile(pl + q * mass), mass)
-    };
-    (mass > 0.0 && w.is_finite()).then_some((w.clamp(lo, hi), mass))
+    if lo.is_nan() || hi.is_nan() || lo >= hi {
+        return None;
+    }
+    if lo > 5.0 || hi < -5.0 {
+        // Work on the upper tail (mirror a lower-tail interval): Q(w) = Q(a) − q'·(Q(a) − Q(b)).
+        let (a, b, qq, sign) = if lo > 5.0 {
+            (lo, hi, q, 1.0)
+        } else {
+            (-hi, -lo, 1.0 - q, -1.0)
+        };
+        let la = ln_upper_tail(a);
+        let lb = if b.is_finite() {
+            ln_upper_tail(b)
+        } else {
+            f64::NEG_INFINITY
+        };
+        let ratio = (lb - la).exp(); // Q(b)/Q(a) < 1
+        let log_mass = la + (-ratio).ln_1p();
+        let target = la + (-qq * (1.0 - ratio)).ln_1p();
+        let w = upper_tail_quantile(target, a);
+        return (log_mass.is_finite() && w.is_finite())
+            .then_some(((sign * w).clamp(lo, hi), log_mass));
+    }
+    let (pl, ph) = (cdf(lo), cdf(hi));
+    let mass = ph - pl;
+    let w = quantile(pl + q * mass);
+    (mass > 0.0 && w.is_finite()).then_some((w.clamp(lo, hi), mass.ln()))
 }
 
 /// Solve `Rᵀ x = b` for the lower-triangular `R` (row-major p×p).
@@ -635,5 +687,58 @@ mod tests {
             assert!((g - w).abs() < 1e-14);
         }
         assert!(cholesky(&[1.0, 2.0, 2.0, 1.0], 2).is_none());
+    }
+
+    #[test]
+    fn upper_tail_series_joins_erfc() {
+        // Both forms at x = 29.9 (erfc is still accurate there).
+        let x = 29.9f64;
+        let direct = crate::normal::cdf(-x).ln();
+        let r = 1.0 / (x * x);
+        let series = 1.0 - r * (1.0 - r * (3.0 - r * (15.0 - 105.0 * r)));
+        let asym = -0.5 * x * x - x.ln() - 0.5 * (2.0 * std::f64::consts::PI).ln() + series.ln();
+        assert!(
+            (direct - asym).abs() < 1e-9 * direct.abs(),
+            "{direct} vs {asym}"
+        );
+        assert!(ln_upper_tail(60.0).is_finite() && ln_upper_tail(60.0) < -1800.0);
+    }
+
+    #[test]
+    fn ghk_step_matches_the_truncated_normal() {
+        use crate::normal::cdf;
+        // Central interval: w is the q-quantile of N(0, 1) truncated to [lo, hi].
+        for &(lo, hi) in &[(-1.0, 2.0), (-0.5, 0.5), (3.0, 4.5), (-4.9, -2.0)] {
+            for &q in &[0.01, 0.3, 0.5, 0.9] {
+                let (w, lm) = ghk_step(lo, hi, q).unwrap();
+                let mass = cdf(hi) - cdf(lo);
+                assert!((lm - mass.ln()).abs() < 1e-12);
+                assert!(
+                    ((cdf(w) - cdf(lo)) / mass - q).abs() < 1e-9,
+                    "{lo} {hi} {q}"
+                );
+            }
+        }
+        // The tail form (|x| > 5) against upper-tail probabilities Q(x) = Φ(−x).
+        for &q in &[0.05, 0.5, 0.95] {
+            let (w, lm) = ghk_step(5.5, 6.0, q).unwrap();
+            let mass = cdf(-5.5) - cdf(-6.0);
+            assert!((lm - mass.ln()).abs() < 1e-10);
+            assert!(((cdf(-5.5) - cdf(-w)) / mass - q).abs() < 1e-9, "{q}");
+        }
+        // Far tails: finite log mass, w inside, monotone in q; mirrored intervals agree.
+        let mut last = f64::NEG_INFINITY;
+        for &q in &[0.001, 0.2, 0.5, 0.8, 0.999] {
+            let (w, lm) = ghk_step(60.0, 84.0, q).unwrap();
+            assert!((60.0..=84.0).contains(&w) && w > last);
+            assert!((lm - ln_upper_tail(60.0)).abs() < 1e-9);
+            let (wm, lmm) = ghk_step(-84.0, -60.0, 1.0 - q).unwrap();
+            assert!((wm + w).abs() < 1e-9 && (lmm - lm).abs() < 1e-12);
+            last = w;
+        }
+        // Exponential-tail check: Q(w)/Q(60) = 1 − q ⇒ w ≈ 60 − ln(1 − q)/60.
+        let (w, _) = ghk_step(60.0, 84.0, 0.5).unwrap();
+        assert!((w - (60.0 + 2f64.ln() / 60.0)).abs() < 1e-4, "{w}");
+        assert!(ghk_step(1.0, 1.0, 0.5).is_none());
     }
 }

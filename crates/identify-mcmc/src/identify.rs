@@ -668,8 +668,13 @@ where
     rng.set_stream(0);
     let nl = target.nl().to_vec();
     let mut inits = Vec::with_capacity(settings.mcmc.n_chains);
+    // Fallback start: the best mode itself (u = 0).
+    let mut at_best = vec![0.0; d];
+    for (&i, z) in nl.iter().zip(target.z_of(&best.x)) {
+        at_best[i] = z.clamp(-k, k);
+    }
     for c in 0..settings.mcmc.n_chains {
-        let mut chosen = vec![0.0; d];
+        let mut chosen = at_best.clone();
         for _ in 0..50 {
             let mut cand: Vec<f64> = (0..d)
                 .map(|_| {

@@ -682,6 +682,8 @@ fn run_mcmc(
         "warmup_iterations": m.warmup_iterations,
         "sampling_iterations": m.sampling_iterations,
         "acceptance_rate": m.acceptance_rate,
+        "modes": m.modes.len(),
+        "jump_acceptance_rate": m.jump_acceptance_rate,
         "correlations": m.correlations.iter().take(10).map(|c| json!({"a": c.a, "b": c.b, "r": c.r})).collect::<Vec<_>>(),
         "noise_model": m.noise,
     });
@@ -702,6 +704,12 @@ fn run_mcmc(
     lines.push(format!(
         "  torque RMS at the posterior mean {:.2} N·m after removing the dynamometer's cycle-locked error ({:.2} N·m against the raw torque)",
         m.rms_corrected_nm, m.rms_nm
+    ));
+    lines.push(format!(
+        "  {} posterior mode(s) from the multi-start search; random-walk acceptance {:.2}, mode-jump acceptance {:.2}",
+        m.modes.len(),
+        m.acceptance_rate,
+        m.jump_acceptance_rate
     ));
     lines.push(
         "  parameter          mean        sd        90 % interval             R̂      ESS  identifiable"
