@@ -43,10 +43,6 @@ const STACK_DIM: usize = 32;
 struct Scratch {
     ws: Workspace,
     total: Vec<f64>,
-    y: Vec<f64>,
-    yw: Vec<f64>,
-    g: [Vec<f64>; 3],
-    gw: [Vec<f64>; 3],
 }
 
 thread_local! {
@@ -67,9 +63,6 @@ pub(crate) struct Conditional<'a> {
     whitener: Whitener,
     /// Prior sd `s` of a residual torque offset integrated out of the likelihood (0: none).
     offset_sd: f64,
-    /// The whitened vector of ones `õ` (masked samples dropped) and `|õ|²`.
-    ones_w: Vec<f64>,
-    ones_ww: f64,
     /// Runs `[start, end)` of included samples (the whole trial without weights).
     segments: Vec<(usize, usize)>,
     /// Free-parameter indices of the nonlinear parameters θ.
@@ -136,8 +129,6 @@ impl<'a> Conditional<'a> {
             problem,
             whitener,
             offset_sd: 0.0,
-            ones_w: Vec::new(),
-            ones_ww: 0.0,
             segments,
             nl,
             lin,
@@ -156,16 +147,6 @@ impl<'a> Conditional<'a> {
     /// `⟨a, b⟩ − κ⟨õ, a⟩⟨õ, b⟩`, and the normalisation loses `½ ln(1 + sd²|õ|²)`.
     pub fn set_offset_sd(&mut self, sd: f64) {
         self.offset_sd = if sd.is_finite() && sd > 0.0 { sd } else { 0.0 };
-        if self.offset_sd > 0.0 {
-            let ones = vec![1.0; self.problem.measured().len()];
-            let mut w = Vec::new();
-            self.whiten(&ones, &mut w);
-            self.ones_ww = w.iter().map(|v| v * v).sum();
-            self.ones_w = w;
-        } else {
-            self.ones_w.clear();
-            self.ones_ww = 0.0;
-        }
     }
 
     /// The target on the logit scale: every nonlinear parameter `θ_i ∈ (lo_i, hi_i)` is
@@ -384,59 +365,62 @@ impl<'a> Conditional<'a> {
             )
             .ok()?;
             // y − c, with c the torque that does not scale with a free F0.
-            s.y.clear();
-            s.y.extend(
-                self.problem
-                    .measured()
-                    .iter()
-                    .zip(&s.total)
-                    .map(|(m, t)| m - t),
-            );
+            // One fused pass: y − c, the unit-F0 columns g_k and the vector of ones, whitened
+            // side by side, with all their inner products (module documentation).
+            let measured = self.problem.measured();
+            let tms = s.ws.torque_muscle();
+            let mut cols: [&[f64]; 3] = [&[]; 3];
+            let mut inv_f0 = [0.0; 3];
             for (k, &(i, muscle)) in self.lin.iter().enumerate() {
-                let tm = &s.ws.torque_muscle()[muscle];
-                let f0 = x[i];
-                s.g[k].clear();
-                s.g[k].extend(tm.iter().map(|t| t / f0));
-                for (y, t) in s.y.iter_mut().zip(tm) {
-                    *y += t;
-                }
+                cols[k] = &tms[muscle];
+                inv_f0[k] = 1.0 / x[i];
             }
-            let mut yw = std::mem::take(&mut s.yw);
-            self.whiten(&s.y, &mut yw);
-            s.yw = yw;
-            for k in 0..p {
-                let mut gw = std::mem::take(&mut s.gw[k]);
-                self.whiten(&s.g[k], &mut gw);
-                s.gw[k] = gw;
+            let total = &s.total;
+            let mut gram = [[0.0; 5]; 5];
+            for &(a0, b0) in &self.segments {
+                let part = self.whitener.whitened_gram::<5, _>(b0 - a0, |t| {
+                    let i = a0 + t;
+                    let mut r = [0.0; 5];
+                    let mut y = measured[i] - total[i];
+                    for k in 0..p {
+                        let v = cols[k][i];
+                        y += v;
+                        r[k + 1] = v * inv_f0[k];
+                    }
+                    r[0] = y;
+                    r[4] = 1.0;
+                    r
+                });
+                for (gi, pi) in gram.iter_mut().zip(&part) {
+                    for (g, q) in gi.iter_mut().zip(pi) {
+                        *g += q;
+                    }
+                }
             }
             let mut a = [0.0; 9];
             let mut b = [0.0; 3];
             for k in 0..p {
                 for l in 0..=k {
-                    let v: f64 = s.gw[k].iter().zip(&s.gw[l]).map(|(p, q)| p * q).sum();
-                    a[k * p + l] = v;
-                    a[l * p + k] = v;
+                    a[k * p + l] = gram[l + 1][k + 1];
+                    a[l * p + k] = gram[l + 1][k + 1];
                 }
-                b[k] = s.gw[k].iter().zip(&s.yw).map(|(p, q)| p * q).sum();
+                b[k] = gram[0][k + 1];
             }
-            let mut yy: f64 = s.yw.iter().map(|v| v * v).sum();
+            let mut yy = gram[0][0];
             let mut log_offset = 0.0;
             if self.offset_sd > 0.0 {
                 let s2 = self.offset_sd * self.offset_sd;
-                let kappa = s2 / (1.0 + s2 * self.ones_ww);
-                let oy: f64 = self.ones_w.iter().zip(&s.yw).map(|(o, y)| o * y).sum();
-                let mut og = [0.0; 3];
-                for (k, o) in og.iter_mut().enumerate().take(p) {
-                    *o = self.ones_w.iter().zip(&s.gw[k]).map(|(a, b)| a * b).sum();
-                }
+                let oo = gram[4][4];
+                let kappa = s2 / (1.0 + s2 * oo);
+                let oy = gram[0][4];
                 for k in 0..p {
                     for l in 0..p {
-                        a[k * p + l] -= kappa * og[k] * og[l];
+                        a[k * p + l] -= kappa * gram[k + 1][4] * gram[l + 1][4];
                     }
-                    b[k] -= kappa * og[k] * oy;
+                    b[k] -= kappa * gram[k + 1][4] * oy;
                 }
                 yy -= kappa * oy * oy;
-                log_offset = -0.5 * (s2 * self.ones_ww).ln_1p();
+                log_offset = -0.5 * (s2 * oo).ln_1p();
             }
             let r = cholesky(&a[..p * p], p)?;
             // f̂ = A⁻¹b via R w = b, Rᵀ f̂ = w; RSS = yy − |w|².
