@@ -1,4 +1,8 @@
-//! Diagnoses one synthetic relaxed+2 trial: `diag_one SEED [EFFECTS_JSON] [--ta]`.
+//! Diagnoses one synthetic relaxed+2 trial:
+//! `diag_one SEED [EFFECTS_JSON] [--ta] [--hidden kind+kind]`.
+//!
+//! `SURAE_LM_ITERS=N` changes the Levenberg–Marquardt iteration cap; `SURAE_SHOW_FITS=1` prints
+//! the baseline and extended fits (parameters, uncertainties) as JSON.
 use experiment::{random_params, synthesize, Protocol, SynthConfig};
 use muscle_model::{Effects, ModelParams};
 use rand::SeedableRng;
@@ -29,12 +33,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     } else {
         synthesize(&cfg)?
     };
+    let mut settings = diagnose::DiagnoseSettings::default();
+    if let Ok(v) = std::env::var("SURAE_LM_ITERS") {
+        settings.lm.max_iterations = v.parse()?;
+    }
     let d = diagnose::run(
         &syn.trial,
         Some(&syn.unloaded),
-        &diagnose::DiagnoseSettings::default(),
+        &settings,
         &mut diagnose::no_observer,
     )?;
+    if std::env::var("SURAE_SHOW_FITS").is_ok() {
+        println!("baseline {}", serde_json::to_string(&d.baseline)?);
+        println!("extended {}", serde_json::to_string(&d.extended)?);
+    }
     for l in d.summary_lines() {
         println!("{l}");
     }

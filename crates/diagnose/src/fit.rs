@@ -111,10 +111,33 @@ impl Context {
         let problem = self.problem(kinds)?;
         let bounds = problem.bounds().to_vec();
         let f = self.residual_fn(&problem, &self.plan);
-        let out = minimise(&f, x0, &bounds, &self.lm).ok_or_else(|| DiagnoseError::Fit {
+        let mut out = minimise(&f, x0, &bounds, &self.lm).ok_or_else(|| DiagnoseError::Fit {
             model: name.clone(),
             reason: "the model cannot be simulated at the start point".into(),
         })?;
+        // An extended model starts from the current fit, whose muscle parameters may sit at
+        // their bounds because they were standing in for the missing effect (e.g. sol α0 and
+        // F0 at their upper bounds mimicking an antagonist torque); from there the bounded LM
+        // can stop in that corner. A second start with the muscle parameters at their base
+        // (nominal) values and the same effect start; the lower cost wins.
+        if !kinds.is_empty() {
+            let base = problem.base_vector();
+            let mut x1 = x0.to_vec();
+            for (i, id) in problem.free().iter().enumerate() {
+                if id.muscle().is_some() {
+                    x1[i] = base[i].clamp(bounds[i].0, bounds[i].1);
+                }
+            }
+            if x1 != x0 {
+                if let Some(alt) = minimise(&f, &x1, &bounds, &self.lm) {
+                    let evaluations = out.evaluations + alt.evaluations;
+                    if alt.cost < out.cost {
+                        out = alt;
+                    }
+                    out.evaluations = evaluations;
+                }
+            }
+        }
         let pred = problem.predict(&out.x)?;
         let n = pred.len();
         let rms = (self

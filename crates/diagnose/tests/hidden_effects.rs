@@ -91,12 +91,13 @@ fn tolerance(kind: EffectKind) -> (f64, f64) {
         EffectKind::Gravity => (1.0, 0.25),
         EffectKind::ElectromechanicalDelay => (8.0, 0.0),
         EffectKind::Fatigue => (0.004, 0.25),
-        // The TA drive never falls to zero (rest 0.02, concentric 0.04, eccentric
-        // 0.10 before normalisation), so part of the antagonist torque looks like an
-        // offset and a smaller F0 and the gain is biased low: mean error 22 % in the
-        // confusion study, 46 % on CI seed 20240609 (docs/diagnosis.md). The
-        // tolerance is set from that measured error, not from the wish.
-        EffectKind::AntagonistCoactivation => (1.0, 0.5),
+        // The gain trades against sol α0 and F0 (posterior r ≈ −0.8, identify-mcmc example
+        // `ta_posterior`). Refits now also start from the nominal muscle parameters (the
+        // baseline had pushed sol α0 and F0 to their upper bounds to mimic the antagonist
+        // torque, and the refit from there stopped in that corner: 4.68 vs a true 9.32 on CI
+        // seed 20240609, now 7.49). Over the 16 seeds 700701…700716: signed mean error −2.8 %,
+        // mean |error| 11.9 %, largest 28 % (docs/diagnosis.md); the tolerance is set above that.
+        EffectKind::AntagonistCoactivation => (1.0, 0.35),
         EffectKind::EccentricEnhancement => (0.08, 0.0),
         EffectKind::ViscousDamping | EffectKind::Inertia => (0.0, 0.3),
     }
