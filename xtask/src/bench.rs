@@ -2,7 +2,9 @@
 //! peer (`bench/peer/surae_peer.py`, scipy RK45) on the same trial in the same run; prints a
 //! Markdown table with the ratios. The SA row runs `identify_sa::identify` end to end on the
 //! trial (with `unloaded.csv` next to it when present) and divides its wall time by its
-//! evaluations.
+//! evaluations; the MCMC row runs `identify_mcmc::identify` with its default settings and the
+//! unloaded run's noise model to R̂ < 1.01 and bulk ESS ≥ 400 (or its cap, which the row then
+//! shows); the diagnosis row runs `diagnose::run` on `fixtures/electromechanical_delay`.
 
 use anyhow::{bail, Context, Result};
 use muscle_model::{
@@ -72,6 +74,65 @@ fn sa_run(trial_path: &Path, trial: &experiment::Trial) -> Result<(u64, f64, Opt
         fit.evaluations, fit.rms_nm
     );
     Ok((fit.evaluations, wall, cpu))
+}
+
+/// One `identify_mcmc::identify` run with the default settings (4 chains, rayon) and the noise
+/// model of the unloaded run: (evaluations, wall s, CPU s if known, converged, max R̂, min ESS).
+fn mcmc_run(
+    trial_path: &Path,
+    trial: &experiment::Trial,
+) -> Result<(u64, f64, Option<f64>, bool, f64, f64)> {
+    let unloaded_path = trial_path.with_file_name("unloaded.csv");
+    let unloaded = experiment::read_unloaded(&unloaded_path)
+        .with_context(|| format!("reading {}", unloaded_path.display()))?;
+    let inputs = experiment::model_inputs(trial, &experiment::InputOptions::default())?;
+    let problem = muscle_model::Problem::standard(inputs, trial.torque_nm.clone())?;
+    let noise = identify_mcmc::NoiseSpec::from_unloaded(
+        trial,
+        &unloaded,
+        identify_mcmc::NoiseKind::Ar1White,
+    )?;
+    let cpu0 = cpu_seconds();
+    let start = Instant::now();
+    let res = identify_mcmc::identify(
+        &problem,
+        &noise,
+        &identify_mcmc::IdentifySettings::default(),
+        |_| std::ops::ControlFlow::Continue(()),
+    )?;
+    let wall = start.elapsed().as_secs_f64();
+    let cpu = cpu_seconds().zip(cpu0).map(|(b, a)| b - a);
+    let (r, e) = res.worst_diagnostics();
+    eprintln!(
+        "MCMC: {} evaluations in {wall:.2} s, converged {}, max R̂ {r:.4}, min bulk ESS {e:.0}",
+        res.evaluations, res.converged
+    );
+    Ok((res.evaluations, wall, cpu, res.converged, r, e))
+}
+
+/// One `diagnose::run` with the default settings on `fixtures/<name>` (trial + unloaded run):
+/// (wall s, CPU s if known, named causes).
+fn diagnose_run(root: &Path, name: &str) -> Result<(f64, Option<f64>, Vec<String>)> {
+    let dir = root.join("fixtures").join(name);
+    let trial = experiment::read_trial(dir.join("trial.csv"))
+        .with_context(|| format!("reading {}", dir.join("trial.csv").display()))?;
+    let unloaded = experiment::read_unloaded(dir.join("unloaded.csv"))
+        .with_context(|| format!("reading {}", dir.join("unloaded.csv").display()))?;
+    let cpu0 = cpu_seconds();
+    let start = Instant::now();
+    let d = diagnose::run(
+        &trial,
+        Some(&unloaded),
+        &diagnose::DiagnoseSettings::default(),
+        &mut diagnose::no_observer,
+    )?;
+    let wall = start.elapsed().as_secs_f64();
+    let cpu = cpu_seconds().zip(cpu0).map(|(b, a)| b - a);
+    eprintln!(
+        "diagnose fixtures/{name}: causes {:?} in {wall:.2} s",
+        d.causes
+    );
+    Ok((wall, cpu, d.causes))
 }
 
 fn rms(a: &[f64], b: &[f64]) -> f64 {
@@ -197,6 +258,11 @@ pub fn run(args: &mut impl Iterator<Item = String>) -> Result<bool> {
     let (sa_evals, sa_wall, sa_cpu) = sa_run(&trial_path, &trial)?;
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
 
+    eprintln!("running identify_mcmc::identify (default settings, 4 chains, rayon) ...");
+    let (mc_evals, mc_wall, mc_cpu, mc_conv, mc_rhat, mc_ess) = mcmc_run(&trial_path, &trial)?;
+    eprintln!("running diagnose::run on fixtures/electromechanical_delay ...");
+    let (dg_wall, dg_cpu, dg_causes) = diagnose_run(&root, "electromechanical_delay")?;
+
     eprintln!("running the Python peer ({repeat} simulations) ...");
     let t_peer = peer(&root, &trial_path, repeat)?;
 
@@ -233,8 +299,15 @@ pub fn run(args: &mut impl Iterator<Item = String>) -> Result<bool> {
     println!(
         "| SA end to end (seed, unloaded-run correction, 4 chains + polish) | {sa_wall:.2} s | — | — |"
     );
-    println!("| MCMC to R̂ < 1.01, ESS ≥ 400 | not yet measured | — | — |");
-    println!("| full diagnosis | not yet measured | — | — |");
+    let cpu_note = |c: Option<f64>| c.map_or(String::new(), |c| format!(", {c:.1} s CPU"));
+    println!(
+        "| MCMC to R̂ < 1.01, ESS ≥ 400 (seed trial, default settings, {mc_evals} evaluations; converged {mc_conv}, max R̂ {mc_rhat:.4}, min bulk ESS {mc_ess:.0}) | {mc_wall:.2} s wall{} | — | — |",
+        cpu_note(mc_cpu)
+    );
+    println!(
+        "| full diagnosis (`fixtures/electromechanical_delay`, unloaded run; named {dg_causes:?}) | {dg_wall:.2} s wall{} | — | — |",
+        cpu_note(dg_cpu)
+    );
     println!();
     println!(
         "default settings: {:.2e} N·m RMS from SimSettings::tight(); {} accepted steps, {} RHS calls (3 muscles); {} Rust repetitions, {repeat} peer simulations",
