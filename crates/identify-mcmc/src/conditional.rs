@@ -227,24 +227,22 @@ impl<'a> Conditional<'a> {
 
     /// Whitened coordinates of the nonlinear parameters of `x` (model vector):
     /// `z = L⁻¹(θ − θ_centre)`, or `L⁻¹(φ(θ) − φ_c)` on the logit scale.
-    #[allow(clippy::needless_range_loop)] // triangular solve
     pub fn z_of(&self, x: &[f64]) -> Vec<f64> {
-        let m = self.nl.len();
-        let mut z = vec![0.0; m];
-        for a in 0..m {
-            let i = self.nl[a];
-            let mut acc = if self.logit {
-                let (lo, hi) = self.problem.bounds()[i];
-                let f = ((x[i] - lo) / (hi - lo)).clamp(1e-12, 1.0 - 1e-12);
-                (f / (1.0 - f)).ln() - self.phi_center[a]
-            } else {
-                x[i] - self.center[i]
-            };
-            for b in 0..a {
-                acc -= self.chol_nl[a * m + b] * z[b];
-            }
-            z[a] = acc / self.chol_nl[a * m + a];
-        }
+        let mut z: Vec<f64> = self
+            .nl
+            .iter()
+            .enumerate()
+            .map(|(a, &i)| {
+                if self.logit {
+                    let (lo, hi) = self.problem.bounds()[i];
+                    let f = ((x[i] - lo) / (hi - lo)).clamp(1e-12, 1.0 - 1e-12);
+                    (f / (1.0 - f)).ln() - self.phi_center[a]
+                } else {
+                    x[i] - self.center[i]
+                }
+            })
+            .collect();
+        solve_lower_in_place(&self.chol_nl, &mut z);
         z
     }
 
@@ -610,6 +608,20 @@ fn solve_upper(r: &[f64], p: usize, b: &[f64], x: &mut [f64]) {
 }
 
 /// Cholesky factor (lower, row-major) of the SPD matrix `a`; `None` if not positive definite.
+/// Solve `L x = b` in place for the lower-triangular `L` (row-major `n×n`, `n = b.len()`) by
+/// forward substitution.
+#[allow(clippy::needless_range_loop)] // triangular solve
+pub(crate) fn solve_lower_in_place(l: &[f64], b: &mut [f64]) {
+    let n = b.len();
+    for a in 0..n {
+        let mut acc = b[a];
+        for c in 0..a {
+            acc -= l[a * n + c] * b[c];
+        }
+        b[a] = acc / l[a * n + a];
+    }
+}
+
 pub(crate) fn cholesky(a: &[f64], d: usize) -> Option<Vec<f64>> {
     let mut l = vec![0.0; d * d];
     for i in 0..d {

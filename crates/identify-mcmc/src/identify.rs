@@ -4,14 +4,16 @@
 //!
 //! 1. the measured torque is corrected by the dynamometer's systematic error
 //!    ([`NoiseSpec::systematic`], e.g. the cycle-locked part estimated from the unloaded run);
-//! 2. a Nelder–Mead fit of the sum of squares (identify-sa's [`nelder_mead`]) from the base
-//!    values gives the optimum `x̂`;
-//! 3. the noise model is the one given, or (no unloaded run) fitted to the residual at `x̂`;
-//! 4. `n_chains` chains start at `x̂ + spread·w·z` (`z ~ N(0, I)` from the seed's stream 0,
-//!    clamped into the box, `w` the bound widths) and run the adaptive Metropolis–Hastings
-//!    sampler of this crate on `log π(x) = ℓ(x)` (uniform prior on the bounds; a failed
-//!    simulation is a rejected proposal) until every R̂ < 1.01 and bulk ESS ≥ 400 on the
-//!    model's parameters (which the chains store at every step), or the cap;
+//! 2. the noise model is the one given, or (no unloaded run) fitted to the residual of a
+//!    Nelder–Mead fit of the sum of squares (identify-sa's [`nelder_mead`]);
+//! 3. a multi-start search (module `modes`) finds the modes of the posterior of LST and α0 with
+//!    F0 integrated out; the best one centres the wall-free sampling coordinates (module
+//!    `conditional`) and all of them make the jump mixture ([`crate::MixtureProposal`]);
+//! 4. `n_chains` chains start from draws of that mixture (`u ~ N(0, spread²)` for F0, from the
+//!    seed's stream 0) and run the adaptive Metropolis–Hastings sampler of this crate with mode
+//!    jumps (uniform prior on the bounds; a failed simulation is a rejected proposal) until
+//!    every R̂ < 1.01 and bulk ESS ≥ 400 on the model's parameters (which the chains store at
+//!    every step), or the cap;
 //! 5. the report names each parameter (`sol.lst_m`, …) with its summary, identifiability and
 //!    the strongest posterior correlations.
 
@@ -26,7 +28,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
-use crate::conditional::Conditional;
+use crate::conditional::{solve_lower_in_place, Conditional};
 use crate::mixture::{ComponentSpec, MixtureProposal};
 use crate::modes::{find_modes, Mode};
 use crate::noise::{NoiseKind, NoiseParams};
@@ -205,8 +207,10 @@ pub struct IdentifySettings {
     /// this many k-means clusters ([`crate::MixtureProposal::with_refit`]); 0 keeps the modes.
     #[serde(default = "default_jump_refit")]
     pub jump_refit_components: usize,
-    /// Start dispersion: chain starts are `z ~ N(0, spread²·I)` in whitened coordinates (1 = the
-    /// Laplace posterior's own spread), redrawn while outside the bounds.
+    /// Start dispersion: the F0 coordinates of a chain start are `u ~ N(0, spread²·I)` (1 = their
+    /// conditional's own spread) and LST/α0 a draw from the chain's mode component; 0 starts
+    /// every chain at the best mode. Redrawn (up to 50 times) while the density is not finite, then
+    /// the best mode itself.
     pub start_spread: f64,
     /// Number of strongest posterior correlations reported.
     pub correlations: usize,
@@ -271,9 +275,9 @@ impl Default for IdentifySettings {
 
 impl IdentifySettings {
     /// Cheaper settings for replicate studies (coverage): warm-up ≥ 1 000, checks every 250,
-    /// cap 40 000 iterations per chain, bulk ESS target 150 (R̂ target stays 1.01); Nelder–Mead
-    /// budget 1 500. (An earlier cap of 8 000 stopped most runs inside warm-up, R̂ up to 1.65,
-    /// and the intervals then covered the truth only 78 % of the time.)
+    /// cap 40 000 iterations per chain, bulk ESS target 150 (R̂ target stays 1.01); the mode
+    /// search as by default. (An earlier cap of 8 000 stopped most runs inside warm-up, R̂ up to
+    /// 1.65, and the intervals then covered the truth only 78 % of the time.)
     pub fn fast(seed: u64) -> Self {
         let d = Self::default();
         Self {
@@ -383,13 +387,14 @@ fn mode_mixture(
         // A = L_best⁻¹ L_m (both on the sampling scale), column by column.
         let lm = target.phi_factor(&md.x, &md.chol_nl);
         let mut a = vec![0.0; m * m];
+        let mut column = vec![0.0; m];
         for col in 0..m {
-            for r in 0..m {
-                let mut acc = lm[r * m + col];
-                for b in 0..r {
-                    acc -= lb[r * m + b] * a[b * m + col];
-                }
-                a[r * m + col] = acc / lb[r * m + r];
+            for (r, v) in column.iter_mut().enumerate() {
+                *v = lm[r * m + col];
+            }
+            solve_lower_in_place(lb, &mut column);
+            for (r, v) in column.iter().enumerate() {
+                a[r * m + col] = *v;
             }
         }
         let mut cov = vec![0.0; m * m];
@@ -453,7 +458,8 @@ pub struct McmcIdentification {
     pub sampling_iterations: usize,
     /// Mean acceptance rate over chains during sampling.
     pub acceptance_rate: f64,
-    /// Model evaluations: Nelder–Mead + residual + chains.
+    /// Model evaluations: preliminary fit (without an unloaded run), mode search with its
+    /// Laplace factors, chain starts and chains.
     pub evaluations: u64,
     /// Failed simulations among them (rejected proposals).
     pub failed_evaluations: u64,

@@ -356,7 +356,6 @@ impl MixtureProposal {
     }
 
     /// `ln q(x[coords])` up to a constant shared by all points.
-    #[allow(clippy::needless_range_loop)] // triangular solve
     pub fn log_density(&self, x: &[f64]) -> f64 {
         let k = self.coords.len();
         let mut best = f64::NEG_INFINITY;
@@ -378,15 +377,11 @@ impl MixtureProposal {
                 wv = vec![0.0; k];
                 &mut wv
             };
-            let mut q = 0.0;
-            for a in 0..k {
-                let mut acc = x[self.coords[a]] - c.mean[a];
-                for b in 0..a {
-                    acc -= c.chol[a * k + b] * w[b];
-                }
-                w[a] = acc / c.chol[a * k + a];
-                q += w[a] * w[a];
+            for ((wa, &i), mu) in w.iter_mut().zip(&self.coords).zip(&c.mean) {
+                *wa = x[i] - mu;
             }
+            crate::conditional::solve_lower_in_place(&c.chol, w);
+            let q: f64 = w.iter().map(|v| v * v).sum();
             *t = c.log_weight - c.log_det - 0.5 * (self.nu + k as f64) * (q / self.nu).ln_1p();
             best = best.max(*t);
         }

@@ -19,7 +19,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
-use crate::conditional::Conditional;
+use crate::conditional::{solve_lower_in_place, Conditional};
 use crate::noise::Noise;
 use crate::LogDensity;
 
@@ -72,18 +72,9 @@ fn latin_hypercube(rng: &mut ChaCha8Rng, n: usize, m: usize, a: f64) -> Vec<Vec<
 
 /// `|L⁻¹ d|²` for the lower-triangular `L` (row-major m×m).
 fn whitened_norm2(chol: &[f64], d: &[f64]) -> f64 {
-    let m = d.len();
-    let mut w = vec![0.0; m];
-    let mut q = 0.0;
-    for a in 0..m {
-        let mut acc = d[a];
-        for b in 0..a {
-            acc -= chol[a * m + b] * w[b];
-        }
-        w[a] = acc / chol[a * m + a];
-        q += w[a] * w[a];
-    }
-    q
+    let mut w = d.to_vec();
+    solve_lower_in_place(chol, &mut w);
+    w.iter().map(|v| v * v).sum()
 }
 
 /// Search the modes (see the module documentation) with `starts` Nelder–Mead runs of
