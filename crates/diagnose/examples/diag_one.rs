@@ -2,7 +2,8 @@
 //! `diag_one SEED [EFFECTS_JSON] [--ta] [--hidden kind+kind]`.
 //!
 //! `SURAE_LM_ITERS=N` changes the Levenberg–Marquardt iteration cap; `SURAE_SHOW_FITS=1` prints
-//! the baseline and extended fits (parameters, uncertainties) as JSON.
+//! the baseline and extended fits (parameters, uncertainties) as JSON; `SURAE_CANDIDATES=a,b`
+//! restricts the candidate effects.
 use experiment::{random_params, synthesize, Protocol, SynthConfig};
 use muscle_model::{Effects, ModelParams};
 use rand::SeedableRng;
@@ -34,6 +35,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         synthesize(&cfg)?
     };
     let mut settings = diagnose::DiagnoseSettings::default();
+    if let Ok(v) = std::env::var("SURAE_CANDIDATES") {
+        settings.candidates = v
+            .split(',')
+            .map(|n| muscle_model::EffectKind::from_name(n).ok_or(format!("unknown effect {n}")))
+            .collect::<Result<_, _>>()?;
+    }
     if let Ok(v) = std::env::var("SURAE_LM_ITERS") {
         settings.lm.max_iterations = v.parse()?;
     }

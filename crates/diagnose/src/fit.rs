@@ -106,21 +106,17 @@ impl Context {
     }
 
     /// Fits `kinds` from `x0` (full vector: 9 muscle params then effect params).
+    ///
+    /// An extended model starts from the current fit, whose muscle parameters may sit at
+    /// their bounds because they were standing in for the missing effect (e.g. sol α0 and F0
+    /// at their upper bounds mimicking an antagonist torque); from there the bounded LM can
+    /// stop in that corner. So it is also started with the muscle parameters at their base
+    /// (nominal) values and the same effect start; the lower cost wins.
     pub fn fit(&self, kinds: &[EffectKind], x0: &[f64], cv: bool) -> Result<Fit, DiagnoseError> {
-        let name = model_name(kinds);
-        let problem = self.problem(kinds)?;
-        let bounds = problem.bounds().to_vec();
-        let f = self.residual_fn(&problem, &self.plan);
-        let mut out = minimise(&f, x0, &bounds, &self.lm).ok_or_else(|| DiagnoseError::Fit {
-            model: name.clone(),
-            reason: "the model cannot be simulated at the start point".into(),
-        })?;
-        // An extended model starts from the current fit, whose muscle parameters may sit at
-        // their bounds because they were standing in for the missing effect (e.g. sol α0 and
-        // F0 at their upper bounds mimicking an antagonist torque); from there the bounded LM
-        // can stop in that corner. A second start with the muscle parameters at their base
-        // (nominal) values and the same effect start; the lower cost wins.
+        let mut starts = vec![x0.to_vec()];
         if !kinds.is_empty() {
+            let problem = self.problem(kinds)?;
+            let bounds = problem.bounds();
             let base = problem.base_vector();
             let mut x1 = x0.to_vec();
             for (i, id) in problem.free().iter().enumerate() {
@@ -129,15 +125,38 @@ impl Context {
                 }
             }
             if x1 != x0 {
-                if let Some(alt) = minimise(&f, &x1, &bounds, &self.lm) {
-                    let evaluations = out.evaluations + alt.evaluations;
-                    if alt.cost < out.cost {
-                        out = alt;
-                    }
-                    out.evaluations = evaluations;
-                }
+                starts.push(x1);
             }
         }
+        self.fit_from(kinds, &starts, cv)
+    }
+
+    /// Fits `kinds` from every start in `starts` (in parallel) and keeps the lowest whitened
+    /// cost (ties: the earliest start); the evaluations of every start are counted.
+    pub fn fit_from(
+        &self,
+        kinds: &[EffectKind],
+        starts: &[Vec<f64>],
+        cv: bool,
+    ) -> Result<Fit, DiagnoseError> {
+        let name = model_name(kinds);
+        let problem = self.problem(kinds)?;
+        let bounds = problem.bounds().to_vec();
+        let f = self.residual_fn(&problem, &self.plan);
+        let outcomes: Vec<_> = starts
+            .par_iter()
+            .map(|x0| minimise(&f, x0, &bounds, &self.lm))
+            .collect();
+        let evaluations: usize = outcomes.iter().flatten().map(|o| o.evaluations).sum();
+        let mut out = outcomes
+            .into_iter()
+            .flatten()
+            .reduce(|best, o| if o.cost < best.cost { o } else { best })
+            .ok_or_else(|| DiagnoseError::Fit {
+                model: name.clone(),
+                reason: "the model cannot be simulated at the start point".into(),
+            })?;
+        out.evaluations = evaluations;
         let pred = problem.predict(&out.x)?;
         let n = pred.len();
         let rms = (self
@@ -200,4 +219,23 @@ impl Context {
         let ev: usize = res.iter().map(|r| r.2).sum();
         ((ss / cnt.max(1) as f64).sqrt(), ev)
     }
+}
+
+/// `k` Latin-hypercube points in the box `bounds` (each coordinate's range cut into `k` equal
+/// strata, one point per stratum at a uniform position inside it, strata paired across the
+/// coordinates by independent random permutations), from a ChaCha8 stream seeded with `seed`.
+pub(crate) fn latin_hypercube(bounds: &[(f64, f64)], k: usize, seed: u64) -> Vec<Vec<f64>> {
+    use rand::seq::SliceRandom;
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut pts = vec![vec![0.0; bounds.len()]; k];
+    for (j, (lo, hi)) in bounds.iter().enumerate() {
+        let mut strata: Vec<usize> = (0..k).collect();
+        strata.shuffle(&mut rng);
+        for (p, s) in pts.iter_mut().zip(strata) {
+            let u: f64 = rng.random();
+            p[j] = lo + (hi - lo) * (s as f64 + u) / k as f64;
+        }
+    }
+    pts
 }

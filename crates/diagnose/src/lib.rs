@@ -104,6 +104,13 @@ pub struct DiagnoseSettings {
     pub lm: LmSettings,
     /// Levenberg–Marquardt iterations of a cross-validation refit.
     pub cv_iterations: usize,
+    /// Starts of the baseline fit besides the nominal parameters: Latin-hypercube points in
+    /// the SPEC §8 box (run in parallel; the lowest whitened cost wins). A single start can
+    /// stop in a local minimum (e.g. sol F0 at its bound), whose misfit then passes for a
+    /// catalogued effect or for unexplained structure.
+    pub baseline_extra_starts: usize,
+    /// Seed of those starts.
+    pub start_seed: u64,
 }
 
 impl Default for DiagnoseSettings {
@@ -121,6 +128,8 @@ impl Default for DiagnoseSettings {
             input_options: InputOptions::default(),
             lm: LmSettings::default(),
             cv_iterations: 8,
+            baseline_extra_starts: 5,
+            start_seed: 0x5eed_d1a9,
         }
     }
 }
@@ -309,7 +318,14 @@ pub fn run(
         "fitting the baseline (9 muscle parameters)".into(),
         evaluations,
     )?;
-    let baseline = ctx.fit(&[], &nominal, true)?;
+    let mut starts = vec![nominal.to_vec()];
+    let box9: Vec<(f64, f64)> = ctx.problem(&[])?.bounds().to_vec();
+    starts.extend(fit::latin_hypercube(
+        &box9,
+        settings.baseline_extra_starts,
+        settings.start_seed,
+    ));
+    let baseline = ctx.fit_from(&[], &starts, true)?;
     evaluations += baseline.evaluations;
     let nobs = ctx.plan.n_obs();
     let eligible: Vec<EffectKind> = settings

@@ -165,10 +165,74 @@ impl NoiseModel {
             };
             best = (0.0, c, Transient::none());
         }
-        let (_, offset, transient) = best;
-        let mut rem: Vec<f64> = y.iter().map(|v| v - offset).collect();
-        add_scaled_transients(&mut rem, &times, events, &transient, -1.0);
-        let (phi, sd_ar, sd_white) = fit_ar1_white(&rem);
+        let (_, mut offset, mut transient) = best;
+        let remainder = |offset: f64, transient: &Transient| {
+            let mut rem: Vec<f64> = y.iter().map(|v| v - offset).collect();
+            add_scaled_transients(&mut rem, &times, events, transient, -1.0);
+            rem
+        };
+        let mut rem = remainder(offset, &transient);
+        let (mut phi, mut sd_ar, mut sd_white) = fit_ar1_white(&rem);
+        // Generalised least squares: the random part is strongly autocorrelated (AR(1) with a
+        // correlation time of tens of ms, like the transient itself), so ordinary least squares
+        // weighs its low frequencies as if they were independent and misplaces τ and f. Refit
+        // the grid on the whitened recording (the exact Gaussian likelihood of the model), then
+        // the random part on the new remainder; twice.
+        if !events.is_empty() {
+            for round in 0..2 {
+                let Ok(ar) = Ar1White::new(phi, sd_ar, sd_white) else {
+                    break;
+                };
+                let gls = Gls::new(y, &times, events, ar.plan(n, None), with_offset);
+                let mut best = (f64::INFINITY, offset, transient);
+                let try_grid = |taus: &[f64], freqs: &[f64], best: &mut (f64, f64, Transient)| {
+                    for &tau in taus {
+                        for &f in freqs {
+                            let (ss, c, b, cc) = gls.fit(tau, f);
+                            if ss < best.0 {
+                                *best = (
+                                    ss,
+                                    c,
+                                    Transient {
+                                        b_nm: b,
+                                        c_nm: cc,
+                                        tau_s: tau,
+                                        freq_hz: f,
+                                    },
+                                );
+                            }
+                        }
+                    }
+                };
+                // round 0: around the least-squares optimum (τ × 1.3^±3, f ± 4 Hz), then
+                // two finer grids (τ × 1.06^±3 and f ± 0.5 Hz; τ × 1.02^±3 and f ± 0.15 Hz)
+                let (t0, f0) = (best.2.tau_s, best.2.freq_hz);
+                if round == 0 {
+                    let taus: Vec<f64> = (-3..=3).map(|k| t0 * 1.3f64.powi(k)).collect();
+                    let freqs: Vec<f64> = (-4..=4)
+                        .map(|k| f0.round() + k as f64)
+                        .filter(|f| *f > 0.0)
+                        .collect();
+                    try_grid(&taus, &freqs, &mut best);
+                }
+                for (tf, fstep) in [(1.06f64, 0.1), (1.02, 0.03)] {
+                    let (t0, f0) = (best.2.tau_s, best.2.freq_hz);
+                    let taus: Vec<f64> = (-3..=3).map(|k| t0 * tf.powi(k)).collect();
+                    let freqs: Vec<f64> = (-5..=5)
+                        .map(|k| f0 + fstep * k as f64)
+                        .filter(|f| *f > 0.0)
+                        .collect();
+                    try_grid(&taus, &freqs, &mut best);
+                }
+                if !best.0.is_finite() {
+                    break;
+                }
+                offset = best.1;
+                transient = best.2;
+                rem = remainder(offset, &transient);
+                (phi, sd_ar, sd_white) = fit_ar1_white(&rem);
+            }
+        }
         let rms = (rem.iter().map(|e| e * e).sum::<f64>() / n.max(1) as f64).sqrt();
         NoiseModel {
             source,
@@ -221,10 +285,10 @@ fn fit_linear(
     let syy: f64 = y.iter().map(|v| v * v).sum();
     let (mut s_s, mut s_c, mut s_ss, mut s_cc, mut s_sc, mut s_ys, mut s_yc) =
         (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
-    // columns may overlap between events only if the windows overlap; accumulate per sample
-    let mut xs = vec![0.0; 0];
-    let mut xc = vec![0.0; 0];
-    let mut idx: Vec<usize> = Vec::new();
+    // the event windows may overlap: accumulate both columns per sample (in event order)
+    let mut xs = vec![0.0; n];
+    let mut xc = vec![0.0; n];
+    let (mut lo, mut hi) = (n, 0);
     for &e in events {
         let i0 = ((e * fs).ceil().max(0.0)) as usize;
         let i1 = (((e + 10.0 * tau) * fs).ceil() as usize).min(n);
@@ -232,23 +296,16 @@ fn fit_linear(
             let s = times[i] - e;
             let d = (-s / tau).exp();
             let (sn, cs) = (w * s).sin_cos();
-            idx.push(i);
-            xs.push(d * sn);
-            xc.push(d * cs);
+            xs[i] += d * sn;
+            xc[i] += d * cs;
+        }
+        if i0 < i1 {
+            lo = lo.min(i0);
+            hi = hi.max(i1);
         }
     }
-    // merge overlapping contributions by sorting on index
-    let mut order: Vec<usize> = (0..idx.len()).collect();
-    order.sort_by_key(|&k| idx[k]);
-    let mut k = 0;
-    while k < order.len() {
-        let i = idx[order[k]];
-        let (mut a, mut b) = (0.0, 0.0);
-        while k < order.len() && idx[order[k]] == i {
-            a += xs[order[k]];
-            b += xc[order[k]];
-            k += 1;
-        }
+    for i in lo..hi {
+        let (a, b) = (xs[i], xc[i]);
         s_s += a;
         s_c += b;
         s_ss += a * a;
@@ -276,6 +333,91 @@ fn fit_linear(
             (ss, beta[0], beta[1], beta[2])
         }
         None => (syy, 0.0, 0.0, 0.0),
+    }
+}
+
+/// Whitened least squares of `y ≈ c + B·Xs + C·Xc` for one `(τ, f)` at a time.
+struct Gls<'a> {
+    times: &'a [f64],
+    events: &'a [f64],
+    plan: WhitenPlan,
+    /// Whitened recording and whitened constant column.
+    wy: Vec<f64>,
+    w1: Vec<f64>,
+    with_offset: bool,
+}
+
+impl<'a> Gls<'a> {
+    fn new(
+        y: &[f64],
+        times: &'a [f64],
+        events: &'a [f64],
+        plan: WhitenPlan,
+        with_offset: bool,
+    ) -> Self {
+        let n = y.len();
+        let mut wy = vec![0.0; n];
+        plan.whiten(y, &mut wy);
+        let mut w1 = vec![0.0; n];
+        plan.whiten(&vec![1.0; n], &mut w1);
+        Gls {
+            times,
+            events,
+            plan,
+            wy,
+            w1,
+            with_offset,
+        }
+    }
+
+    /// `(whitened SS, c, B, C)`.
+    fn fit(&self, tau: f64, f: f64) -> (f64, f64, f64, f64) {
+        let n = self.wy.len();
+        let mut cols = [vec![0.0; n], vec![0.0; n]];
+        for (k, (b, c)) in [(1.0, 0.0), (0.0, 1.0)].into_iter().enumerate() {
+            let tr = Transient {
+                b_nm: b,
+                c_nm: c,
+                tau_s: tau,
+                freq_hz: f,
+            };
+            let mut x = vec![0.0; n];
+            add_transients(&mut x, self.times, self.events, &tr);
+            self.plan.whiten(&x, &mut cols[k]);
+        }
+        let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
+        let (xs, xc, one, wy) = (&cols[0], &cols[1], &self.w1, &self.wy);
+        let (m, rhs) = if self.with_offset {
+            let (a01, a02, a12) = (dot(one, xs), dot(one, xc), dot(xs, xc));
+            (
+                nalgebra::Matrix3::new(
+                    dot(one, one),
+                    a01,
+                    a02,
+                    a01,
+                    dot(xs, xs),
+                    a12,
+                    a02,
+                    a12,
+                    dot(xc, xc),
+                ),
+                nalgebra::Vector3::new(dot(one, wy), dot(xs, wy), dot(xc, wy)),
+            )
+        } else {
+            let a12 = dot(xs, xc);
+            (
+                nalgebra::Matrix3::new(1.0, 0.0, 0.0, 0.0, dot(xs, xs), a12, 0.0, a12, dot(xc, xc)),
+                nalgebra::Vector3::new(0.0, dot(xs, wy), dot(xc, wy)),
+            )
+        };
+        let syy = dot(wy, wy);
+        match m.try_inverse() {
+            Some(inv) => {
+                let beta = inv * rhs;
+                (syy - beta.dot(&rhs), beta[0], beta[1], beta[2])
+            }
+            None => (f64::INFINITY, 0.0, 0.0, 0.0),
+        }
     }
 }
 
