@@ -1,9 +1,10 @@
-//! Diagnoses one synthetic relaxed+2 trial:
-//! `diag_one SEED [EFFECTS_JSON] [--ta] [--hidden kind+kind]`.
+//! Diagnoses one synthetic trial (relaxed+2 unless `--protocol NAME`):
+//! `diag_one SEED [EFFECTS_JSON] [--ta] [--hidden kind+kind] [--protocol seed]`.
 //!
 //! `SURAE_LM_ITERS=N` changes the Levenberg–Marquardt iteration cap; `SURAE_SHOW_FITS=1` prints
 //! the baseline and extended fits (parameters, uncertainties) as JSON; `SURAE_CANDIDATES=a,b`
-//! restricts the candidate effects.
+//! restricts the candidate effects; `SURAE_CV=cycles` holds out whole cycles even when the
+//! trial has fewer than three.
 use experiment::{random_params, synthesize, Protocol, SynthConfig};
 use muscle_model::{Effects, ModelParams};
 use rand::SeedableRng;
@@ -17,7 +18,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let params = random_params(&mut rng, &ModelParams::nominal());
-    let mut cfg = SynthConfig::new("relaxed+2".parse::<Protocol>()?, seed)
+    let protocol = match args.iter().position(|a| a == "--protocol") {
+        Some(i) => args
+            .get(i + 1)
+            .ok_or("--protocol needs a name")?
+            .parse::<Protocol>()?,
+        None => "relaxed+2".parse::<Protocol>()?,
+    };
+    let mut cfg = SynthConfig::new(protocol, seed)
         .with_params(params)
         .with_effects(effects);
     if args.iter().any(|a| a == "--ta") {
@@ -35,6 +43,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         synthesize(&cfg)?
     };
     let mut settings = diagnose::DiagnoseSettings::default();
+    if std::env::var("SURAE_CV").is_ok_and(|v| v == "cycles") {
+        settings.cv_folds = diagnose::CvFolds::Cycles;
+    }
     if let Ok(v) = std::env::var("SURAE_CANDIDATES") {
         settings.candidates = v
             .split(',')

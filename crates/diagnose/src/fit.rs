@@ -21,6 +21,10 @@ pub(crate) struct Context {
     pub folds: Vec<(Vec<bool>, WhitenPlan)>,
     pub lm: LmSettings,
     pub cv_lm: LmSettings,
+    /// Latin-hypercube starts of the muscle parameters added to every extended fit.
+    pub extended_extra_starts: usize,
+    /// Seed of the Latin-hypercube starts.
+    pub start_seed: u64,
 }
 
 /// A fitted model.
@@ -111,7 +115,9 @@ impl Context {
     /// their bounds because they were standing in for the missing effect (e.g. sol α0 and F0
     /// at their upper bounds mimicking an antagonist torque); from there the bounded LM can
     /// stop in that corner. So it is also started with the muscle parameters at their base
-    /// (nominal) values and the same effect start; the lower cost wins.
+    /// (nominal) values and at [`Context::extended_extra_starts`] Latin-hypercube points, with
+    /// the same effect start; the lowest cost wins. Two candidates are compared by their
+    /// fits, so a candidate left in a worse local minimum loses to one that is not the cause.
     pub fn fit(&self, kinds: &[EffectKind], x0: &[f64], cv: bool) -> Result<Fit, DiagnoseError> {
         let mut starts = vec![x0.to_vec()];
         if !kinds.is_empty() {
@@ -126,6 +132,18 @@ impl Context {
             }
             if x1 != x0 {
                 starts.push(x1);
+            }
+            // and from Latin-hypercube points of the muscle parameters (same effect start)
+            let muscles: Vec<usize> = (0..problem.free().len())
+                .filter(|&i| problem.free()[i].muscle().is_some())
+                .collect();
+            let box_m: Vec<(f64, f64)> = muscles.iter().map(|&i| bounds[i]).collect();
+            for p in latin_hypercube(&box_m, self.extended_extra_starts, self.start_seed ^ 1) {
+                let mut x2 = x0.to_vec();
+                for (&i, v) in muscles.iter().zip(p) {
+                    x2[i] = v;
+                }
+                starts.push(x2);
             }
         }
         self.fit_from(kinds, &starts, cv)

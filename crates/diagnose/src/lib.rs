@@ -10,16 +10,22 @@
 //!    least squares exact generalised least squares, with
 //!    `log L = −½ Σ (ln 2π S_t + ν_t²/S_t)`.
 //! 2. **Baseline** ([`lm`]): bounded Levenberg–Marquardt on the 9 muscle parameters from
-//!    nominal, whitened residual, finite-difference Jacobian.
+//!    nominal and from Latin-hypercube starts (the lowest whitened cost wins), whitened
+//!    residual, finite-difference Jacobian.
 //! 3. **Ranking** ([`score`]): for every eligible extension, the score test
 //!    `LM = rᵀP⊥S(SᵀP⊥S)⁻¹SᵀP⊥r/s²` from its sensitivity `S` at the null value;
 //!    evidence `LM − p ln n`.
 //! 4. **Refit** the leaders (muscle + effect parameters) and cross-validate cycle-wise
-//!    (each cycle held out in turn: zero weight, states still simulated over the whole trial).
+//!    (each cycle held out in turn: zero weight, states still simulated over the whole trial;
+//!    a trial with fewer than three cycles is cut into 0.5 s blocks in 5 folds instead,
+//!    [`CvFolds`]).
 //!    An extension is **accepted** when
 //!    `heldout_before − heldout_after ≥ max(2 % · heldout_before, 0.02 N·m)` **and**
 //!    `ΔBIC = BIC_ext − BIC_base < −10`; the best accepted one (lowest ΔBIC) joins the model
-//!    and the ranking is repeated on the new residual (greedy forward selection).
+//!    and the ranking is repeated on the new residual (greedy forward selection). Refits start
+//!    from the current fit, from nominal and from Latin-hypercube muscle parameters; before a
+//!    candidate is accepted the current model is refitted from the candidate's values, so that
+//!    a better optimum of parameters it already has is not credited to the new effect.
 //! 5. **Confounding**: an extension whose signature has `cos > 0.98` with the span of the
 //!    model's parameter sensitivities is reported in `confounded`, never named.
 //! 6. **Unexplained structure** ([`analysis`]): two generic step-function models (of the
@@ -104,13 +110,71 @@ pub struct DiagnoseSettings {
     pub lm: LmSettings,
     /// Levenberg–Marquardt iterations of a cross-validation refit.
     pub cv_iterations: usize,
+    /// How the samples are split into cross-validation folds.
+    pub cv_folds: CvFolds,
     /// Starts of the baseline fit besides the nominal parameters: Latin-hypercube points in
     /// the SPEC §8 box (run in parallel; the lowest whitened cost wins). A single start can
     /// stop in a local minimum (e.g. sol F0 at its bound), whose misfit then passes for a
     /// catalogued effect or for unexplained structure.
     pub baseline_extra_starts: usize,
-    /// Seed of those starts.
+    /// Starts of every extended fit besides the current fit and the nominal muscle
+    /// parameters: Latin-hypercube points of the muscle parameters (the effect parameters
+    /// start where the score test puts them). Without them a candidate's refit could stay in
+    /// a worse local minimum than a competitor's and lose to an effect that is not there.
+    pub extended_extra_starts: usize,
+    /// Seed of the Latin-hypercube starts.
     pub start_seed: u64,
+}
+
+/// Cross-validation folds of the held-out error.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CvFolds {
+    /// Every cycle (a concentric sweep and the eccentric sweep after it) is held out in turn;
+    /// the holds outside the cycles are never held out.
+    Cycles,
+    /// The trial is cut into consecutive blocks of `block_s` seconds; block `b` belongs to fold
+    /// `b mod folds`, so every fold holds out pieces of every phase.
+    Blocks {
+        /// Block length (s), much longer than the noise's correlation time (30 ms).
+        block_s: f64,
+        /// Number of folds (at least 2).
+        folds: usize,
+    },
+    /// [`CvFolds::Cycles`] when the trial has at least [`MIN_CV_CYCLES`] cycles, else
+    /// [`CvFolds::Blocks`] of 0.5 s in 5 folds. Holding out the only cycle of a one-cycle trial
+    /// (the `seed` protocol, the dissertation's) leaves nothing but holds to fit: the held-out
+    /// error then measures extrapolation from rest to a maximal contraction, not the model.
+    Auto,
+}
+
+/// Fewest cycles for cycle-wise cross-validation under [`CvFolds::Auto`].
+pub const MIN_CV_CYCLES: usize = 3;
+
+impl CvFolds {
+    /// The held-out mask of every fold for `n` samples at `fs` Hz, given the cycle of each
+    /// sample (`None` outside the cycles).
+    pub fn held_out_masks(&self, n: usize, fs: f64, cycle: &[Option<usize>]) -> Vec<Vec<bool>> {
+        let cycles = cycle.iter().flatten().max().map_or(0, |m| m + 1);
+        match *self {
+            CvFolds::Auto if cycles >= MIN_CV_CYCLES => {
+                CvFolds::Cycles.held_out_masks(n, fs, cycle)
+            }
+            CvFolds::Auto => CvFolds::Blocks {
+                block_s: 0.5,
+                folds: 5,
+            }
+            .held_out_masks(n, fs, cycle),
+            CvFolds::Cycles => (0..cycles)
+                .map(|k| cycle.iter().map(|c| *c == Some(k)).collect())
+                .collect(),
+            CvFolds::Blocks { block_s, folds } => {
+                let len = ((block_s * fs).round() as usize).max(1);
+                (0..folds)
+                    .map(|k| (0..n).map(|i| (i / len) % folds == k).collect())
+                    .collect()
+            }
+        }
+    }
 }
 
 impl Default for DiagnoseSettings {
@@ -128,7 +192,9 @@ impl Default for DiagnoseSettings {
             input_options: InputOptions::default(),
             lm: LmSettings::default(),
             cv_iterations: 8,
+            cv_folds: CvFolds::Auto,
             baseline_extra_starts: 5,
+            extended_extra_starts: 4,
             start_seed: 0x5eed_d1a9,
         }
     }
@@ -180,12 +246,24 @@ fn notify(
 }
 
 /// Refit result of one candidate.
-struct Refit {
+struct Refit<'a> {
     kind: EffectKind,
-    fit: Fit,
+    fit: &'a Fit,
     delta_bic: f64,
     gain_nm: f64,
     gain_pct: f64,
+}
+
+/// A candidate's fit judged against the current model.
+fn judge<'a>(fit: &'a Fit, current: &Fit, nobs: usize) -> Refit<'a> {
+    let gain_nm = current.heldout_rms - fit.heldout_rms;
+    Refit {
+        kind: *fit.kinds.last().expect("an extended fit adds an effect"),
+        fit,
+        delta_bic: fit.bic(nobs) - current.bic(nobs),
+        gain_nm,
+        gain_pct: 100.0 * gain_nm / current.heldout_rms,
+    }
 }
 
 /// Diagnoses a measured trial (and its unloaded run when available).
@@ -235,9 +313,11 @@ pub fn run(
     };
     let make_ctx = |y: Vec<f64>, noise: NoiseModel| -> Context {
         let plan = noise.plan(n, None);
-        let folds = (0..seg.cycles.len())
-            .map(|k| {
-                let held: Vec<bool> = seg.cycle.iter().map(|c| *c == Some(k)).collect();
+        let folds = settings
+            .cv_folds
+            .held_out_masks(n, fs, &seg.cycle)
+            .into_iter()
+            .map(|held| {
                 let train: Vec<bool> = held.iter().map(|h| !h).collect();
                 let p: WhitenPlan = noise.plan(n, Some(&train));
                 (held, p)
@@ -252,6 +332,8 @@ pub fn run(
             folds,
             lm,
             cv_lm,
+            extended_extra_starts: settings.extended_extra_starts,
+            start_seed: settings.start_seed,
         }
     };
     let (noise, y) = match unloaded {
@@ -325,7 +407,7 @@ pub fn run(
         settings.baseline_extra_starts,
         settings.start_seed,
     ));
-    let baseline = ctx.fit_from(&[], &starts, true)?;
+    let mut baseline = ctx.fit_from(&[], &starts, true)?;
     evaluations += baseline.evaluations;
     let nobs = ctx.plan.n_obs();
     let eligible: Vec<EffectKind> = settings
@@ -377,57 +459,92 @@ pub fn run(
         if leaders.is_empty() {
             break;
         }
-        let refits: Vec<Result<Refit, DiagnoseError>> = leaders
+        let refits: Vec<Result<Fit, DiagnoseError>> = leaders
             .par_iter()
             .map(|s| {
                 let mut kinds = current.kinds.clone();
                 kinds.push(s.kind);
-                let fit = ctx.fit(&kinds, &score::extended_start(&current, s), true)?;
-                let delta_bic = fit.bic(nobs) - current.bic(nobs);
-                let gain_nm = current.heldout_rms - fit.heldout_rms;
-                let gain_pct = 100.0 * gain_nm / current.heldout_rms;
-                Ok(Refit {
-                    kind: s.kind,
-                    fit,
-                    delta_bic,
-                    gain_nm,
-                    gain_pct,
-                })
+                ctx.fit(&kinds, &score::extended_start(&current, s), true)
             })
             .collect();
-        let mut passing: Vec<Refit> = Vec::new();
+        let mut fits: Vec<Fit> = Vec::new();
         for r in refits {
-            let r = match r {
-                Ok(r) => r,
-                Err(DiagnoseError::Fit { .. }) | Err(DiagnoseError::Model(_)) => continue,
+            match r {
+                Ok(f) => {
+                    evaluations += f.evaluations;
+                    fits.push(f);
+                }
+                Err(DiagnoseError::Fit { .. }) | Err(DiagnoseError::Model(_)) => {}
                 Err(e) => return Err(e),
-            };
-            evaluations += r.fit.evaluations;
-            if let Some(rep) = reports.get_mut(&r.kind) {
-                rep.heldout_rms_nm = Some(r.fit.heldout_rms);
-                rep.delta_bic = Some(r.delta_bic);
-                rep.heldout_gain_pct = Some(r.gain_pct);
-                rep.fitted = Some(effect_values(&r.fit, r.kind));
-            }
-            let need = (settings.min_heldout_gain_pct / 100.0 * current.heldout_rms)
-                .max(settings.min_heldout_gain_nm);
-            // a collinear extension must also be estimated clearly away from its null
-            let collinear = reports
-                .get(&r.kind)
-                .is_some_and(|rep| rep.cos_to_model > settings.confound_cos);
-            let clear = !collinear || effect_significance(&r.fit, r.kind, nobs) >= 3.0;
-            if r.gain_nm >= need && r.delta_bic < settings.max_delta_bic && clear {
-                passing.push(r);
             }
         }
-        passing.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
-        let Some(best) = passing.into_iter().next() else {
+        // Judge the candidates against the current fit. Before one is accepted, the current
+        // model is refitted from the leader's values of its own parameters: when that beats
+        // the current fit, part of the leader's gain was a better optimum of parameters the
+        // current model already has (e.g. a delay of 3 ms on a no-effect trial), so the
+        // current fit is replaced and the candidates are judged again.
+        let mut rechecked = false;
+        let best = loop {
+            let judged: Vec<Refit> = fits.iter().map(|f| judge(f, &current, nobs)).collect();
+            let mut passing: Vec<&Refit> = Vec::new();
+            for r in &judged {
+                if let Some(rep) = reports.get_mut(&r.kind) {
+                    rep.heldout_rms_nm = Some(r.fit.heldout_rms);
+                    rep.delta_bic = Some(r.delta_bic);
+                    rep.heldout_gain_pct = Some(r.gain_pct);
+                    rep.fitted = Some(effect_values(r.fit, r.kind));
+                }
+                let need = (settings.min_heldout_gain_pct / 100.0 * current.heldout_rms)
+                    .max(settings.min_heldout_gain_nm);
+                // a collinear extension must also be estimated clearly away from its null
+                let collinear = reports
+                    .get(&r.kind)
+                    .is_some_and(|rep| rep.cos_to_model > settings.confound_cos);
+                let clear = !collinear || effect_significance(r.fit, r.kind, nobs) >= 3.0;
+                if r.gain_nm >= need && r.delta_bic < settings.max_delta_bic && clear {
+                    passing.push(r);
+                }
+            }
+            passing.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
+            let Some(lead) = passing.first() else {
+                break None;
+            };
+            if rechecked {
+                break Some(lead.kind);
+            }
+            rechecked = true;
+            let x0: Vec<f64> = current
+                .free
+                .iter()
+                .map(|id| {
+                    let i = lead.fit.free.iter().position(|f| f == id);
+                    i.map_or(0.0, |i| lead.fit.x[i])
+                })
+                .collect();
+            let alt = ctx.fit_from(&current.kinds, &[x0], true)?;
+            evaluations += alt.evaluations;
+            if alt.white_ss < current.white_ss {
+                if current.kinds.is_empty() {
+                    baseline = alt.clone();
+                }
+                current = alt;
+                continue;
+            }
+            break Some(lead.kind);
+        };
+        let Some(best_kind) = best else {
             break;
         };
-        if let Some(rep) = reports.get_mut(&best.kind) {
+        let Some(best) = fits
+            .into_iter()
+            .find(|f| f.kinds.last() == Some(&best_kind))
+        else {
+            break;
+        };
+        if let Some(rep) = reports.get_mut(&best_kind) {
             rep.accepted = true;
         }
-        current = best.fit;
+        current = best;
     }
     for rep in reports.values_mut() {
         if rep.confounded && !rep.accepted && !confounded.contains(&rep.effect) {
@@ -502,6 +619,14 @@ fn check_settings(s: &DiagnoseSettings) -> Result<(), DiagnoseError> {
     }
     if !(s.confound_cos > 0.0 && s.confound_cos <= 1.0) {
         return bad("confound_cos", "must be in (0, 1]");
+    }
+    if let CvFolds::Blocks { block_s, folds } = s.cv_folds {
+        if !(block_s.is_finite() && block_s > 0.0) || folds < 2 {
+            return bad(
+                "cv_folds",
+                "blocks need a finite block length > 0 and at least 2 folds",
+            );
+        }
     }
     if s.lm.max_iterations == 0 || !(s.lm.fd_step > 0.0 && s.lm.fd_step < 0.5) {
         return bad("lm", "max_iterations ≥ 1 and 0 < fd_step < 0.5");
