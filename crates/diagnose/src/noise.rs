@@ -125,23 +125,9 @@ impl NoiseModel {
         let times: Vec<f64> = (0..n).map(|i| i as f64 / fs).collect();
         let mut best = (f64::INFINITY, 0.0, Transient::none());
         let try_grid = |taus: &[f64], freqs: &[f64], best: &mut (f64, f64, Transient)| {
-            for &tau in taus {
-                for &f in freqs {
-                    let (ss, c, b, cc) = fit_linear(y, &times, events, tau, f, with_offset);
-                    if ss < best.0 {
-                        *best = (
-                            ss,
-                            c,
-                            Transient {
-                                b_nm: b,
-                                c_nm: cc,
-                                tau_s: tau,
-                                freq_hz: f,
-                            },
-                        );
-                    }
-                }
-            }
+            grid_search(taus, freqs, best, |tau, f| {
+                fit_linear(y, &times, events, tau, f, with_offset)
+            });
         };
         if !events.is_empty() {
             let taus: Vec<f64> = (0..14).map(|k| 0.01 * 1.3f64.powi(k)).collect();
@@ -186,23 +172,7 @@ impl NoiseModel {
                 let gls = Gls::new(y, &times, events, ar.plan(n, None), with_offset);
                 let mut best = (f64::INFINITY, offset, transient);
                 let try_grid = |taus: &[f64], freqs: &[f64], best: &mut (f64, f64, Transient)| {
-                    for &tau in taus {
-                        for &f in freqs {
-                            let (ss, c, b, cc) = gls.fit(tau, f);
-                            if ss < best.0 {
-                                *best = (
-                                    ss,
-                                    c,
-                                    Transient {
-                                        b_nm: b,
-                                        c_nm: cc,
-                                        tau_s: tau,
-                                        freq_hz: f,
-                                    },
-                                );
-                            }
-                        }
-                    }
+                    grid_search(taus, freqs, best, |tau, f| gls.fit(tau, f));
                 };
                 // round 0: around the least-squares optimum (τ × 1.3^±3, f ± 4 Hz), then
                 // two finer grids (τ × 1.06^±3 and f ± 0.5 Hz; τ × 1.02^±3 and f ± 0.15 Hz)
@@ -242,6 +212,33 @@ impl NoiseModel {
             sd_ar_nm: sd_ar,
             sd_white_nm: sd_white,
             remainder_rms_nm: rms,
+        }
+    }
+}
+
+/// Keeps in `best` = (SS, c, transient) the lowest-SS fit over the grid `taus × freqs`;
+/// `fit(τ, f)` returns `(SS, c, B, C)`.
+fn grid_search(
+    taus: &[f64],
+    freqs: &[f64],
+    best: &mut (f64, f64, Transient),
+    fit: impl Fn(f64, f64) -> (f64, f64, f64, f64),
+) {
+    for &tau in taus {
+        for &f in freqs {
+            let (ss, c, b, cc) = fit(tau, f);
+            if ss < best.0 {
+                *best = (
+                    ss,
+                    c,
+                    Transient {
+                        b_nm: b,
+                        c_nm: cc,
+                        tau_s: tau,
+                        freq_hz: f,
+                    },
+                );
+            }
         }
     }
 }
