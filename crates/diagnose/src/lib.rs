@@ -151,20 +151,33 @@ pub enum CvFolds {
 pub const MIN_CV_CYCLES: usize = 3;
 
 impl CvFolds {
+    /// [`CvFolds::Auto`] resolved for a trial with `cycles` cycles (others unchanged).
+    pub fn resolve(&self, cycles: usize) -> CvFolds {
+        match *self {
+            CvFolds::Auto if cycles >= MIN_CV_CYCLES => CvFolds::Cycles,
+            CvFolds::Auto => CvFolds::Blocks {
+                block_s: 0.5,
+                folds: 5,
+            },
+            other => other,
+        }
+    }
+
+    /// A short description, e.g. `3 cycles held out in turn`, `5 folds of 0.5 s blocks`.
+    pub fn describe(&self, cycles: usize) -> String {
+        match self.resolve(cycles) {
+            CvFolds::Blocks { block_s, folds } => format!("{folds} folds of {block_s} s blocks"),
+            _ if cycles == 1 => "the cycle held out".into(),
+            _ => format!("{cycles} cycles held out in turn"),
+        }
+    }
+
     /// The held-out mask of every fold for `n` samples at `fs` Hz, given the cycle of each
     /// sample (`None` outside the cycles).
     pub fn held_out_masks(&self, n: usize, fs: f64, cycle: &[Option<usize>]) -> Vec<Vec<bool>> {
         let cycles = cycle.iter().flatten().max().map_or(0, |m| m + 1);
-        match *self {
-            CvFolds::Auto if cycles >= MIN_CV_CYCLES => {
-                CvFolds::Cycles.held_out_masks(n, fs, cycle)
-            }
-            CvFolds::Auto => CvFolds::Blocks {
-                block_s: 0.5,
-                folds: 5,
-            }
-            .held_out_masks(n, fs, cycle),
-            CvFolds::Cycles => (0..cycles)
+        match self.resolve(cycles) {
+            CvFolds::Auto | CvFolds::Cycles => (0..cycles)
                 .map(|k| cycle.iter().map(|c| *c == Some(k)).collect())
                 .collect(),
             CvFolds::Blocks { block_s, folds } => {
@@ -592,6 +605,7 @@ pub fn run(
         candidates,
         confounded,
         noise: ctx.noise,
+        cv_folds: settings.cv_folds.describe(ctx.seg.cycles.len()),
         residual_analysis: ra,
         evaluations,
         wall_s: t0.elapsed().as_secs_f64(),

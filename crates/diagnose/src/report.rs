@@ -105,6 +105,9 @@ pub struct Diagnosis {
     pub confounded: Vec<String>,
     /// Noise model used.
     pub noise: NoiseModel,
+    /// How the held-out errors were cross-validated, e.g. `3 cycles held out in turn` or
+    /// `5 folds of 0.5 s blocks`.
+    pub cv_folds: String,
     /// Residual analysis (binned summaries and autocorrelation; per-sample series in memory).
     pub residual_analysis: ResidualAnalysis,
     /// Model simulations used.
@@ -174,8 +177,8 @@ impl Diagnosis {
             self.noise.sd_white_nm
         ));
         l.push(format!(
-            "baseline     RMS {:.2} N·m, held-out RMS {:.2} N·m",
-            self.baseline.rms_nm, self.baseline.heldout_rms_nm
+            "baseline     RMS {:.2} N·m, held-out RMS {:.2} N·m ({})",
+            self.baseline.rms_nm, self.baseline.heldout_rms_nm, self.cv_folds
         ));
         if self.causes.is_empty() {
             l.push("causes       none".into());

@@ -58,6 +58,8 @@ fn one_cycle_trials_cross_validate_in_blocks() {
         let d = run(&syn.trial, Some(&syn.unloaded), &settings, &mut no_observer).unwrap();
         let summary = d.summary_lines().join("\n");
         assert_eq!(d.verdict, Verdict::Adequate, "seed {seed}:\n{summary}");
+        assert_eq!(d.cv_folds, "5 folds of 0.5 s blocks");
+        assert_eq!(d.to_json_value()["cv_folds"], "5 folds of 0.5 s blocks");
         // held out by cycle it was 2.0–2.5 N·m on seeds 1–3 (5.3 on the bundled seed trial)
         // against 1.1–1.2 N·m in sample
         assert!(
