@@ -1,20 +1,26 @@
 //! Component tests: segmentation, the dynamometer noise model and its whitening, the LM solver.
 
 use diagnose::noise::{NoiseModel, NoiseSource};
-use diagnose::{lm, PhaseLabel, Segmentation};
-use experiment::{unloaded_run, DynamometerSettings, Protocol};
+use diagnose::{lm, CvFolds, PhaseLabel, Segmentation};
+use experiment::{unloaded_run, DynamometerSettings, Protocol, ProtocolTrace};
 use muscle_model::EffectKind;
 
-#[test]
-fn segments_relaxed_plus_two() {
-    let tr = "relaxed+2".parse::<Protocol>().unwrap().trace().unwrap();
-    // envelope: rest in the relaxed cycle, 1 in the active part
+/// The protocol's trace and its segmentation with an envelope at rest in the relaxed parts
+/// and 1 in the active ones.
+fn segmented(protocol: &str) -> (ProtocolTrace, Segmentation) {
+    let tr = protocol.parse::<Protocol>().unwrap().trace().unwrap();
     let env: Vec<f64> = tr
         .active
         .iter()
         .map(|a| if *a { 1.0 } else { 0.02 })
         .collect();
     let seg = Segmentation::new(&tr.angle_deg, tr.sample_rate_hz, Some(&env)).unwrap();
+    (tr, seg)
+}
+
+#[test]
+fn segments_relaxed_plus_two() {
+    let (tr, seg) = segmented("relaxed+2");
     assert_eq!(seg.cycles.len(), 3);
     assert!(seg.cycles[0].relaxed && !seg.cycles[1].relaxed && !seg.cycles[2].relaxed);
     let truth = tr.events.all();
@@ -60,6 +66,34 @@ fn noise_model_recovers_the_dynamometer_error() {
     let r1 = w.windows(2).map(|p| p[0] * p[1]).sum::<f64>() / n / var;
     assert!((var - 1.0).abs() < 0.1, "whitened variance {var}");
     assert!(r1.abs() < 0.05, "whitened lag-1 correlation {r1}");
+}
+
+#[test]
+fn auto_folds_are_cycles_from_three_cycles_on_and_blocks_below() {
+    for (protocol, cycles) in [("seed", 1), ("relaxed+1", 2), ("relaxed+2", 3)] {
+        let (tr, seg) = segmented(protocol);
+        assert_eq!(seg.cycles.len(), cycles, "{protocol}");
+        let n = tr.len();
+        let masks = CvFolds::Auto.held_out_masks(n, tr.sample_rate_hz, &seg.cycle);
+        if cycles >= diagnose::MIN_CV_CYCLES {
+            assert_eq!(
+                masks,
+                CvFolds::Cycles.held_out_masks(n, tr.sample_rate_hz, &seg.cycle)
+            );
+        } else {
+            assert_eq!(masks.len(), 5, "{protocol}");
+            // every sample is held out exactly once, in runs of 0.5 s
+            for i in 0..n {
+                assert_eq!(
+                    masks.iter().filter(|m| m[i]).count(),
+                    1,
+                    "{protocol} sample {i}"
+                );
+            }
+            let first_switch = (1..n).find(|&i| masks[0][i] != masks[0][i - 1]).unwrap();
+            assert_eq!(first_switch, (0.5 * tr.sample_rate_hz).round() as usize);
+        }
+    }
 }
 
 /// Relative L2 error of a fitted event transient against the true one over 0.5 s.

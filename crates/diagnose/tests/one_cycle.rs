@@ -1,8 +1,9 @@
 //! Trials with a single cycle (the `seed` protocol, as in the dissertation): the held-out error
 //! comes from blocked folds (holding out the only cycle would leave nothing but holds to fit),
-//! so it stays at the noise level for a correct model, and a clear effect is still named.
+//! so it stays at the noise level for a correct model, and a clear effect is still named. The
+//! folds themselves are tested in `components.rs`.
 
-use diagnose::{no_observer, run, CvFolds, DiagnoseSettings, Segmentation, Verdict};
+use diagnose::{no_observer, run, DiagnoseSettings, Verdict};
 use experiment::{random_params, synthesize, Protocol, SynthConfig};
 use muscle_model::{Effects, ModelParams};
 use rand::SeedableRng;
@@ -14,40 +15,6 @@ fn seed_trial(seed: u64, effects: &str) -> experiment::Synthetic {
         .with_params(params)
         .with_effects(Effects::from_json_str(effects).unwrap());
     synthesize(&cfg).unwrap()
-}
-
-#[test]
-fn auto_folds_are_cycles_from_three_cycles_on_and_blocks_below() {
-    for (protocol, cycles) in [("seed", 1), ("relaxed+1", 2), ("relaxed+2", 3)] {
-        let tr = protocol.parse::<Protocol>().unwrap().trace().unwrap();
-        let env: Vec<f64> = tr
-            .active
-            .iter()
-            .map(|a| if *a { 1.0 } else { 0.02 })
-            .collect();
-        let seg = Segmentation::new(&tr.angle_deg, tr.sample_rate_hz, Some(&env)).unwrap();
-        assert_eq!(seg.cycles.len(), cycles, "{protocol}");
-        let n = tr.len();
-        let masks = CvFolds::Auto.held_out_masks(n, tr.sample_rate_hz, &seg.cycle);
-        if cycles >= diagnose::MIN_CV_CYCLES {
-            assert_eq!(
-                masks,
-                CvFolds::Cycles.held_out_masks(n, tr.sample_rate_hz, &seg.cycle)
-            );
-        } else {
-            assert_eq!(masks.len(), 5, "{protocol}");
-            // every sample is held out exactly once, in runs of 0.5 s
-            for i in 0..n {
-                assert_eq!(
-                    masks.iter().filter(|m| m[i]).count(),
-                    1,
-                    "{protocol} sample {i}"
-                );
-            }
-            let first_switch = (1..n).find(|&i| masks[0][i] != masks[0][i - 1]).unwrap();
-            assert_eq!(first_switch, (0.5 * tr.sample_rate_hz).round() as usize);
-        }
-    }
 }
 
 #[test]
