@@ -311,26 +311,34 @@ fn fit_linear(
         s_ys += y[i] * a;
         s_yc += y[i] * b;
     }
-    let nf = n as f64;
+    let gram = [n as f64, s_s, s_c, s_ss, s_sc, s_cc];
+    normal_equations(with_offset, gram, [sy, s_ys, s_yc], syy).unwrap_or((syy, 0.0, 0.0, 0.0))
+}
+
+/// Least squares `y ≈ c + B·Xs + C·Xc` from its sums: `gram` = `[1·1, 1·Xs, 1·Xc, Xs·Xs,
+/// Xs·Xc, Xc·Xc]`, `rhs` = `[1·y, Xs·y, Xc·y]`, `syy` = `y·y`; without the offset the constant
+/// column is left out (`c = 0`). Returns `(SS, c, B, C)`, `None` when the system is singular.
+fn normal_equations(
+    with_offset: bool,
+    gram: [f64; 6],
+    rhs: [f64; 3],
+    syy: f64,
+) -> Option<(f64, f64, f64, f64)> {
+    let [a00, a01, a02, a11, a12, a22] = gram;
     let (m, rhs) = if with_offset {
         (
-            nalgebra::Matrix3::new(nf, s_s, s_c, s_s, s_ss, s_sc, s_c, s_sc, s_cc),
-            nalgebra::Vector3::new(sy, s_ys, s_yc),
+            nalgebra::Matrix3::new(a00, a01, a02, a01, a11, a12, a02, a12, a22),
+            nalgebra::Vector3::new(rhs[0], rhs[1], rhs[2]),
         )
     } else {
         (
-            nalgebra::Matrix3::new(1.0, 0.0, 0.0, 0.0, s_ss, s_sc, 0.0, s_sc, s_cc),
-            nalgebra::Vector3::new(0.0, s_ys, s_yc),
+            nalgebra::Matrix3::new(1.0, 0.0, 0.0, 0.0, a11, a12, 0.0, a12, a22),
+            nalgebra::Vector3::new(0.0, rhs[1], rhs[2]),
         )
     };
-    match m.try_inverse() {
-        Some(inv) => {
-            let beta = inv * rhs;
-            let ss = syy - beta.dot(&rhs);
-            (ss, beta[0], beta[1], beta[2])
-        }
-        None => (syy, 0.0, 0.0, 0.0),
-    }
+    let inv = m.try_inverse()?;
+    let beta = inv * rhs;
+    Some((syy - beta.dot(&rhs), beta[0], beta[1], beta[2]))
 }
 
 /// Whitened least squares of `y ≈ c + B·Xs + C·Xc` for one `(τ, f)` at a time.
@@ -341,7 +349,15 @@ struct Gls<'a> {
     /// Whitened recording and whitened constant column.
     wy: Vec<f64>,
     w1: Vec<f64>,
+    /// `w1·w1`, `w1·wy`, `wy·wy` (the same at every grid point).
+    w1_w1: f64,
+    w1_wy: f64,
+    wy_wy: f64,
     with_offset: bool,
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>()
 }
 
 impl<'a> Gls<'a> {
@@ -361,13 +377,16 @@ impl<'a> Gls<'a> {
             times,
             events,
             plan,
+            w1_w1: dot(&w1, &w1),
+            w1_wy: dot(&w1, &wy),
+            wy_wy: dot(&wy, &wy),
             wy,
             w1,
             with_offset,
         }
     }
 
-    /// `(whitened SS, c, B, C)`.
+    /// `(whitened SS, c, B, C)`; a singular system scores an infinite SS.
     fn fit(&self, tau: f64, f: f64) -> (f64, f64, f64, f64) {
         let n = self.wy.len();
         let mut cols = [vec![0.0; n], vec![0.0; n]];
@@ -382,39 +401,27 @@ impl<'a> Gls<'a> {
             add_transients(&mut x, self.times, self.events, &tr);
             self.plan.whiten(&x, &mut cols[k]);
         }
-        let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
         let (xs, xc, one, wy) = (&cols[0], &cols[1], &self.w1, &self.wy);
-        let (m, rhs) = if self.with_offset {
-            let (a01, a02, a12) = (dot(one, xs), dot(one, xc), dot(xs, xc));
-            (
-                nalgebra::Matrix3::new(
-                    dot(one, one),
-                    a01,
-                    a02,
-                    a01,
-                    dot(xs, xs),
-                    a12,
-                    a02,
-                    a12,
-                    dot(xc, xc),
-                ),
-                nalgebra::Vector3::new(dot(one, wy), dot(xs, wy), dot(xc, wy)),
-            )
+        let (one_xs, one_xc) = if self.with_offset {
+            (dot(one, xs), dot(one, xc))
         } else {
-            let a12 = dot(xs, xc);
-            (
-                nalgebra::Matrix3::new(1.0, 0.0, 0.0, 0.0, dot(xs, xs), a12, 0.0, a12, dot(xc, xc)),
-                nalgebra::Vector3::new(0.0, dot(xs, wy), dot(xc, wy)),
-            )
+            (0.0, 0.0)
         };
-        let syy = dot(wy, wy);
-        match m.try_inverse() {
-            Some(inv) => {
-                let beta = inv * rhs;
-                (syy - beta.dot(&rhs), beta[0], beta[1], beta[2])
-            }
-            None => (f64::INFINITY, 0.0, 0.0, 0.0),
-        }
+        let gram = [
+            self.w1_w1,
+            one_xs,
+            one_xc,
+            dot(xs, xs),
+            dot(xs, xc),
+            dot(xc, xc),
+        ];
+        let rhs = [self.w1_wy, dot(xs, wy), dot(xc, wy)];
+        normal_equations(self.with_offset, gram, rhs, self.wy_wy).unwrap_or((
+            f64::INFINITY,
+            0.0,
+            0.0,
+            0.0,
+        ))
     }
 }
 
