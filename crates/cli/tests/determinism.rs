@@ -82,6 +82,34 @@ fn diagnose_json_is_byte_identical_with_one_and_two_threads() {
     let v: serde_json::Value = serde_json::from_str(&one).unwrap();
     assert!(v["verdict"] == "adequate" || v["verdict"] == "deficient");
     assert!(v["candidates"].as_array().is_some_and(|c| !c.is_empty()));
+    // the final model's parameters carry 68 % profile intervals around their values
+    let final_model = if v["causes"].as_array().is_some_and(|c| c.is_empty()) {
+        &v["baseline"]
+    } else {
+        &v["extended"]
+    };
+    let ints = final_model["param_interval"]
+        .as_object()
+        .expect("param_interval");
+    assert_eq!(ints.len(), 9);
+    for (name, iv) in ints {
+        let x = final_model["params"][name].as_f64().unwrap();
+        let (lo, hi) = (iv["lower"].as_f64().unwrap(), iv["upper"].as_f64().unwrap());
+        assert!(
+            lo <= x && x <= hi && lo < hi,
+            "{name}: {x} not in [{lo}, {hi}]"
+        );
+        assert!(
+            (final_model["param_uncertainty"][name].as_f64().unwrap() - 0.5 * (hi - lo)).abs()
+                < 1e-9
+        );
+    }
+    let dir1 = dir.path().join("diagnose-1");
+    let html = std::fs::read_to_string(dir1.join("report.html")).unwrap();
+    assert!(
+        html.contains("68 % profile-likelihood intervals"),
+        "parameter table in report.html"
+    );
     assert_same_but_wall_time(&one, &two, "diagnosis.json");
 }
 

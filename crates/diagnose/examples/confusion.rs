@@ -2,7 +2,9 @@
 //!
 //! `cargo run --release -p diagnose --example confusion -- [N] [BASE_SEED] [--limits [--effects a,b:size]]`
 //! prints, per scenario, how often the named causes equal the hidden ones, what was named
-//! instead, the magnitude error and the time; with `--limits`, the detection rate per effect
+//! instead, the magnitude error, the time and how often the true effect parameters fall inside the
+//! reported 68 % profile intervals (and within ±1 Laplace standard error), for the effect and
+//! for the muscle parameters of the final model; with `--limits`, the detection rate per effect
 //! at sizes below and at the bottom of the realistic range (`--effects` keeps only the listed
 //! effects, or with `:size` only that size; trial `i` of an effect uses seed `BASE_SEED + 1000·kind + i` at every size, so a
 //! run split by `--effects` gives the same rows as one run).
@@ -30,11 +32,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             (EffectKind::Fatigue, vec![0.002, 0.005, 0.01]),
             (
                 EffectKind::AntagonistCoactivation,
-                vec![0.5, 1.0, 2.0, 3.0, 5.0, 8.0],
+                vec![0.5, 1.0, 2.0, 3.0, 5.0, 8.0, 10.0],
             ),
             (EffectKind::EccentricEnhancement, vec![0.03, 0.06, 0.1, 0.2]),
             (EffectKind::ViscousDamping, vec![0.5, 1.0, 2.0, 4.0]),
-            (EffectKind::Inertia, vec![0.01, 0.02, 0.05, 0.1]),
+            (EffectKind::Inertia, vec![0.01, 0.02, 0.05, 0.1, 0.2, 0.3]),
         ];
         let only: Option<Vec<String>> = args
             .iter()
@@ -95,13 +97,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         vec![EffectKind::Fatigue, EffectKind::PassiveJointTorque],
         false,
     ));
-    println!("scenario | correct/N | named instead (count) | mean |rel. err| of headline | held-out gain > 0 | max wall s");
+    println!("scenario | correct/N | named instead (count) | mean |rel. err| of headline | held-out gain > 0 | max wall s | effect truth in 68 % profile interval | within ±1 Laplace SE | muscle truth in 68 % profile interval | within ±1 Laplace SE");
     for (si, (name, kinds, ta)) in scenarios.iter().enumerate() {
         let mut ok = 0;
         let mut named: BTreeMap<String, usize> = BTreeMap::new();
         let mut errs = Vec::new();
         let mut gain_pos = 0;
         let mut wall: f64 = 0.0;
+        let (mut cov_n, mut cov_prof, mut cov_lap) = (0, 0, 0);
+        let (mut mus_n, mut mus_prof, mut mus_lap) = (0, 0, 0);
         for i in 0..n {
             let seed = base + 100_000 * si as u64 + i;
             let t = hidden_trial(kinds, *ta, seed)?;
@@ -123,11 +127,46 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 *named.entry(format!("[{}]", got.join("+"))).or_default() += 1;
                 eprintln!("seed {seed} {name}: named {:?}", d.causes);
             }
+            if let Some(ints) = d.extended.param_interval.as_ref() {
+                for id in muscle_model::ParamId::identified() {
+                    if let Some(iv) = ints.get(&id.name()) {
+                        let truth = id.get(&t.params, &t.effects);
+                        let fit = d.extended.params[&id.name()];
+                        mus_n += 1;
+                        mus_prof += usize::from(iv.lower <= truth && truth <= iv.upper);
+                        mus_lap += usize::from((fit - truth).abs() <= iv.laplace_se);
+                    }
+                }
+            }
             if kinds.is_empty() || d.gain.heldout_rms_reduction_pct > 0.0 {
                 gain_pos += 1;
             }
             for k in kinds {
                 let truth = headline(*k, t.effects.values(*k).unwrap_or_default());
+                // coverage of the reported 68 % intervals (profile) and of ±1 Laplace SE
+                let mut truth_v = t.effects.values(*k).unwrap_or_default();
+                if let Some(iv) = d
+                    .extended
+                    .effect_interval
+                    .as_ref()
+                    .and_then(|e| e.get(k.name()))
+                {
+                    let fitted = &d.extended.effects.as_ref().expect("effects")[k.name()];
+                    // m·sin(q − φ) = (−m)·sin(q − φ − 180°): compare in the fit's sign of m
+                    if *k == EffectKind::Gravity && fitted["moment_nm"] * truth_v[0] < 0.0 {
+                        let phase = truth_v[1] + 180.0;
+                        truth_v = [-truth_v[0], phase - 360.0 * (phase / 360.0).round()];
+                    }
+                    for (j, p) in k.params().iter().enumerate() {
+                        if let Some(iv) = iv.get(p.name) {
+                            cov_n += 1;
+                            cov_prof +=
+                                usize::from(iv.lower <= truth_v[j] && truth_v[j] <= iv.upper);
+                            cov_lap +=
+                                usize::from((fitted[p.name] - truth_v[j]).abs() <= iv.laplace_se);
+                        }
+                    }
+                }
                 if let Some(e) = d.extended.effects.as_ref().and_then(|e| e.get(k.name())) {
                     let ps = k.params();
                     let mut v = [0.0; 2];
@@ -150,7 +189,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             errs.iter().sum::<f64>() / errs.len() as f64
         };
         println!(
-            "{name} | {ok}/{n} | {} | {:.1} % | {gain_pos}/{n} | {wall:.1}",
+            "{name} | {ok}/{n} | {} | {:.1} % | {gain_pos}/{n} | {wall:.1} | {cov_prof}/{cov_n} | {cov_lap}/{cov_n} | {mus_prof}/{mus_n} | {mus_lap}/{mus_n}",
             named
                 .iter()
                 .map(|(k, v)| format!("{k}×{v}"))

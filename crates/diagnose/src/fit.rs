@@ -6,6 +6,7 @@ use rayon::prelude::*;
 
 use crate::lm::{minimise, LmSettings};
 use crate::noise::{NoiseModel, WhitenPlan};
+use crate::profile::{profile_interval, ProfileInterval, ProfileSettings};
 use crate::segment::Segmentation;
 use crate::DiagnoseError;
 
@@ -204,6 +205,38 @@ impl Context {
             fit.evaluations += ev;
         }
         Ok(fit)
+    }
+
+    /// The profile-likelihood interval ([`crate::profile`]) of parameter `k` of `fit`, with cost
+    /// differences scaled by `s2` and a first step `step0` out; `None` when the arguments do not
+    /// allow one (see [`profile_interval`]). The refits use the full fits' Levenberg–Marquardt
+    /// settings with the iteration cap and stopping tolerance of `settings`.
+    pub fn profile(
+        &self,
+        fit: &Fit,
+        k: usize,
+        s2: f64,
+        step0: f64,
+        settings: &ProfileSettings,
+    ) -> Result<Option<ProfileInterval>, DiagnoseError> {
+        let problem = self.problem(&fit.kinds)?;
+        let f = self.residual_fn(&problem, &self.plan);
+        let lm = LmSettings {
+            max_iterations: settings.lm_iterations,
+            ftol_rel: settings.ftol_rel,
+            ..self.lm
+        };
+        Ok(profile_interval(
+            &f,
+            &fit.x,
+            fit.white_ss,
+            k,
+            problem.bounds(),
+            s2,
+            step0,
+            &lm,
+            settings,
+        ))
     }
 
     /// Cycle-wise cross-validation: refit without each cycle, predict it; pooled held-out RMS.

@@ -32,7 +32,12 @@
 //!    motion: cycle × sweep direction × angle bin, hold halves; of time: 1 s blocks) tested
 //!    against the final residual by score tests, `LM ~ χ²(df)` under a correct model;
 //!    structure is unexplained when the Bonferroni p-value is below 10⁻³.
-//! 7. **Uncertainty**: Gauss–Newton standard errors `√diag(s²(JᵀJ)⁻¹)` with the whitened `J`.
+//! 7. **Uncertainty** ([`profile`]): 68 % profile-likelihood intervals of every parameter of
+//!    the final model, `{θ : (min_{others} ‖r‖² − ‖r̂‖²)/s² ≤ 1}` with the others refitted,
+//!    cut at the bounds; the uncertainty reported is the half-width. The Gauss–Newton
+//!    standard errors `√diag(s²(JᵀJ)⁻¹)` are kept beside them (`laplace_se`) and decide the
+//!    confounding test; they were several times too small for the pennation angles and tendon
+//!    slack lengths (docs/diagnosis.md).
 //!
 //! # Example
 //!
@@ -59,6 +64,7 @@ mod error;
 pub mod fit;
 pub mod lm;
 pub mod noise;
+pub mod profile;
 mod report;
 pub mod scenarios;
 pub mod score;
@@ -76,11 +82,13 @@ pub use analysis::{AcfPoint, Bin, ResidualAnalysis, Series};
 pub use error::DiagnoseError;
 pub use lm::LmSettings;
 pub use noise::{NoiseModel, NoiseSource, Transient};
-pub use report::{CandidateReport, Diagnosis, Gain, ModelReport, Verdict};
+pub use report::{CandidateReport, Diagnosis, Gain, ModelReport, ParamInterval, Verdict};
 pub use segment::{PhaseLabel, Segmentation};
 
 use fit::{Context, Fit};
 use noise::WhitenPlan;
+use profile::ProfileInterval;
+pub use profile::ProfileSettings;
 
 /// Settings of a diagnosis. `Default` is the documented decision rule (docs/diagnosis.md).
 #[derive(Clone, Debug, PartialEq)]
@@ -124,6 +132,8 @@ pub struct DiagnoseSettings {
     pub extended_extra_starts: usize,
     /// Seed of the Latin-hypercube starts.
     pub start_seed: u64,
+    /// Profile-likelihood intervals of the final model's parameters (module [`profile`]).
+    pub profile: ProfileSettings,
 }
 
 /// Cross-validation folds of the held-out error.
@@ -209,6 +219,7 @@ impl Default for DiagnoseSettings {
             baseline_extra_starts: 5,
             extended_extra_starts: 4,
             start_seed: 0x5eed_d1a9,
+            profile: ProfileSettings::default(),
         }
     }
 }
@@ -587,8 +598,25 @@ pub fn run(
             .cmp(&a.accepted)
             .then(b.evidence.total_cmp(&a.evidence))
     });
-    let base_rep = model_report(&baseline, nobs, false);
-    let ext_rep = model_report(&current, nobs, true);
+    notify(
+        observer,
+        Stage::Analysis,
+        "profile-likelihood intervals".into(),
+        evaluations,
+    )?;
+    let intervals = profile_intervals(&ctx, &current, nobs, &settings.profile)?;
+    evaluations += intervals
+        .iter()
+        .map(|(_, iv)| iv.evaluations)
+        .sum::<usize>();
+    // the baseline's own intervals only when it is the final model
+    let base_intervals: &[(usize, ProfileInterval)] = if current.kinds.is_empty() {
+        &intervals
+    } else {
+        &[]
+    };
+    let base_rep = model_report(&baseline, nobs, false, base_intervals);
+    let ext_rep = model_report(&current, nobs, true, &intervals);
     let gain = Gain {
         heldout_rms_reduction_pct: 100.0 * (1.0 - current.heldout_rms / baseline.heldout_rms),
         delta_bic: current.bic(nobs) - baseline.bic(nobs),
@@ -642,6 +670,16 @@ fn check_settings(s: &DiagnoseSettings) -> Result<(), DiagnoseError> {
             );
         }
     }
+    let p = &s.profile;
+    if !(p.level.is_finite() && p.level > 0.0 && p.tol > 0.0 && p.ftol_rel >= 0.0)
+        || p.max_refits == 0
+        || p.lm_iterations == 0
+    {
+        return bad(
+            "profile",
+            "level and tol > 0, ftol_rel ≥ 0, max_refits and lm_iterations ≥ 1",
+        );
+    }
     if s.lm.max_iterations == 0 || !(s.lm.fd_step > 0.0 && s.lm.fd_step < 0.5) {
         return bad("lm", "max_iterations ≥ 1 and 0 < fd_step < 0.5");
     }
@@ -675,10 +713,39 @@ fn effect_significance(fit: &Fit, kind: EffectKind, nobs: usize) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// Scale of the whitened residual, `s² = max(1, ‖r‖²/(n − p))` (1 when the noise model is right).
+fn residual_scale(fit: &Fit, nobs: usize) -> f64 {
+    (fit.white_ss / (nobs - fit.k()).max(1) as f64).max(1.0)
+}
+
+/// The 68 % profile-likelihood interval of every parameter of `fit` (index into `fit.x`,
+/// interval), computed in parallel; the first step out is the Laplace standard error.
+///
+/// The Laplace standard errors `√diag(s²(JᵀJ)⁻¹)` of the pennation angles and tendon slack
+/// lengths are far too small: the cost is flat along curved valleys in which the muscles
+/// trade off against each other, and the forward-difference Jacobian sees only the local
+/// curvature. On `diag_one 20240609 '{"antagonist_coactivation":{"gain_nm":9.32}}' --ta` sol
+/// α0 had a Laplace SE of 0.16° against an MCMC posterior SD of 1.74° and a profile half-width
+/// of 1.82° (docs/diagnosis.md).
+fn profile_intervals(
+    ctx: &Context,
+    fit: &Fit,
+    nobs: usize,
+    settings: &ProfileSettings,
+) -> Result<Vec<(usize, ProfileInterval)>, DiagnoseError> {
+    let se = standard_errors(fit, nobs);
+    let s2 = residual_scale(fit, nobs);
+    let out: Vec<Result<Option<(usize, ProfileInterval)>, DiagnoseError>> = (0..fit.k())
+        .into_par_iter()
+        .map(|i| Ok(ctx.profile(fit, i, s2, se[i], settings)?.map(|iv| (i, iv))))
+        .collect();
+    out.into_iter().filter_map(Result::transpose).collect()
+}
+
 fn standard_errors(fit: &Fit, nobs: usize) -> Vec<f64> {
     let jtj = fit.jac.tr_mul(&fit.jac);
     let p = fit.k();
-    let s2 = (fit.white_ss / (nobs - p).max(1) as f64).max(1.0);
+    let s2 = residual_scale(fit, nobs);
     match jtj.clone().try_inverse() {
         Some(inv) => (0..p).map(|i| (s2 * inv[(i, i)]).max(0.0).sqrt()).collect(),
         None => {
@@ -691,13 +758,23 @@ fn standard_errors(fit: &Fit, nobs: usize) -> Vec<f64> {
     }
 }
 
-fn model_report(fit: &Fit, nobs: usize, extended: bool) -> ModelReport {
+/// The report of `fit`; a parameter with a profile interval in `intervals` gets its
+/// half-width as uncertainty (else the Laplace standard error).
+fn model_report(
+    fit: &Fit,
+    nobs: usize,
+    extended: bool,
+    intervals: &[(usize, ProfileInterval)],
+) -> ModelReport {
     let se = standard_errors(fit, nobs);
     let mut params = BTreeMap::new();
     let mut punc = BTreeMap::new();
     let mut effects: BTreeMap<String, BTreeMap<String, f64>> = BTreeMap::new();
     let mut eunc: BTreeMap<String, BTreeMap<String, f64>> = BTreeMap::new();
-    for ((id, v), s) in fit.free.iter().zip(&fit.x).zip(&se) {
+    let mut eint: BTreeMap<String, BTreeMap<String, ParamInterval>> = BTreeMap::new();
+    let mut pint: BTreeMap<String, ParamInterval> = BTreeMap::new();
+    let interval = |j: usize| intervals.iter().find(|(ix, _)| *ix == j).map(|(_, iv)| iv);
+    for (j, ((id, v), s)) in fit.free.iter().zip(&fit.x).zip(&se).enumerate() {
         match id {
             ParamId::Effect(k, i) => {
                 let pn = k.params()[*i].name.to_string();
@@ -705,11 +782,24 @@ fn model_report(fit: &Fit, nobs: usize, extended: bool) -> ModelReport {
                     .entry(k.name().into())
                     .or_default()
                     .insert(pn.clone(), *v);
-                eunc.entry(k.name().into()).or_default().insert(pn, *s);
+                let iv = interval(j);
+                let unc = iv.map_or(*s, |iv| iv.half_width());
+                eunc.entry(k.name().into())
+                    .or_default()
+                    .insert(pn.clone(), unc);
+                if let Some(iv) = iv {
+                    eint.entry(k.name().into())
+                        .or_default()
+                        .insert(pn, ParamInterval::new(iv, *s));
+                }
             }
             _ => {
                 params.insert(id.name(), *v);
-                punc.insert(id.name(), *s);
+                let iv = interval(j);
+                punc.insert(id.name(), iv.map_or(*s, |iv| iv.half_width()));
+                if let Some(iv) = iv {
+                    pint.insert(id.name(), ParamInterval::new(iv, *s));
+                }
             }
         }
     }
@@ -722,6 +812,8 @@ fn model_report(fit: &Fit, nobs: usize, extended: bool) -> ModelReport {
         bic: fit.bic(nobs),
         n_params: fit.k(),
         effect_uncertainty: extended.then_some(eunc),
+        effect_interval: extended.then_some(eint),
+        param_interval: (!intervals.is_empty()).then_some(pint),
         param_uncertainty: punc,
     }
 }

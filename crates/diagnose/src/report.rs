@@ -35,12 +35,49 @@ pub struct ModelReport {
     pub bic: f64,
     /// Number of free parameters.
     pub n_params: usize,
-    /// Standard errors (Gauss–Newton, whitened Jacobian) of the effect parameters, same shape
-    /// as `effects` (extended model only).
+    /// Uncertainty of the effect parameters, same shape as `effects` (extended model only):
+    /// half the 68 % profile-likelihood interval (`effect_interval`), or the Laplace standard
+    /// error where no interval could be computed.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub effect_uncertainty: Option<BTreeMap<String, BTreeMap<String, f64>>>,
-    /// Standard errors of the muscle parameters.
+    /// 68 % profile-likelihood interval of each effect parameter (extended model only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub effect_interval: Option<BTreeMap<String, BTreeMap<String, ParamInterval>>>,
+    /// Uncertainty of the muscle parameters: half the 68 % profile-likelihood interval
+    /// (`param_interval`) for the final model, the Laplace standard error for a baseline that
+    /// an effect extended.
     pub param_uncertainty: BTreeMap<String, f64>,
+    /// 68 % profile-likelihood interval of each muscle parameter (final model only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub param_interval: Option<BTreeMap<String, ParamInterval>>,
+}
+
+/// The 68 % profile-likelihood interval of one parameter: the values at which the best fit
+/// with the parameter held there is worse by `Δ(−2 log L) = s²` (module [`crate::profile`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct ParamInterval {
+    /// Lower end.
+    pub lower: f64,
+    /// Upper end.
+    pub upper: f64,
+    /// The lower end is the parameter's bound (the level is not reached inside the bounds).
+    pub lower_at_bound: bool,
+    /// The upper end is the parameter's bound.
+    pub upper_at_bound: bool,
+    /// Laplace (Gauss–Newton) standard error at the fit, for comparison.
+    pub laplace_se: f64,
+}
+
+impl ParamInterval {
+    pub(crate) fn new(iv: &crate::profile::ProfileInterval, laplace_se: f64) -> Self {
+        ParamInterval {
+            lower: iv.lower,
+            upper: iv.upper,
+            lower_at_bound: iv.lower_at_bound,
+            upper_at_bound: iv.upper_at_bound,
+            laplace_se,
+        }
+    }
 }
 
 /// Gain of the extended model over the baseline.
@@ -120,13 +157,32 @@ fn fmt_effect(
     name: &str,
     vals: &BTreeMap<String, f64>,
     unc: Option<&BTreeMap<String, f64>>,
+    int: Option<&BTreeMap<String, ParamInterval>>,
 ) -> String {
     let parts: Vec<String> = vals
         .iter()
-        .map(|(k, v)| match unc.and_then(|u| u.get(k)) {
-            Some(s) => format!("{k} {} ± {}", sig(*v), sig(*s)),
-            None => format!("{k} {}", sig(*v)),
-        })
+        .map(
+            |(k, v)| match (unc.and_then(|u| u.get(k)), int.and_then(|u| u.get(k))) {
+                (Some(s), Some(iv)) => {
+                    let end = |x: f64, at_bound: bool| {
+                        if at_bound {
+                            format!("bound {}", sig(x))
+                        } else {
+                            sig(x)
+                        }
+                    };
+                    format!(
+                        "{k} {} ± {} (68 % {} … {})",
+                        sig(*v),
+                        sig(*s),
+                        end(iv.lower, iv.lower_at_bound),
+                        end(iv.upper, iv.upper_at_bound)
+                    )
+                }
+                (Some(s), None) => format!("{k} {} ± {}", sig(*v), sig(*s)),
+                _ => format!("{k} {}", sig(*v)),
+            },
+        )
         .collect();
     format!("{name}: {}", parts.join(", "))
 }
@@ -191,7 +247,12 @@ impl Diagnosis {
                         .effect_uncertainty
                         .as_ref()
                         .and_then(|u| u.get(name));
-                    l.push(format!("  {}", fmt_effect(name, vals, unc)));
+                    let int = self
+                        .extended
+                        .effect_interval
+                        .as_ref()
+                        .and_then(|u| u.get(name));
+                    l.push(format!("  {}", fmt_effect(name, vals, unc, int)));
                 }
             }
             l.push(format!(

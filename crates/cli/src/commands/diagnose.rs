@@ -198,6 +198,16 @@ fn write_figures(
         )
         .map_err(|e| Failure::internal(e.to_string()))?;
 
+    set.page()
+        .table(
+            "Parameters of the final model with their 68 % profile-likelihood intervals \
+             (\"bound\": the interval reaches the parameter's bound) and, for comparison, the \
+             Laplace standard error at the fit",
+            &["parameter", "value", "68 % interval", "Laplace SE"],
+            &parameter_rows(&d.extended),
+        )
+        .map_err(|e| Failure::internal(e.to_string()))?;
+
     let angle = &s.angle_deg;
     let env = figures::envelopes(inputs);
     let phase_names: Vec<&str> = diagnose::segment::PhaseLabel::ALL
@@ -262,4 +272,52 @@ fn write_figures(
         report::figures::candidate_ranking(&candidates, Some(d.baseline.heldout_rms_nm)),
     )?;
     set.finish()
+}
+
+/// One row per parameter of `m` (muscle parameters, then effect parameters as
+/// `effect.parameter`): value, 68 % profile interval, Laplace standard error.
+fn parameter_rows(m: &diagnose::ModelReport) -> Vec<Vec<String>> {
+    let row = |name: String, v: f64, iv: Option<&diagnose::ParamInterval>| {
+        let end = |x: f64, b: bool| {
+            if b {
+                format!("{x:.4} (bound)")
+            } else {
+                format!("{x:.4}")
+            }
+        };
+        vec![
+            name,
+            format!("{v:.4}"),
+            iv.map_or("–".into(), |iv| {
+                format!(
+                    "{} … {}",
+                    end(iv.lower, iv.lower_at_bound),
+                    end(iv.upper, iv.upper_at_bound)
+                )
+            }),
+            iv.map_or("–".into(), |iv| format!("{:.4}", iv.laplace_se)),
+        ]
+    };
+    let mut rows: Vec<Vec<String>> = m
+        .params
+        .iter()
+        .map(|(k, v)| {
+            row(
+                k.clone(),
+                *v,
+                m.param_interval.as_ref().and_then(|i| i.get(k)),
+            )
+        })
+        .collect();
+    for (effect, vals) in m.effects.iter().flatten() {
+        for (p, v) in vals {
+            let iv = m
+                .effect_interval
+                .as_ref()
+                .and_then(|i| i.get(effect))
+                .and_then(|i| i.get(p));
+            rows.push(row(format!("{effect}.{p}"), *v, iv));
+        }
+    }
+    rows
 }
