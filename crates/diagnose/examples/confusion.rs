@@ -1,6 +1,6 @@
 //! Confusion table and detection limits over random hidden-effect trials.
 //!
-//! `cargo run --release -p diagnose --example confusion -- [N] [BASE_SEED] [--limits [--effects a,b:size]]`
+//! `cargo run --release -p diagnose --example confusion -- [N] [BASE_SEED] [--limits [--effects a,b:size]] [--max-delta-bic X]`
 //! prints, per scenario, how often the named causes equal the hidden ones, what was named
 //! instead, the magnitude error, the time and how often the true effect parameters fall inside the
 //! reported 68 % profile intervals (and within ±1 Laplace standard error), for the effect and
@@ -19,7 +19,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     let n: u64 = args.get(1).map_or(Ok(10), |s| s.parse())?;
     let base: u64 = args.get(2).map_or(Ok(10_000), |s| s.parse())?;
-    let settings = DiagnoseSettings::default();
+    let mut settings = DiagnoseSettings::default();
+    if let Some(i) = args.iter().position(|a| a == "--max-delta-bic") {
+        settings.max_delta_bic = args
+            .get(i + 1)
+            .ok_or("--max-delta-bic needs a value")?
+            .parse()?;
+    }
     if args.iter().any(|a| a == "--limits") {
         let sizes: Vec<(EffectKind, Vec<f64>)> = vec![
             (EffectKind::TorqueOffset, vec![0.5, 1.0, 2.0, 3.0, 5.0]),

@@ -120,7 +120,8 @@ fn check_named(kinds: &[EffectKind], with_ta: bool, offset: u64) {
     assert_eq!(got, want, "named causes differ; {ctx}");
     assert_eq!(d.verdict, Verdict::Deficient, "{ctx}");
     assert!(
-        d.gain.heldout_rms_reduction_pct > 0.0 && d.gain.delta_bic < -10.0,
+        d.gain.heldout_rms_reduction_pct > 0.0
+            && d.gain.delta_bic < DiagnoseSettings::default().max_delta_bic,
         "no held-out / BIC gain; {ctx}"
     );
     let effects = d.extended.effects.as_ref().expect("extended effects");
