@@ -158,10 +158,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     .and_then(|e| e.get(k.name()))
                 {
                     let fitted = &d.extended.effects.as_ref().expect("effects")[k.name()];
-                    // m·sin(q − φ) = (−m)·sin(q − φ − 180°): compare in the fit's sign of m
-                    if *k == EffectKind::Gravity && fitted["moment_nm"] * truth_v[0] < 0.0 {
-                        let phase = truth_v[1] + 180.0;
-                        truth_v = [-truth_v[0], phase - 360.0 * (phase / 360.0).round()];
+                    // m·sin(q − φ) = (−m)·sin(q − φ − 180°): compare in the fit's sign of m,
+                    // at the turn of φ nearest the fitted phase
+                    if *k == EffectKind::Gravity {
+                        if fitted["moment_nm"] * truth_v[0] < 0.0 {
+                            truth_v = [-truth_v[0], truth_v[1] + 180.0];
+                        }
+                        truth_v[1] += 360.0 * ((fitted["phase_deg"] - truth_v[1]) / 360.0).round();
                     }
                     for (j, p) in k.params().iter().enumerate() {
                         if let Some(iv) = iv.get(p.name) {
