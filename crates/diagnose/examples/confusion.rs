@@ -11,7 +11,7 @@
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-use diagnose::scenarios::{headline, hidden_trial, hidden_trial_sized};
+use diagnose::scenarios::{align_to_fit, headline, hidden_trial, hidden_trial_sized};
 use diagnose::{no_observer, run, DiagnoseSettings};
 use muscle_model::EffectKind;
 
@@ -158,14 +158,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     .and_then(|e| e.get(k.name()))
                 {
                     let fitted = &d.extended.effects.as_ref().expect("effects")[k.name()];
-                    // m·sin(q − φ) = (−m)·sin(q − φ − 180°): compare in the fit's sign of m,
-                    // at the turn of φ nearest the fitted phase
-                    if *k == EffectKind::Gravity {
-                        if fitted["moment_nm"] * truth_v[0] < 0.0 {
-                            truth_v = [-truth_v[0], truth_v[1] + 180.0];
-                        }
-                        truth_v[1] += 360.0 * ((fitted["phase_deg"] - truth_v[1]) / 360.0).round();
+                    let mut fv = k.null_values();
+                    for (j, p) in k.params().iter().enumerate() {
+                        fv[j] = fitted[p.name];
                     }
+                    truth_v = align_to_fit(*k, truth_v, fv);
                     for (j, p) in k.params().iter().enumerate() {
                         if let Some(iv) = iv.get(p.name) {
                             cov_n += 1;

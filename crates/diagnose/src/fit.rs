@@ -207,18 +207,18 @@ impl Context {
         Ok(fit)
     }
 
-    /// The profile-likelihood interval ([`crate::profile`]) of parameter `k` of `fit`, with cost
-    /// differences scaled by `s2` and a first step `step0` out; `None` when the arguments do not
-    /// allow one (see [`profile_interval`]). The refits use the full fits' Levenberg–Marquardt
+    /// The profile-likelihood interval ([`crate::profile`]) of every parameter of `fit`, in
+    /// parallel: `(index into fit.x, interval)`, with cost differences scaled by `s2` and the
+    /// first step out of parameter `i` at `step0[i]`; a parameter without one (see
+    /// [`profile_interval`]) is left out. The refits use the full fits' Levenberg–Marquardt
     /// settings with the iteration cap and stopping tolerance of `settings`.
-    pub fn profile(
+    pub fn profiles(
         &self,
         fit: &Fit,
-        k: usize,
         s2: f64,
-        step0: f64,
+        step0: &[f64],
         settings: &ProfileSettings,
-    ) -> Result<Option<ProfileInterval>, DiagnoseError> {
+    ) -> Result<Vec<(usize, ProfileInterval)>, DiagnoseError> {
         let problem = self.problem(&fit.kinds)?;
         let f = self.residual_fn(&problem, &self.plan);
         let lm = LmSettings {
@@ -226,17 +226,24 @@ impl Context {
             ftol_rel: settings.ftol_rel,
             ..self.lm
         };
-        Ok(profile_interval(
-            &f,
-            &fit.x,
-            fit.white_ss,
-            k,
-            problem.bounds(),
-            s2,
-            step0,
-            &lm,
-            settings,
-        ))
+        let bounds = problem.bounds();
+        Ok((0..fit.k())
+            .into_par_iter()
+            .filter_map(|k| {
+                profile_interval(
+                    &f,
+                    &fit.x,
+                    fit.white_ss,
+                    k,
+                    bounds,
+                    s2,
+                    step0[k],
+                    &lm,
+                    settings,
+                )
+                .map(|iv| (k, iv))
+            })
+            .collect())
     }
 
     /// Cycle-wise cross-validation: refit without each cycle, predict it; pooled held-out RMS.

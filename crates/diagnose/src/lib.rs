@@ -733,13 +733,12 @@ fn profile_intervals(
     nobs: usize,
     settings: &ProfileSettings,
 ) -> Result<Vec<(usize, ProfileInterval)>, DiagnoseError> {
-    let se = standard_errors(fit, nobs);
-    let s2 = residual_scale(fit, nobs);
-    let out: Vec<Result<Option<(usize, ProfileInterval)>, DiagnoseError>> = (0..fit.k())
-        .into_par_iter()
-        .map(|i| Ok(ctx.profile(fit, i, s2, se[i], settings)?.map(|iv| (i, iv))))
-        .collect();
-    out.into_iter().filter_map(Result::transpose).collect()
+    ctx.profiles(
+        fit,
+        residual_scale(fit, nobs),
+        &standard_errors(fit, nobs),
+        settings,
+    )
 }
 
 fn standard_errors(fit: &Fit, nobs: usize) -> Vec<f64> {

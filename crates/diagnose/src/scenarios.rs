@@ -51,6 +51,21 @@ pub fn draw_effect(kind: EffectKind, rng: &mut impl Rng) -> [f64; 2] {
     }
 }
 
+/// The true parameters `truth` of `kind` written the way the fit `fitted` (same order) writes
+/// them, so the two can be compared: for `gravity`, `m·sin(q − φ) = (−m)·sin(q − φ − 180°)`,
+/// so the truth takes the fit's sign of `m`, and `φ` (an angle) the turn nearest the fitted
+/// phase. Other effects are returned unchanged.
+pub fn align_to_fit(kind: EffectKind, truth: [f64; 2], fitted: [f64; 2]) -> [f64; 2] {
+    let mut t = truth;
+    if kind == EffectKind::Gravity {
+        if fitted[0] * t[0] < 0.0 {
+            t = [-t[0], t[1] + 180.0];
+        }
+        t[1] += 360.0 * ((fitted[1] - t[1]) / 360.0).round();
+    }
+    t
+}
+
 /// The headline magnitude of an effect's parameters (see the module table).
 pub fn headline(kind: EffectKind, v: [f64; 2]) -> f64 {
     match kind {

@@ -8,7 +8,7 @@
 //! message; reproduce one with `SURAE_DIAG_SEEDS=<seed − offset>` or
 //! `cargo run --release -p diagnose --example diag_one`.
 
-use diagnose::scenarios::{headline, hidden_trial, HiddenTrial};
+use diagnose::scenarios::{align_to_fit, headline, hidden_trial, HiddenTrial};
 use diagnose::{no_observer, run, DiagnoseSettings, Diagnosis, Verdict};
 use muscle_model::EffectKind;
 
@@ -184,17 +184,14 @@ fn check_intervals(t: &HiddenTrial, d: &Diagnosis, ctx: &str) {
         .expect("effect_interval");
     for (kind, vals) in effects {
         let k = EffectKind::from_name(kind).expect("a catalogued effect");
-        let Some(mut truth) = t.effects.values(k) else {
+        let Some(truth) = t.effects.values(k) else {
             continue; // not hidden: a wrong cause, which the callers report
         };
-        if k == EffectKind::Gravity {
-            // m·sin(q − φ) = (−m)·sin(q − φ − 180°), and φ is an angle: compare the truth in
-            // the fit's sign of m and at the turn of φ nearest the fitted phase
-            if vals["moment_nm"] * truth[0] < 0.0 {
-                truth = [-truth[0], truth[1] + 180.0];
-            }
-            truth[1] += 360.0 * ((vals["phase_deg"] - truth[1]) / 360.0).round();
+        let mut fitted = k.null_values();
+        for (j, p) in k.params().iter().enumerate() {
+            fitted[j] = vals[p.name];
         }
+        let truth = align_to_fit(k, truth, fitted);
         for (j, p) in k.params().iter().enumerate() {
             let iv = eints
                 .get(kind)
