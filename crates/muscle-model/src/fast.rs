@@ -8,20 +8,30 @@
 //! interpolation. The activation is integrated once with classical RK4, [`ACT_SUBSTEPS`]
 //! substeps per sample interval (the envelope is linear inside an interval). The only state
 //! left per muscle is the fibre length `LM`; `F̃T = fT(ε(LMT, LM))` at the samples.
+//!
+//! Two levels are kept per trial: an [`ActTable`] (`a`, `ȧ` and, when asked for, `∫â`)
+//! depends on the activation parameters and the delay only, so fits that move the fatigue
+//! rate reuse it and only rebuild the per-sample drive; the three muscles' tables are
+//! integrated together (a new delay needs all three). When several muscles need integrating
+//! (a delay, fatigue or activation change, or a move of every muscle's parameters),
+//! [`run_lanes`] advances their fibre integrations together with [`ode::attempt_lanes`].
+//! Both interleave independent recurrences for the processor's sake only: every muscle's
+//! numbers are the same bits as when it is computed alone.
 
+use crate::activation::Activation;
 use crate::curves::Curves;
 use crate::inputs::TrialInputs;
 use crate::simulate::{SimSettings, SimStats};
 use crate::unit::{MuscleUnit, IX_A, IX_FATIGUE, IX_FT, IX_LM, IX_LMT, STATE_DIM};
 use ode::{DoPri5, OdeError, OdeSystem};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, OnceLock};
 
 /// RK4 substeps per sample interval when the activation is precomputed.
 pub const ACT_SUBSTEPS: usize = 4;
 
-/// What a [`Channel`] was computed from.
+/// What an [`ActTable`] was computed from: everything the activation `a(t)` depends on.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct ChannelKey {
+pub(crate) struct TableKey {
     uid: u64,
     n: usize,
     j: usize,
@@ -29,6 +39,13 @@ pub(crate) struct ChannelKey {
     k2: f64,
     shape: f64,
     delay: f64,
+}
+
+/// What a [`Channel`] was computed from: its activation table's key, the fatigue rate and the
+/// musculotendon-length polynomial.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct ChannelKey {
+    table: TableKey,
     fatigue: f64,
     poly: [f64; 4],
 }
@@ -38,21 +55,163 @@ impl ChannelKey {
     pub(crate) fn new(inputs: &TrialInputs, unit: &MuscleUnit, delay: f64) -> Self {
         let act = unit.activation;
         ChannelKey {
-            uid: inputs.uid(),
-            n: inputs.len(),
-            j: unit.muscle.index(),
-            k1: act.k1,
-            k2: act.k2,
-            shape: act.nonlinearity.shape,
-            delay,
+            table: TableKey {
+                uid: inputs.uid(),
+                n: inputs.len(),
+                j: unit.muscle.index(),
+                k1: act.k1,
+                k2: act.k2,
+                shape: act.nonlinearity.shape,
+                delay,
+            },
             fatigue: unit.fatigue_rate,
             poly: unit.poly,
         }
     }
 }
 
-/// Channels kept per [`TrialInputs`] (shared by its clones and by every thread).
+/// Activation tables and channels kept per [`TrialInputs`] (each; shared by its clones and by
+/// every thread).
 pub(crate) const SHARED_CHANNELS: usize = 12;
+
+/// The activation of one muscle at the samples: `a`, `ȧ` and (on first use) `∫₀ᵗ â dt`.
+///
+/// It depends on the activation parameters and the delay but not on the fatigue rate or the
+/// muscle's identified parameters, so the channels of every fatigue rate share one table (a
+/// fatigue fit rebuilds only the cheap per-sample drive), and `∫â`, which only the fatigue
+/// factor and the recorded state read, is integrated only when one of them asks for it.
+#[derive(Debug)]
+pub(crate) struct ActTable {
+    key: TableKey,
+    act: Activation,
+    /// `a` at the samples.
+    a: Vec<f64>,
+    /// `ȧ = rate(u(tᵢ), aᵢ)` at the samples.
+    adot: Vec<f64>,
+    /// `∫₀ᵗ â dt` at the samples, integrated on first use.
+    z: OnceLock<Vec<f64>>,
+}
+
+impl ActTable {
+    /// The tables of all three muscles with `key`'s activation and delay (a delay or an
+    /// activation parameter changes all three at once).
+    fn build_all(key: TableKey, inputs: &TrialInputs, act: Activation) -> [ActTable; 3] {
+        let keys: [TableKey; 3] = std::array::from_fn(|j| TableKey { j, ..key });
+        let mut j = 0;
+        integrate_activation(&keys, inputs, act).map(|(a, adot)| {
+            j += 1;
+            ActTable {
+                key: keys[j - 1],
+                act,
+                a,
+                adot,
+                z: OnceLock::new(),
+            }
+        })
+    }
+
+    /// `∫₀ᵗ â dt` at the samples (integrated together with `a`, with the same arithmetic for
+    /// `a`, on the first call).
+    fn z(&self, inputs: &TrialInputs) -> &[f64] {
+        self.z.get_or_init(|| {
+            let mut z = Vec::with_capacity(self.key.n);
+            integrate_activation_and_integral(&self.key, inputs, self.act, |zi| z.push(zi));
+            z
+        })
+    }
+}
+
+/// Classical RK4 on `ȧ = rate(u_l(t − d), a)` for the muscles `keys[l].j` together (their
+/// independent recurrences interleaved, which keeps the processor busy: each alone is one
+/// long dependency chain), [`ACT_SUBSTEPS`] substeps per sample interval (`u` clamped to
+/// [0, 1]). Returns `a` and `ȧ` at the samples per muscle; each muscle's numbers are the same
+/// whatever it is integrated with.
+///
+/// `u` is read once per distinct time: the two midpoint stages share one, and a substep's
+/// last stage time is the next substep's first (the same `tt + hs` rounding).
+fn integrate_activation<const L: usize>(
+    keys: &[TableKey; L],
+    inputs: &TrialInputs,
+    act: Activation,
+) -> [(Vec<f64>, Vec<f64>); L] {
+    let n = inputs.len();
+    let t = inputs.times();
+    let hs = 1.0 / inputs.fs() / ACT_SUBSTEPS as f64;
+    let u_at = |l: usize, tt: f64| {
+        inputs
+            .envelope_at(keys[l].j, tt - keys[l].delay)
+            .clamp(0.0, 1.0)
+    };
+    let mut out: [(Vec<f64>, Vec<f64>); L] =
+        std::array::from_fn(|_| (Vec::with_capacity(n), Vec::with_capacity(n)));
+    let mut y: [f64; L] = std::array::from_fn(|l| u_at(l, t[0]));
+    for i in 0..n {
+        let mut u0: [f64; L] = std::array::from_fn(|l| u_at(l, t[i]));
+        for l in 0..L {
+            out[l].0.push(y[l]);
+            out[l].1.push(act.rate(u0[l], y[l]));
+        }
+        if i + 1 < n {
+            let mut tt = t[i];
+            for _ in 0..ACT_SUBSTEPS {
+                let t1 = tt + hs;
+                for l in 0..L {
+                    let um = u_at(l, tt + 0.5 * hs);
+                    let u1 = u_at(l, t1);
+                    let yl = y[l];
+                    let k1 = act.rate(u0[l], yl);
+                    let k2 = act.rate(um, yl + 0.5 * hs * k1);
+                    let k3 = act.rate(um, yl + 0.5 * hs * k2);
+                    let k4 = act.rate(u1, yl + hs * k3);
+                    y[l] = yl + hs / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+                    u0[l] = u1;
+                }
+                tt = t1;
+            }
+        }
+    }
+    out
+}
+
+/// The same RK4 as [`integrate_activation`] on `[a, ∫â]` (the `a` component is computed
+/// identically: it does not read `∫â`); calls `out(∫â)` at every sample.
+fn integrate_activation_and_integral(
+    key: &TableKey,
+    inputs: &TrialInputs,
+    act: Activation,
+    mut out: impl FnMut(f64),
+) {
+    let n = key.n;
+    let (j, delay) = (key.j, key.delay);
+    let t = inputs.times();
+    let hs = 1.0 / inputs.fs() / ACT_SUBSTEPS as f64;
+    let nl = act.nonlinearity;
+    let u_at = |tt: f64| inputs.envelope_at(j, tt - delay).clamp(0.0, 1.0);
+    let f = |tt: f64, y: [f64; 2]| -> [f64; 2] { [act.rate(u_at(tt), y[0]), nl.apply(y[0])] };
+    let mut y = [u_at(t[0]), 0.0];
+    for i in 0..n {
+        out(y[1]);
+        if i + 1 < n {
+            let mut tt = t[i];
+            for _ in 0..ACT_SUBSTEPS {
+                let k1 = f(tt, y);
+                let k2 = f(
+                    tt + 0.5 * hs,
+                    [y[0] + 0.5 * hs * k1[0], y[1] + 0.5 * hs * k1[1]],
+                );
+                let k3 = f(
+                    tt + 0.5 * hs,
+                    [y[0] + 0.5 * hs * k2[0], y[1] + 0.5 * hs * k2[1]],
+                );
+                let k4 = f(tt + hs, [y[0] + hs * k3[0], y[1] + hs * k3[1]]);
+                for c in 0..2 {
+                    y[c] += hs / 6.0 * (k1[c] + 2.0 * k2[c] + 2.0 * k3[c] + k4[c]);
+                }
+                tt += hs;
+            }
+        }
+    }
+}
 
 /// Per-trial, per-muscle inputs of the fibre ODE at the samples.
 #[derive(Clone, Debug)]
@@ -64,15 +223,42 @@ pub(crate) struct Channel {
     pub(crate) lmt: Vec<f64>,
     /// Moment arm `r(q)` at the samples (m).
     pub(crate) r: Vec<f64>,
-    /// Activation `a` at the samples.
-    a: Vec<f64>,
-    /// `∫₀ᵗ â dt` at the samples.
-    z: Vec<f64>,
+    /// The activation it was built from.
+    table: Arc<ActTable>,
+}
+
+/// Finds `key` in `list`.
+fn find<T, K: PartialEq>(
+    list: &Mutex<Vec<Arc<T>>>,
+    key: &K,
+    key_of: impl Fn(&T) -> &K,
+) -> Option<Arc<T>> {
+    let list = list.lock().unwrap_or_else(|e| e.into_inner());
+    list.iter().find(|c| key_of(c) == key).map(Arc::clone)
+}
+
+/// Keeps `item` in `list` (unless an equal one arrived meanwhile, which is returned instead),
+/// dropping the oldest beyond [`SHARED_CHANNELS`].
+fn keep<T, K: PartialEq>(
+    list: &Mutex<Vec<Arc<T>>>,
+    item: Arc<T>,
+    key_of: impl Fn(&T) -> &K,
+) -> Arc<T> {
+    let mut list = list.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(c) = list.iter().find(|c| key_of(c) == key_of(&item)) {
+        return Arc::clone(c);
+    }
+    if list.len() >= SHARED_CHANNELS {
+        list.remove(0);
+    }
+    list.push(Arc::clone(&item));
+    item
 }
 
 /// The channel of `unit` on `inputs`: `current` when its key matches, else one kept with the
-/// inputs (shared across threads), else a new one (then kept). Channels are deterministic
-/// functions of their key, so where one comes from does not change any result.
+/// inputs (shared across threads), else a new one (then kept), built from the kept activation
+/// table when there is one. Channels and tables are deterministic functions of their keys, so
+/// where one comes from does not change any result.
 pub(crate) fn channel_for(
     current: Option<&Arc<Channel>>,
     inputs: &TrialInputs,
@@ -83,90 +269,64 @@ pub(crate) fn channel_for(
     if let Some(c) = current.filter(|c| c.key == key) {
         return Arc::clone(c);
     }
-    let shared = inputs.channel_cache();
-    {
-        let list = shared.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(c) = list.iter().find(|c| c.key == key) {
-            return Arc::clone(c);
+    let cache = inputs.channel_cache();
+    if let Some(c) = find(&cache.channels, &key, |c| &c.key) {
+        return c;
+    }
+    let table = match find(&cache.tables, &key.table, |t| &t.key) {
+        Some(t) => t,
+        None => {
+            let all = ActTable::build_all(key.table, inputs, unit.activation)
+                .map(|t| keep(&cache.tables, Arc::new(t), |t| &t.key));
+            Arc::clone(&all[key.table.j])
         }
-    }
-    let c = Arc::new(Channel::build(key, inputs, unit, delay));
-    let mut list = shared.lock().unwrap_or_else(|e| e.into_inner());
-    if let Some(c) = list.iter().find(|c| c.key == key) {
-        return Arc::clone(c);
-    }
-    if list.len() >= SHARED_CHANNELS {
-        list.remove(0);
-    }
-    list.push(Arc::clone(&c));
-    c
+    };
+    let c = Arc::new(Channel::build(key, inputs, unit, table));
+    keep(&cache.channels, c, |c| &c.key)
 }
 
 impl Channel {
-    /// Integrates the activation of `unit` on `inputs` and tabulates the drive.
-    fn build(key: ChannelKey, inputs: &TrialInputs, unit: &MuscleUnit, delay: f64) -> Self {
-        let act = unit.activation;
+    /// Tabulates the drive of `unit` on `inputs` from its activation table.
+    fn build(
+        key: ChannelKey,
+        inputs: &TrialInputs,
+        unit: &MuscleUnit,
+        table: Arc<ActTable>,
+    ) -> Self {
         let n = inputs.len();
-        let j = key.j;
-        let t = inputs.times();
         let q = inputs.angle();
         let qd = inputs.velocity();
         let dt = 1.0 / inputs.fs();
-        let nl = act.nonlinearity;
+        let nl = unit.activation.nonlinearity;
         let kf = unit.fatigue_rate;
-        let mut ch = Channel {
-            key,
-            drive: Vec::with_capacity(n),
-            lmt: Vec::with_capacity(n),
-            r: Vec::with_capacity(n),
-            a: Vec::with_capacity(n),
-            z: Vec::with_capacity(n),
-        };
-        let u_at = |tt: f64| inputs.envelope_at(j, tt - delay).clamp(0.0, 1.0);
-        let f = |tt: f64, y: [f64; 2]| -> [f64; 2] { [act.rate(u_at(tt), y[0]), nl.apply(y[0])] };
-        let mut y = [u_at(t[0]), 0.0];
-        let hs = dt / ACT_SUBSTEPS as f64;
+        let z = if kf > 0.0 { table.z(inputs) } else { &[] };
+        let c = unit.poly;
+        let mut drive = Vec::with_capacity(n);
+        let mut lmt_v = Vec::with_capacity(n);
+        let mut r_v = Vec::with_capacity(n);
         for i in 0..n {
-            let (a, z) = (y[0], y[1]);
-            let adot = act.rate(u_at(t[i]), a);
+            let (a, adot) = (table.a[i], table.adot[i]);
             let ah = nl.apply(a);
             let dah = nl.slope(a) * adot;
             let (phi, dphi) = if kf > 0.0 {
-                let phi = (-kf * z).exp();
+                let phi = (-kf * z[i]).exp();
                 (phi, -kf * ah * phi)
             } else {
                 (1.0, 0.0)
             };
-            let c = unit.poly;
             let lmt = crate::geometry::lmt(&c, q[i]);
             let r = crate::geometry::moment_arm(&c, q[i]);
-            ch.drive
-                .push([ah * phi, dt * (dah * phi + ah * dphi), lmt, dt * r * qd[i]]);
-            ch.lmt.push(lmt);
-            ch.r.push(r);
-            ch.a.push(a);
-            ch.z.push(z);
-            if i + 1 < n {
-                let mut tt = t[i];
-                for _ in 0..ACT_SUBSTEPS {
-                    let k1 = f(tt, y);
-                    let k2 = f(
-                        tt + 0.5 * hs,
-                        [y[0] + 0.5 * hs * k1[0], y[1] + 0.5 * hs * k1[1]],
-                    );
-                    let k3 = f(
-                        tt + 0.5 * hs,
-                        [y[0] + 0.5 * hs * k2[0], y[1] + 0.5 * hs * k2[1]],
-                    );
-                    let k4 = f(tt + hs, [y[0] + hs * k3[0], y[1] + hs * k3[1]]);
-                    for c in 0..2 {
-                        y[c] += hs / 6.0 * (k1[c] + 2.0 * k2[c] + 2.0 * k3[c] + k4[c]);
-                    }
-                    tt += hs;
-                }
-            }
+            drive.push([ah * phi, dt * (dah * phi + ah * dphi), lmt, dt * r * qd[i]]);
+            lmt_v.push(lmt);
+            r_v.push(r);
         }
-        ch
+        Channel {
+            key,
+            drive,
+            lmt: lmt_v,
+            r: r_v,
+            table,
+        }
     }
 }
 
@@ -276,11 +436,36 @@ impl Fibre {
 
 /// Unit-`F0` torque `F̃T·r(q)` at every sample from the fibre lengths `lm` (one pass over the
 /// samples, separate from the integration so that the integrator's loop stays small).
+///
+/// The same numbers as `fib.tendon_force(lmt, lm) * r` sample by sample, computed in passes
+/// without branches where possible so that the compiler can use vector instructions: the
+/// strain of every sample, then the force in the linear region and zero below slack, then the
+/// exponential toe only at the samples in it.
 pub(crate) fn unit_torque(fib: &Fibre, ch: &Channel, lm: &[f64], out: &mut [f64]) {
     let n = out.len();
     let (lm, lmt, r) = (&lm[..n], &ch.lmt[..n], &ch.r[..n]);
     for i in 0..n {
-        out[i] = fib.tendon_force(lmt[i], lm[i]) * r[i];
+        // `Fibre::cos(lm).1` as a select: for lm > lm_cap > h the root's argument is positive
+        let l = lm[i];
+        let w = (l * l - fib.h2).max(0.0).sqrt();
+        let lmcos = if l <= fib.lm_cap { l * fib.cos_cap } else { w };
+        out[i] = (lmt[i] - lmcos - fib.lst) * fib.inv_lst;
+    }
+    for (out, r) in out.chunks_mut(64).zip(r.chunks(64)) {
+        let toe = out
+            .iter()
+            .fold(false, |t, &eps| t | (eps > 0.0 && eps <= fib.eps_toe));
+        if toe {
+            for (o, &r) in out.iter_mut().zip(r) {
+                *o = fib.ft(*o) * r;
+            }
+        } else {
+            for (o, &r) in out.iter_mut().zip(r) {
+                let eps = *o;
+                let lin = fib.klin * (eps - fib.eps_toe) + crate::curves::TOE_FORCE;
+                *o = if eps <= 0.0 { 0.0 } else { lin } * r;
+            }
+        }
     }
 }
 
@@ -311,6 +496,7 @@ fn drive_at(drive: &[[f64; 4]], t0: f64, fs: f64, t: f64) -> (f64, f64, f64) {
 }
 
 /// The fibre ODE on `[LM, act]`: `(L̇M, d(act)/dt)` with the drive interpolated at `t`.
+#[derive(Clone, Copy)]
 struct FibreSystem<'a> {
     drive: &'a [[f64; 4]],
     t0: f64,
@@ -343,42 +529,166 @@ pub(crate) fn run(
     settings: &SimSettings,
     lm_out: &mut [f64],
 ) -> Result<SimStats, OdeError> {
-    let drive = &ch.drive[..];
+    run_lanes([Some((ch, fib, lm0, lm_out))], inputs, settings)
+        .map(|[stats]| stats)
+        .map_err(|(_, e)| e)
+}
+
+/// [`run`] for several muscles together (their integrations interleaved by
+/// [`ode::attempt_lanes`]; each muscle's `LM` is the same bits as from [`run`]). Lanes whose
+/// `lm_out` is `None` are skipped. On failure returns the failing lane and its error.
+pub(crate) fn run_lanes<const L: usize>(
+    lanes: [Option<(&Channel, &Fibre, f64, &mut [f64])>; L],
+    inputs: &TrialInputs,
+    settings: &SimSettings,
+) -> Result<[SimStats; L], (usize, OdeError)> {
     let times = inputs.times();
     let n = times.len();
     let t0 = times[0];
     let fs = inputs.fs();
     let t_end = times[n - 1];
-    let mut sys = FibreSystem { drive, t0, fs, fib };
-    if !lm0.is_finite() {
-        return Err(OdeError::NonFinite { t: t0 });
-    }
-    lm_out[0] = lm0;
-    if n < 2 {
-        return Ok(SimStats::default());
-    }
-    let mut stepper = DoPri5::<2>::new(settings.adaptive())?.with_log_controller();
-    stepper.init(&mut sys, t0, [lm0, drive[0][0]], t_end)?;
-    let mut next = 1;
-    while next < n {
-        stepper.step(&mut sys)?;
-        let dense = stepper.dense();
-        let t = dense.t();
-        while next < n && times[next] <= t {
-            lm_out[next] = dense.component(times[next], 0);
-            next += 1;
+    let mut stats = [SimStats::default(); L];
+    let mut outs: [Option<&mut [f64]>; L] = std::array::from_fn(|_| None);
+    let mut systems: [Option<FibreSystem<'_>>; L] = [None; L];
+    let mut y0 = [[0.0; 2]; L];
+    for (l, lane) in lanes.into_iter().enumerate() {
+        if let Some((ch, fib, lm0, out)) = lane {
+            if !lm0.is_finite() {
+                return Err((l, OdeError::NonFinite { t: t0 }));
+            }
+            out[0] = lm0;
+            y0[l] = [lm0, ch.drive[0][0]];
+            systems[l] = Some(FibreSystem {
+                drive: &ch.drive,
+                t0,
+                fs,
+                fib,
+            });
+            outs[l] = Some(out);
         }
     }
-    Ok(stepper.stats().into())
+    if n < 2 {
+        return Ok(stats);
+    }
+    // lanes without a muscle hold a copy of an active one's system (never stepped)
+    let Some(first) = systems.iter().flatten().next().copied() else {
+        return Ok(stats);
+    };
+    let mut active = [false; L];
+    let mut sys: [FibreSystem<'_>; L] = std::array::from_fn(|l| {
+        active[l] = systems[l].is_some();
+        systems[l].take().unwrap_or(first)
+    });
+    let stepper = DoPri5::<2>::new(settings.adaptive())
+        .map_err(|e| (0, e))?
+        .with_log_controller();
+    let mut steppers: [DoPri5<2>; L] = std::array::from_fn(|_| stepper.clone());
+    for l in 0..L {
+        if active[l] {
+            steppers[l]
+                .init(&mut sys[l], t0, y0[l], t_end)
+                .map_err(|e| (l, e))?;
+        }
+    }
+    let mut next = [1usize; L];
+    loop {
+        for l in 0..L {
+            active[l] = active[l] && next[l] < n;
+        }
+        if !active.iter().any(|a| *a) {
+            break;
+        }
+        let accepted = ode::attempt_lanes(&mut steppers, &mut sys, active)?;
+        for l in 0..L {
+            if !accepted[l] {
+                continue;
+            }
+            if let Some(out) = outs[l].as_deref_mut() {
+                let dense = steppers[l].dense();
+                let t = dense.t();
+                while next[l] < n && times[next[l]] <= t {
+                    out[next[l]] = dense.component(times[next[l]], 0);
+                    next[l] += 1;
+                }
+            }
+        }
+    }
+    for l in 0..L {
+        if outs[l].is_some() {
+            stats[l] = steppers[l].stats().into();
+        }
+    }
+    Ok(stats)
 }
 
-/// The recorded state `[a, F̃T, LM, LMT, ∫â]` at sample `i`.
-pub(crate) fn state(ch: &Channel, i: usize, lm: f64, lmt: f64, ft: f64) -> [f64; STATE_DIM] {
+impl Channel {
+    /// The activation `a` and `∫â` at the samples (the integral computed on first use).
+    pub(crate) fn activation<'a>(&'a self, inputs: &TrialInputs) -> (&'a [f64], &'a [f64]) {
+        (&self.table.a, self.table.z(inputs))
+    }
+}
+
+/// The recorded state `[a, F̃T, LM, LMT, ∫â]` at one sample from its activation `a`, `∫â`,
+/// fibre length, musculotendon length and tendon force.
+pub(crate) fn state(a: f64, z: f64, lm: f64, lmt: f64, ft: f64) -> [f64; STATE_DIM] {
     let mut y = [0.0; STATE_DIM];
-    y[IX_A] = ch.a[i];
+    y[IX_A] = a;
     y[IX_FT] = ft;
     y[IX_LM] = lm;
     y[IX_LMT] = lmt;
-    y[IX_FATIGUE] = ch.z[i];
+    y[IX_FATIGUE] = z;
     y
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{Effects, ModelParams, Muscle};
+
+    fn units(fatigue: Option<f64>, delay_ms: f64) -> (TrialInputs, [MuscleUnit; 3], f64) {
+        let tr = crate::synthetic::seed_like_trial(512.0).unwrap();
+        let mut json = format!(r#"{{"electromechanical_delay": {{"delay_ms": {delay_ms}}}"#);
+        if let Some(k) = fatigue {
+            json += &format!(r#", "fatigue": {{"rate_per_s": {k}}}"#);
+        }
+        json += "}";
+        let e = Effects::from_json_str(&json).unwrap();
+        let p = ModelParams::nominal();
+        let u = Muscle::ALL.map(|m| MuscleUnit::new(&p, m, &e));
+        (tr, u, delay_ms * 1e-3)
+    }
+
+    #[test]
+    fn muscles_integrated_together_equal_each_alone_bit_for_bit() {
+        let (tr, u, d) = units(None, 37.0);
+        let keys: [TableKey; 3] = std::array::from_fn(|j| ChannelKey::new(&tr, &u[j], d).table);
+        let together = integrate_activation(&keys, &tr, u[0].activation);
+        for j in 0..3 {
+            let [alone] = integrate_activation(&[keys[j]], &tr, u[0].activation);
+            assert_eq!(alone, together[j], "muscle {j}");
+        }
+        // the activation follows a step of the envelope towards it and stays in [0, 1]
+        assert!(together[0].0.iter().all(|a| (0.0..=1.0).contains(a)));
+    }
+
+    #[test]
+    fn fatigue_rates_share_one_table_and_scale_the_drive() {
+        let (tr, u0, d) = units(None, 20.0);
+        let (_, u1, _) = units(Some(0.03), 20.0);
+        // the same inputs (one cache): rebuild the fatigued units on `tr`
+        let c0 = channel_for(None, &tr, &u0[1], d);
+        let c1 = channel_for(None, &tr, &u1[1], d);
+        assert!(Arc::ptr_eq(&c0.table, &c1.table));
+        assert!(Arc::ptr_eq(&c0, &channel_for(None, &tr, &u0[1], d)));
+        let (a, z) = c1.activation(&tr);
+        let nl = u1[1].activation.nonlinearity;
+        for i in (0..tr.len()).step_by(97) {
+            assert_eq!(c0.drive[i][0], nl.apply(a[i]));
+            let want = nl.apply(a[i]) * (-0.03 * z[i]).exp();
+            assert_eq!(c1.drive[i][0], want, "sample {i}");
+        }
+        // ∫â is non-decreasing from 0
+        assert_eq!(z[0], 0.0);
+        assert!(z.windows(2).all(|w| w[1] >= w[0]));
+    }
 }

@@ -10,9 +10,13 @@ use crate::params::Muscle;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
-/// Per-trial precomputed inputs of the fast formulation, shared by clones and threads.
+/// Per-trial precomputed inputs of the fast formulation, shared by clones and threads: the
+/// activation tables and the per-muscle channels built from them.
 #[derive(Default)]
-pub(crate) struct ChannelCache(Mutex<Vec<Arc<crate::fast::Channel>>>);
+pub(crate) struct ChannelCache {
+    pub(crate) tables: Mutex<Vec<Arc<crate::fast::ActTable>>>,
+    pub(crate) channels: Mutex<Vec<Arc<crate::fast::Channel>>>,
+}
 
 impl std::fmt::Debug for ChannelCache {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -129,10 +133,11 @@ impl TrialInputs {
         self.uid
     }
 
-    /// The fast formulation's per-muscle channels kept for these inputs.
+    /// The fast formulation's activation tables and per-muscle channels kept for these
+    /// inputs.
     #[inline]
-    pub(crate) fn channel_cache(&self) -> &Mutex<Vec<Arc<crate::fast::Channel>>> {
-        &self.channels.0
+    pub(crate) fn channel_cache(&self) -> &ChannelCache {
+        &self.channels
     }
 
     /// Number of samples.
@@ -190,7 +195,9 @@ impl TrialInputs {
     fn locate(&self, t: f64) -> (usize, f64) {
         let n = self.angle.len();
         let x = ((t - self.t0) * self.fs).clamp(0.0, (n - 1) as f64);
-        let i = (x.floor() as usize).min(n - 2);
+        // `x ≥ 0` (or NaN, which casts to 0 like its floor), so truncation is the floor (and
+        // avoids a libm call on targets without a rounding instruction)
+        let i = (x as usize).min(n - 2);
         (i, x - i as f64)
     }
 

@@ -162,8 +162,8 @@ pub struct Workspace {
     torque_muscle: [Vec<f64>; 3],
     ta: Vec<f64>,
     channels: [Option<Arc<Channel>>; 3],
-    /// Fibre length at the samples (scratch of the fast integrator).
-    lm: Vec<f64>,
+    /// Fibre length of each muscle at the samples (scratch of the fast integrator).
+    lm: [Vec<f64>; 3],
     slots: [[Slot; 2]; 3],
     newest: [usize; 3],
     /// `F0` of each muscle in the last fast call (the slot `newest` holds its unit torque).
@@ -298,8 +298,8 @@ fn delay_s(effects: &Effects) -> f64 {
         .map_or(0.0, |d| d.delay_ms * 1e-3)
 }
 
-/// Integrates muscle `m` and writes its torque at every sample into `torque`; calls `state`
-/// with every sample's state.
+/// Integrates muscle `m` and writes its torque at every sample into `torque` and, when given,
+/// every sample's state into `states`.
 #[allow(clippy::too_many_arguments)]
 fn run_muscle(
     current: &mut Option<Arc<Channel>>,
@@ -309,7 +309,7 @@ fn run_muscle(
     settings: &SimSettings,
     m: Muscle,
     torque: &mut [f64],
-    mut state: impl FnMut(usize, &[f64; STATE_DIM]),
+    mut states: Option<&mut [[f64; STATE_DIM]]>,
 ) -> Result<SimStats, ModelError> {
     let unit = MuscleUnit::new(params, m, effects);
     let delay = delay_s(effects);
@@ -327,12 +327,15 @@ fn run_muscle(
             },
         )?;
         let f0 = unit.f0;
+        let activation = states.is_some().then(|| ch.activation(inputs));
         for (i, &lmi) in lm.iter().enumerate() {
             let lmt = ch.lmt[i];
             let ft = fib.tendon_force(lmt, lmi);
             // the same operations as `fast::unit_torque` followed by the F0 scaling
             torque[i] = f0 * (ft * ch.r[i]);
-            state(i, &crate::fast::state(&ch, i, lmi, lmt, ft));
+            if let (Some(st), Some((a, z))) = (states.as_deref_mut(), activation) {
+                st[i] = crate::fast::state(a[i], z[i], lmi, lmt, ft);
+            }
         }
         *current = Some(ch);
         return Ok(stats);
@@ -351,10 +354,14 @@ fn run_muscle(
             let mut yp = *y;
             unit.project(q[i], &mut yp);
             torque[i] = yp[IX_FT] * unit.f0 * unit.moment_arm(q[i]);
-            state(i, &yp);
+            if let Some(st) = states.as_deref_mut() {
+                st[i] = yp;
+            }
         } else {
             torque[i] = y[IX_FT] * unit.f0 * unit.moment_arm(q[i]);
-            state(i, y);
+            if let Some(st) = states.as_deref_mut() {
+                st[i] = *y;
+            }
         }
     })
     .map_err(|source| ModelError::Integration {
@@ -489,30 +496,16 @@ pub fn simulate(
     let mut channels: [Option<Arc<Channel>>; 3] = Default::default();
     for m in Muscle::ALL {
         let j = m.index();
-        let st = states.as_mut().map(|s| &mut s[j]);
-        let ch = &mut channels[j];
-        stats[j] = match st {
-            Some(st) => run_muscle(
-                ch,
-                inputs,
-                params,
-                effects,
-                settings,
-                m,
-                &mut torque_muscle[j],
-                |i, y| st[i] = *y,
-            )?,
-            None => run_muscle(
-                ch,
-                inputs,
-                params,
-                effects,
-                settings,
-                m,
-                &mut torque_muscle[j],
-                |_, _| {},
-            )?,
-        };
+        stats[j] = run_muscle(
+            &mut channels[j],
+            inputs,
+            params,
+            effects,
+            settings,
+            m,
+            &mut torque_muscle[j],
+            states.as_mut().map(|s| &mut s[j][..]),
+        )?;
     }
     let activation_ta = if needs_ta(effects) {
         let mut ta = vec![0.0; n];
@@ -618,69 +611,146 @@ fn update_muscles(
 ) -> Result<SimStats, ModelError> {
     let n = inputs.len();
     let mut total = SimStats::default();
-    let fast = settings.formulation == Formulation::Fast;
     let delay = delay_s(effects);
+    if settings.formulation == Formulation::Fast {
+        update_fast(ws, inputs, params, effects, settings, delay)?;
+        for j in 0..3 {
+            let s = ws.slots[j][ws.newest[j]].stats;
+            total.accepted += s.accepted;
+            total.rejected += s.rejected;
+            total.rhs_calls += s.rhs_calls;
+        }
+        return Ok(total);
+    }
     for m in Muscle::ALL {
         let j = m.index();
-        let s = if fast {
-            let unit = MuscleUnit::new(params, m, effects);
-            let key = SlotKey {
-                uid: inputs.uid(),
-                n,
-                unit: MuscleUnit { f0: 1.0, ..unit },
-                delay,
-                rtol: settings.rtol,
-                atol: settings.atol,
-                h_max: settings.h_max,
-                max_steps: settings.max_steps,
-            };
-            let slots = &mut ws.slots[j];
-            let k = match slots.iter().position(|sl| sl.key == Some(key)) {
-                Some(k) => {
-                    ws.hits += 1;
-                    k
-                }
-                None => {
-                    ws.misses += 1;
-                    let k = 1 - ws.newest[j];
-                    let sl = &mut slots[k];
-                    sl.key = None;
-                    sl.unit_torque.resize(n, 0.0);
-                    sl.stats = fast_unit_torque(
-                        &mut ws.channels[j],
-                        &mut ws.lm,
-                        inputs,
-                        &unit,
-                        delay,
-                        settings,
-                        &mut sl.unit_torque,
-                    )?;
-                    sl.key = Some(key);
-                    k
-                }
-            };
-            ws.newest[j] = k;
-            ws.f0[j] = unit.f0;
-            slots[k].stats
-        } else {
-            let buf = &mut ws.torque_muscle[j];
-            buf.resize(n, 0.0);
-            run_muscle(
-                &mut ws.channels[j],
-                inputs,
-                params,
-                effects,
-                settings,
-                m,
-                buf,
-                |_, _| {},
-            )?
-        };
+        let buf = &mut ws.torque_muscle[j];
+        buf.resize(n, 0.0);
+        let s = run_muscle(
+            &mut ws.channels[j],
+            inputs,
+            params,
+            effects,
+            settings,
+            m,
+            buf,
+            None,
+        )?;
         total.accepted += s.accepted;
         total.rejected += s.rejected;
         total.rhs_calls += s.rhs_calls;
     }
     Ok(total)
+}
+
+/// [`update_muscles`] with [`Formulation::Fast`]: muscles whose slot matches are reused; the
+/// others are integrated, together when there are several ([`crate::fast::run_lanes`], the
+/// same bits as one by one).
+fn update_fast(
+    ws: &mut Workspace,
+    inputs: &TrialInputs,
+    params: &ModelParams,
+    effects: &Effects,
+    settings: &SimSettings,
+    delay: f64,
+) -> Result<(), ModelError> {
+    let n = inputs.len();
+    let mut todo: [Option<(MuscleUnit, SlotKey)>; 3] = [None; 3];
+    for m in Muscle::ALL {
+        let j = m.index();
+        let unit = MuscleUnit::new(params, m, effects);
+        let key = SlotKey {
+            uid: inputs.uid(),
+            n,
+            unit: MuscleUnit { f0: 1.0, ..unit },
+            delay,
+            rtol: settings.rtol,
+            atol: settings.atol,
+            h_max: settings.h_max,
+            max_steps: settings.max_steps,
+        };
+        ws.f0[j] = unit.f0;
+        match ws.slots[j].iter().position(|sl| sl.key == Some(key)) {
+            Some(k) => {
+                ws.hits += 1;
+                ws.newest[j] = k;
+            }
+            None => {
+                ws.misses += 1;
+                todo[j] = Some((unit, key));
+            }
+        }
+    }
+    let count = todo.iter().flatten().count();
+    if count == 0 {
+        return Ok(());
+    }
+    // the slot each integrated muscle writes (the one not holding the newest result)
+    for j in 0..3 {
+        if todo[j].is_some() {
+            let k = 1 - ws.newest[j];
+            ws.slots[j][k].key = None;
+            ws.slots[j][k].unit_torque.resize(n, 0.0);
+            ws.newest[j] = k;
+        }
+    }
+    let error = |j: usize| {
+        move |source| ModelError::Integration {
+            muscle: Muscle::ALL[j].name(),
+            source,
+        }
+    };
+    if count == 1 {
+        let j = todo.iter().position(Option::is_some).unwrap_or(0);
+        if let Some((unit, key)) = todo[j] {
+            let sl = &mut ws.slots[j][ws.newest[j]];
+            sl.stats = fast_unit_torque(
+                &mut ws.channels[j],
+                &mut ws.lm[j],
+                inputs,
+                &unit,
+                delay,
+                settings,
+                &mut sl.unit_torque,
+            )?;
+            sl.key = Some(key);
+        }
+        return Ok(());
+    }
+    let mut prepared: [Option<(Arc<Channel>, crate::fast::Fibre, f64)>; 3] = [None, None, None];
+    for j in 0..3 {
+        if let Some((unit, _)) = &todo[j] {
+            let y0 = unit.equilibrium_state(
+                inputs.envelope_at(j, inputs.times()[0] - delay),
+                inputs.angle()[0],
+            );
+            let ch = crate::fast::channel_for(ws.channels[j].as_ref(), inputs, unit, delay);
+            prepared[j] = Some((ch, crate::fast::Fibre::new(unit), y0[IX_LM]));
+        }
+    }
+    for lm in &mut ws.lm {
+        lm.resize(n, 0.0);
+    }
+    let [lm0, lm1, lm2] = &mut ws.lm;
+    let mut bufs = [Some(&mut lm0[..]), Some(&mut lm1[..]), Some(&mut lm2[..])];
+    let lanes: [_; 3] = std::array::from_fn(|j| {
+        let buf = bufs[j].take();
+        prepared[j]
+            .as_ref()
+            .zip(buf)
+            .map(|((ch, fib, lm0), buf)| (&**ch, fib, *lm0, buf))
+    });
+    let stats = crate::fast::run_lanes(lanes, inputs, settings).map_err(|(j, e)| error(j)(e))?;
+    for j in 0..3 {
+        if let (Some((ch, fib, _)), Some((_, key))) = (prepared[j].take(), todo[j]) {
+            let sl = &mut ws.slots[j][ws.newest[j]];
+            crate::fast::unit_torque(&fib, &ch, &ws.lm[j], &mut sl.unit_torque);
+            sl.stats = stats[j];
+            sl.key = Some(key);
+            ws.channels[j] = Some(ch);
+        }
+    }
+    Ok(())
 }
 
 /// What [`predict_into`] compares the prediction with: measured torque and optional weights.

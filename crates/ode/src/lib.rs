@@ -465,6 +465,22 @@ impl<const N: usize> DoPri5<N> {
     /// Takes one accepted step (never past `t_end`). Rejected attempts are
     /// retried with a smaller step inside this call.
     pub fn step<S: OdeSystem<N>>(&mut self, sys: &mut S) -> Result<(), OdeError> {
+        self.check_can_step()?;
+        loop {
+            let (h, remaining) = self.prepare()?;
+            self.stage2(sys, h);
+            self.stage3(sys, h);
+            self.stage4(sys, h);
+            self.stage5(sys, h);
+            self.stage6(sys, h);
+            self.stage7(sys, h);
+            if self.conclude(h, remaining)? {
+                return Ok(());
+            }
+        }
+    }
+
+    fn check_can_step(&self) -> Result<(), OdeError> {
         if !self.initialised {
             return Err(OdeError::InvalidInput {
                 what: "step() called before init()",
@@ -475,110 +491,145 @@ impl<const N: usize> DoPri5<N> {
                 what: "step() called after reaching t_end",
             });
         }
-        let expo1 = 0.2 - BETA * 0.75;
-        loop {
-            if self.stats.accepted + self.stats.rejected >= self.settings.max_steps {
-                return Err(OdeError::MaxSteps {
-                    t: self.t,
-                    steps: self.settings.max_steps,
-                });
-            }
-            let remaining = self.t_end - self.t;
-            let mut h = self.h.min(self.settings.h_max);
-            // land exactly on t_end, avoiding a sliver of a last step
-            if h >= remaining || remaining - h < 1e-12 * remaining.abs().max(1.0) {
-                h = remaining;
-            }
-            if h < self.settings.h_min || self.t + h == self.t {
-                return Err(OdeError::StepSizeUnderflow { t: self.t, h });
-            }
-            let err = self.attempt(sys, h);
-            let t_new = self.t + h;
-            if !err.is_finite() {
-                // could not evaluate: shrink hard and retry
-                self.stats.rejected += 1;
-                self.rejected_last = true;
-                self.h = h * 0.25;
-                if self.h < self.settings.h_min {
-                    return Err(OdeError::NonFinite { t: self.t });
-                }
-                continue;
-            }
-            let (fac11, ln_err) = if self.log_controller {
-                let ln_err = err.max(1e-300).ln();
-                ((expo1 * ln_err).exp(), ln_err)
-            } else {
-                (err.powf(expo1), 0.0)
-            };
-            if err <= 1.0 {
-                let prev_pow = if self.log_controller {
-                    self.err_prev_pow
-                } else {
-                    self.err_prev.powf(BETA)
-                };
-                let mut fac = fac11 / prev_pow;
-                fac = (fac / SAFETY).clamp(1.0 / FAC_MAX, 1.0 / FAC_MIN);
-                let mut h_new = h / fac;
-                if self.rejected_last {
-                    h_new = h_new.min(h);
-                }
-                self.err_prev = err.max(1e-4);
-                if self.log_controller {
-                    self.err_prev_pow = (BETA * ln_err.max(LN_1E_4)).exp();
-                }
-                self.rejected_last = false;
-                // dense output coefficients
-                for i in 0..N {
-                    let ydiff = self.ynew[i] - self.y[i];
-                    let bspl = h * self.k1[i] - ydiff;
-                    self.r1[i] = self.y[i];
-                    self.r2[i] = ydiff;
-                    self.r3[i] = bspl;
-                    self.r4[i] = ydiff - h * self.k7[i] - bspl;
-                    self.r5[i] = h
-                        * (D1 * self.k1[i]
-                            + D3 * self.k3[i]
-                            + D4 * self.k4[i]
-                            + D5 * self.k5[i]
-                            + D6 * self.k6[i]
-                            + D7 * self.k7[i]);
-                }
-                self.t_prev = self.t;
-                self.t = if h == remaining { self.t_end } else { t_new };
-                self.y = self.ynew;
-                self.k1 = self.k7; // FSAL
-                self.h = h_new;
-                self.stats.accepted += 1;
-                return Ok(());
-            }
-            self.stats.rejected += 1;
-            self.rejected_last = true;
-            self.h = h / (1.0 / FAC_MIN).min(fac11 / SAFETY);
-        }
+        Ok(())
     }
 
-    /// One trial step of size `h`; returns the scaled error norm (NaN when
-    /// something was not finite).
-    fn attempt<S: OdeSystem<N>>(&mut self, sys: &mut S, h: f64) -> f64 {
-        let t = self.t;
-        let y = self.y;
+    /// Whether the integration has reached `t_end`.
+    pub fn finished(&self) -> bool {
+        self.initialised && self.t >= self.t_end
+    }
+
+    /// The size `h` of the next attempt and the time remaining to `t_end`.
+    #[inline(always)]
+    fn prepare(&self) -> Result<(f64, f64), OdeError> {
+        if self.stats.accepted + self.stats.rejected >= self.settings.max_steps {
+            return Err(OdeError::MaxSteps {
+                t: self.t,
+                steps: self.settings.max_steps,
+            });
+        }
+        let remaining = self.t_end - self.t;
+        let mut h = self.h.min(self.settings.h_max);
+        // land exactly on t_end, avoiding a sliver of a last step
+        if h >= remaining || remaining - h < 1e-12 * remaining.abs().max(1.0) {
+            h = remaining;
+        }
+        if h < self.settings.h_min || self.t + h == self.t {
+            return Err(OdeError::StepSizeUnderflow { t: self.t, h });
+        }
+        Ok((h, remaining))
+    }
+
+    /// Accepts or rejects the attempt of size `h` whose stages are computed: returns whether
+    /// it was accepted, and sets the next step size either way.
+    #[inline(always)]
+    fn conclude(&mut self, h: f64, remaining: f64) -> Result<bool, OdeError> {
+        let expo1 = 0.2 - BETA * 0.75;
+        let err = self.error_norm(h);
+        let t_new = self.t + h;
+        if !err.is_finite() {
+            // could not evaluate: shrink hard and retry
+            self.stats.rejected += 1;
+            self.rejected_last = true;
+            self.h = h * 0.25;
+            if self.h < self.settings.h_min {
+                return Err(OdeError::NonFinite { t: self.t });
+            }
+            return Ok(false);
+        }
+        let (fac11, ln_err) = if self.log_controller {
+            let ln_err = err.max(1e-300).ln();
+            ((expo1 * ln_err).exp(), ln_err)
+        } else {
+            (err.powf(expo1), 0.0)
+        };
+        if err <= 1.0 {
+            let prev_pow = if self.log_controller {
+                self.err_prev_pow
+            } else {
+                self.err_prev.powf(BETA)
+            };
+            let mut fac = fac11 / prev_pow;
+            fac = (fac / SAFETY).clamp(1.0 / FAC_MAX, 1.0 / FAC_MIN);
+            let mut h_new = h / fac;
+            if self.rejected_last {
+                h_new = h_new.min(h);
+            }
+            self.err_prev = err.max(1e-4);
+            if self.log_controller {
+                self.err_prev_pow = (BETA * ln_err.max(LN_1E_4)).exp();
+            }
+            self.rejected_last = false;
+            // dense output coefficients
+            for i in 0..N {
+                let ydiff = self.ynew[i] - self.y[i];
+                let bspl = h * self.k1[i] - ydiff;
+                self.r1[i] = self.y[i];
+                self.r2[i] = ydiff;
+                self.r3[i] = bspl;
+                self.r4[i] = ydiff - h * self.k7[i] - bspl;
+                self.r5[i] = h
+                    * (D1 * self.k1[i]
+                        + D3 * self.k3[i]
+                        + D4 * self.k4[i]
+                        + D5 * self.k5[i]
+                        + D6 * self.k6[i]
+                        + D7 * self.k7[i]);
+            }
+            self.t_prev = self.t;
+            self.t = if h == remaining { self.t_end } else { t_new };
+            self.y = self.ynew;
+            self.k1 = self.k7; // FSAL
+            self.h = h_new;
+            self.stats.accepted += 1;
+            return Ok(true);
+        }
+        self.stats.rejected += 1;
+        self.rejected_last = true;
+        self.h = h / (1.0 / FAC_MIN).min(fac11 / SAFETY);
+        Ok(false)
+    }
+
+    #[inline(always)]
+    fn stage2<S: OdeSystem<N>>(&mut self, sys: &mut S, h: f64) {
+        let y = &self.y;
         for i in 0..N {
             self.ytmp[i] = y[i] + h * A21 * self.k1[i];
         }
-        sys.rhs(t + C2 * h, &self.ytmp, &mut self.k2);
+        sys.rhs(self.t + C2 * h, &self.ytmp, &mut self.k2);
+    }
+
+    #[inline(always)]
+    fn stage3<S: OdeSystem<N>>(&mut self, sys: &mut S, h: f64) {
+        let y = &self.y;
         for i in 0..N {
             self.ytmp[i] = y[i] + h * (A31 * self.k1[i] + A32 * self.k2[i]);
         }
-        sys.rhs(t + C3 * h, &self.ytmp, &mut self.k3);
+        sys.rhs(self.t + C3 * h, &self.ytmp, &mut self.k3);
+    }
+
+    #[inline(always)]
+    fn stage4<S: OdeSystem<N>>(&mut self, sys: &mut S, h: f64) {
+        let y = &self.y;
         for i in 0..N {
             self.ytmp[i] = y[i] + h * (A41 * self.k1[i] + A42 * self.k2[i] + A43 * self.k3[i]);
         }
-        sys.rhs(t + C4 * h, &self.ytmp, &mut self.k4);
+        sys.rhs(self.t + C4 * h, &self.ytmp, &mut self.k4);
+    }
+
+    #[inline(always)]
+    fn stage5<S: OdeSystem<N>>(&mut self, sys: &mut S, h: f64) {
+        let y = &self.y;
         for i in 0..N {
             self.ytmp[i] = y[i]
                 + h * (A51 * self.k1[i] + A52 * self.k2[i] + A53 * self.k3[i] + A54 * self.k4[i]);
         }
-        sys.rhs(t + C5 * h, &self.ytmp, &mut self.k5);
+        sys.rhs(self.t + C5 * h, &self.ytmp, &mut self.k5);
+    }
+
+    #[inline(always)]
+    fn stage6<S: OdeSystem<N>>(&mut self, sys: &mut S, h: f64) {
+        let y = &self.y;
         for i in 0..N {
             self.ytmp[i] = y[i]
                 + h * (A61 * self.k1[i]
@@ -587,7 +638,12 @@ impl<const N: usize> DoPri5<N> {
                     + A64 * self.k4[i]
                     + A65 * self.k5[i]);
         }
-        sys.rhs(t + h, &self.ytmp, &mut self.k6);
+        sys.rhs(self.t + h, &self.ytmp, &mut self.k6);
+    }
+
+    #[inline(always)]
+    fn stage7<S: OdeSystem<N>>(&mut self, sys: &mut S, h: f64) {
+        let y = &self.y;
         for i in 0..N {
             self.ynew[i] = y[i]
                 + h * (A71 * self.k1[i]
@@ -596,9 +652,16 @@ impl<const N: usize> DoPri5<N> {
                     + A75 * self.k5[i]
                     + A76 * self.k6[i]);
         }
-        sys.rhs(t + h, &self.ynew, &mut self.k7);
+        sys.rhs(self.t + h, &self.ynew, &mut self.k7);
         self.stats.rhs_calls += 6;
+    }
+
+    /// The scaled error norm of the attempt of size `h` whose stages are computed (NaN when
+    /// something was not finite).
+    #[inline(always)]
+    fn error_norm(&self, h: f64) -> f64 {
         let s = &self.settings;
+        let y = &self.y;
         let mut acc = 0.0;
         for i in 0..N {
             let e = h
@@ -692,6 +755,53 @@ impl<const N: usize> DenseStep<'_, N> {
     }
 }
 
+/// One attempt of every active lane: `L` independent integrations advanced together, stage by
+/// stage, so that a processor can overlap their right-hand sides (each alone is one long
+/// chain of dependent operations). Every lane computes exactly what [`DoPri5::step`] computes,
+/// attempt for attempt, so its results are the same bits as when it is integrated alone.
+///
+/// `active[l]` selects the lanes (a lane must be initialised and not
+/// [`finished`](DoPri5::finished)); returns which lanes' attempts were accepted (their
+/// [`DoPri5::dense`] then covers the new step), or the first failing lane and its error.
+pub fn attempt_lanes<S: OdeSystem<N>, const N: usize, const L: usize>(
+    steppers: &mut [DoPri5<N>; L],
+    systems: &mut [S; L],
+    active: [bool; L],
+) -> Result<[bool; L], (usize, OdeError)> {
+    let mut h = [0.0; L];
+    let mut remaining = [0.0; L];
+    for l in 0..L {
+        if active[l] {
+            steppers[l].check_can_step().map_err(|e| (l, e))?;
+            (h[l], remaining[l]) = steppers[l].prepare().map_err(|e| (l, e))?;
+        }
+    }
+    macro_rules! stage {
+        ($f:ident) => {
+            for l in 0..L {
+                if active[l] {
+                    steppers[l].$f(&mut systems[l], h[l]);
+                }
+            }
+        };
+    }
+    stage!(stage2);
+    stage!(stage3);
+    stage!(stage4);
+    stage!(stage5);
+    stage!(stage6);
+    stage!(stage7);
+    let mut accepted = [false; L];
+    for l in 0..L {
+        if active[l] {
+            accepted[l] = steppers[l]
+                .conclude(h[l], remaining[l])
+                .map_err(|e| (l, e))?;
+        }
+    }
+    Ok(accepted)
+}
+
 fn all_finite<const N: usize>(v: &[f64; N]) -> bool {
     v.iter().all(|x| x.is_finite())
 }
@@ -749,6 +859,68 @@ pub fn dopri5_dense<S: OdeSystem<N>, const N: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A stiff-ish forced oscillator whose rate differs per lane (so lanes take different
+    /// steps, with rejections).
+    struct Forced {
+        k: f64,
+    }
+
+    impl OdeSystem<2> for Forced {
+        fn rhs(&mut self, t: f64, y: &[f64; 2], dy: &mut [f64; 2]) {
+            dy[0] = y[1];
+            dy[1] = -self.k * y[0] - 0.5 * y[1] + (7.0 * t).sin() * (1.0 + (3.0 * t).cos().abs());
+        }
+    }
+
+    #[test]
+    fn lanes_equal_each_integration_alone_bit_for_bit() {
+        let ks = [1.0, 40.0, 400.0];
+        let set = AdaptiveSettings::default().with_rtol(1e-7).with_atol(1e-9);
+        // alone: the sequence of accepted steps and states
+        let alone: Vec<Vec<(f64, [f64; 2])>> = ks
+            .iter()
+            .map(|&k| {
+                let mut st = DoPri5::<2>::new(set).unwrap();
+                let mut sys = Forced { k };
+                st.init(&mut sys, 0.0, [1.0, 0.0], 3.0).unwrap();
+                let mut v = Vec::new();
+                while !st.finished() {
+                    st.step(&mut sys).unwrap();
+                    v.push((st.t(), *st.y()));
+                }
+                assert!(st.stats().rejected > 0 || k < 100.0);
+                v
+            })
+            .collect();
+        let mut steppers: [DoPri5<2>; 3] = std::array::from_fn(|_| DoPri5::new(set).unwrap());
+        let mut systems = ks.map(|k| Forced { k });
+        for l in 0..3 {
+            steppers[l]
+                .init(&mut systems[l], 0.0, [1.0, 0.0], 3.0)
+                .unwrap();
+        }
+        let mut together: Vec<Vec<(f64, [f64; 2])>> = vec![Vec::new(); 3];
+        // lane 1 starts late: lanes need not be in step
+        let mut round = 0;
+        loop {
+            let active = std::array::from_fn(|l| !steppers[l].finished() && (l != 1 || round > 5));
+            if !active.iter().any(|a| *a) {
+                break;
+            }
+            let acc = attempt_lanes(&mut steppers, &mut systems, active).unwrap();
+            for l in 0..3 {
+                if acc[l] {
+                    together[l].push((steppers[l].t(), *steppers[l].y()));
+                }
+            }
+            round += 1;
+        }
+        for l in 0..3 {
+            assert_eq!(together[l], alone[l], "lane {l}");
+            assert!(alone[l].len() > 10);
+        }
+    }
 
     #[test]
     fn error_weights_sum_to_zero() {
