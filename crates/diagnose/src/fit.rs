@@ -227,15 +227,40 @@ impl Context {
             ..self.lm
         };
         let bounds = problem.bounds();
+        let phase = ParamId::Effect(EffectKind::Gravity, 1);
         Ok((0..fit.k())
             .into_par_iter()
             .filter_map(|k| {
+                if problem.free()[k] != phase {
+                    return profile_interval(
+                        &f,
+                        &fit.x,
+                        fit.white_ss,
+                        k,
+                        bounds,
+                        s2,
+                        step0[k],
+                        &lm,
+                        settings,
+                    )
+                    .map(|iv| (k, iv));
+                }
+                // The gravity phase is an angle: its profile runs half a turn either way
+                // from the fit, past ±180° (the model reads the phase wrapped), so an interval
+                // around ±180° is not cut there. Its ends are reported unwrapped.
+                let mut b = bounds.to_vec();
+                b[k] = (fit.x[k] - 180.0, fit.x[k] + 180.0);
+                let wrapped = |x: &[f64]| {
+                    let mut v = x.to_vec();
+                    v[k] = wrap_degrees(v[k]);
+                    f(&v)
+                };
                 profile_interval(
-                    &f,
+                    &wrapped,
                     &fit.x,
                     fit.white_ss,
                     k,
-                    bounds,
+                    &b,
                     s2,
                     step0[k],
                     &lm,
@@ -296,4 +321,33 @@ pub(crate) fn latin_hypercube(bounds: &[(f64, f64)], k: usize, seed: u64) -> Vec
         }
     }
     pts
+}
+
+/// `deg` wrapped into `[−180°, 180°)`.
+fn wrap_degrees(deg: f64) -> f64 {
+    (deg + 180.0).rem_euclid(360.0) - 180.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::wrap_degrees;
+
+    #[test]
+    fn phases_wrap_into_one_turn() {
+        for (deg, want) in [
+            (0.0, 0.0),
+            (179.5, 179.5),
+            (180.0, -180.0),
+            (-180.0, -180.0),
+            (-182.0, 178.0),
+            (185.0, -175.0),
+            (-541.0, 179.0),
+        ] {
+            assert!(
+                (wrap_degrees(deg) - want).abs() < 1e-12,
+                "{deg}: {}",
+                wrap_degrees(deg)
+            );
+        }
+    }
 }

@@ -757,6 +757,47 @@ fn standard_errors(fit: &Fit, nobs: usize) -> Vec<f64> {
     }
 }
 
+/// Reports a gravity term with its phase in `[−90°, 90°)`: `m·sin(q − φ)` equals
+/// `(−m)·sin(q − φ ∓ 180°)`, and the fit lands on either form; the one whose phase is nearest
+/// zero reads as "a weight of moment `m` at angle `φ`" (the moment's interval is negated and
+/// its ends swapped, the phase's shifted by the half turn).
+fn canonical_gravity(
+    effects: &mut BTreeMap<String, BTreeMap<String, f64>>,
+    intervals: &mut BTreeMap<String, BTreeMap<String, ParamInterval>>,
+) {
+    let name = EffectKind::Gravity.name();
+    let Some(g) = effects.get_mut(name) else {
+        return;
+    };
+    let (Some(&m), Some(&phi)) = (g.get("moment_nm"), g.get("phase_deg")) else {
+        return;
+    };
+    let shift = if phi >= 90.0 {
+        -180.0
+    } else if phi < -90.0 {
+        180.0
+    } else {
+        return;
+    };
+    g.insert("moment_nm".into(), -m);
+    g.insert("phase_deg".into(), phi + shift);
+    if let Some(iv) = intervals.get_mut(name) {
+        if let Some(m) = iv.get_mut("moment_nm") {
+            *m = ParamInterval {
+                lower: -m.upper,
+                upper: -m.lower,
+                lower_at_bound: m.upper_at_bound,
+                upper_at_bound: m.lower_at_bound,
+                laplace_se: m.laplace_se,
+            };
+        }
+        if let Some(p) = iv.get_mut("phase_deg") {
+            p.lower += shift;
+            p.upper += shift;
+        }
+    }
+}
+
 /// The report of `fit`; a parameter with a profile interval in `intervals` gets its
 /// half-width as uncertainty (else the Laplace standard error).
 fn model_report(
@@ -802,6 +843,7 @@ fn model_report(
             }
         }
     }
+    canonical_gravity(&mut effects, &mut eint);
     ModelReport {
         effects: extended.then_some(effects),
         params,

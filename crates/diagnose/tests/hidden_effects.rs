@@ -199,8 +199,7 @@ fn check_intervals(t: &HiddenTrial, d: &Diagnosis, ctx: &str) {
                 .unwrap_or_else(|| panic!("{kind}.{}: no interval; {ctx}", p.name));
             let fit = vals[p.name];
             holds_fit(p.name, fit, iv);
-            // an interval that reaches a bound on the truth's side holds it (for the phase, the
-            // profile stops at ±180° although the angle goes on)
+            // an interval that reaches a bound on the truth's side holds it
             let (room, open) = if truth[j] < fit {
                 (fit - iv.lower, iv.lower_at_bound)
             } else {
