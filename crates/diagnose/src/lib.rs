@@ -858,3 +858,58 @@ fn model_report(
         param_uncertainty: punc,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn iv(lower: f64, upper: f64, lower_at_bound: bool) -> ParamInterval {
+        ParamInterval {
+            lower,
+            upper,
+            lower_at_bound,
+            upper_at_bound: false,
+            laplace_se: 0.5,
+        }
+    }
+
+    #[test]
+    fn gravity_is_reported_with_its_phase_near_zero() {
+        let g = |m: f64, phi: f64| {
+            let e = BTreeMap::from([(
+                "gravity".to_string(),
+                BTreeMap::from([("moment_nm".to_string(), m), ("phase_deg".to_string(), phi)]),
+            )]);
+            let i = BTreeMap::from([(
+                "gravity".to_string(),
+                BTreeMap::from([
+                    ("moment_nm".to_string(), iv(m - 1.0, m + 2.0, true)),
+                    ("phase_deg".to_string(), iv(phi - 3.0, phi + 4.0, false)),
+                ]),
+            )]);
+            (e, i)
+        };
+        for (m, phi, want_phi) in [(6.0, 178.0, -2.0), (6.0, -175.0, 5.0), (6.0, 90.0, -90.0)] {
+            let (mut e, mut i) = g(m, phi);
+            canonical_gravity(&mut e, &mut i);
+            assert_eq!(e["gravity"]["moment_nm"], -m);
+            assert_eq!(e["gravity"]["phase_deg"], want_phi);
+            let im = i["gravity"]["moment_nm"];
+            assert_eq!((im.lower, im.upper), (-m - 2.0, -m + 1.0));
+            assert!(!im.lower_at_bound && im.upper_at_bound);
+            let ip = i["gravity"]["phase_deg"];
+            assert_eq!((ip.lower, ip.upper), (want_phi - 3.0, want_phi + 4.0));
+            // the term itself is unchanged
+            for q in [-0.3_f64, 0.0, 0.4] {
+                let before = m * (q - phi.to_radians()).sin();
+                let after = -m * (q - want_phi.to_radians()).sin();
+                assert!((before - after).abs() < 1e-12);
+            }
+        }
+        // already canonical: untouched
+        let (mut e, mut i) = g(-4.0, 10.0);
+        let (e0, i0) = (e.clone(), i.clone());
+        canonical_gravity(&mut e, &mut i);
+        assert_eq!((e, i), (e0, i0));
+    }
+}
