@@ -145,14 +145,14 @@ fn integrate_activation<const L: usize>(
     let mut out: [(Vec<f64>, Vec<f64>); L] =
         std::array::from_fn(|_| (Vec::with_capacity(n), Vec::with_capacity(n)));
     let mut y: [f64; L] = std::array::from_fn(|l| u_at(l, t[0]));
-    for i in 0..n {
-        let mut u0: [f64; L] = std::array::from_fn(|l| u_at(l, t[i]));
+    for (i, &ti) in t.iter().enumerate() {
+        let mut u0: [f64; L] = std::array::from_fn(|l| u_at(l, ti));
         for l in 0..L {
             out[l].0.push(y[l]);
             out[l].1.push(act.rate(u0[l], y[l]));
         }
         if i + 1 < n {
-            let mut tt = t[i];
+            let mut tt = ti;
             for _ in 0..ACT_SUBSTEPS {
                 let t1 = tt + hs;
                 for l in 0..L {
@@ -189,10 +189,10 @@ fn integrate_activation_and_integral(
     let u_at = |tt: f64| inputs.envelope_at(j, tt - delay).clamp(0.0, 1.0);
     let f = |tt: f64, y: [f64; 2]| -> [f64; 2] { [act.rate(u_at(tt), y[0]), nl.apply(y[0])] };
     let mut y = [u_at(t[0]), 0.0];
-    for i in 0..n {
+    for (i, &ti) in t.iter().enumerate() {
         out(y[1]);
         if i + 1 < n {
-            let mut tt = t[i];
+            let mut tt = ti;
             for _ in 0..ACT_SUBSTEPS {
                 let k1 = f(tt, y);
                 let k2 = f(
@@ -534,11 +534,15 @@ pub(crate) fn run(
         .map_err(|(_, e)| e)
 }
 
+/// One muscle of [`run_lanes`]: its channel, fibre constants, initial `LM` and the buffer for
+/// `LM` at the samples.
+pub(crate) type Lane<'a> = (&'a Channel, &'a Fibre, f64, &'a mut [f64]);
+
 /// [`run`] for several muscles together (their integrations interleaved by
 /// [`ode::attempt_lanes`]; each muscle's `LM` is the same bits as from [`run`]). Lanes whose
 /// `lm_out` is `None` are skipped. On failure returns the failing lane and its error.
 pub(crate) fn run_lanes<const L: usize>(
-    lanes: [Option<(&Channel, &Fibre, f64, &mut [f64])>; L],
+    lanes: [Option<Lane<'_>>; L],
     inputs: &TrialInputs,
     settings: &SimSettings,
 ) -> Result<[SimStats; L], (usize, OdeError)> {

@@ -686,8 +686,8 @@ fn update_fast(
         return Ok(());
     }
     // the slot each integrated muscle writes (the one not holding the newest result)
-    for j in 0..3 {
-        if todo[j].is_some() {
+    for (j, t) in todo.iter().enumerate() {
+        if t.is_some() {
             let k = 1 - ws.newest[j];
             ws.slots[j][k].key = None;
             ws.slots[j][k].unit_torque.resize(n, 0.0);
