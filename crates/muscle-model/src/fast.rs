@@ -610,10 +610,12 @@ pub(crate) fn run_lanes<const L: usize>(
             if let Some(out) = outs[l].as_deref_mut() {
                 let dense = steppers[l].dense();
                 let t = dense.t();
-                while next[l] < n && times[next[l]] <= t {
-                    out[next[l]] = dense.component(times[next[l]], 0);
-                    next[l] += 1;
-                }
+                let (from, to) = (
+                    next[l],
+                    next[l] + times[next[l]..].partition_point(|&x| x <= t),
+                );
+                dense.component_into(&times[from..to], 0, &mut out[from..to]);
+                next[l] = to;
             }
         }
     }
