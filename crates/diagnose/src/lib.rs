@@ -99,6 +99,14 @@ pub struct DiagnoseSettings {
     pub max_effects: usize,
     /// Candidates refitted per round (best evidence first).
     pub refits_per_round: usize,
+    /// After the forward rounds, with two or more causes: try replacing each cause by another
+    /// effect (drop it, refit, one more forward round) and keep a replacement that lowers the
+    /// BIC by more than the ΔBIC margin without raising the held-out error.
+    pub exchange: bool,
+    /// When no single extension passes in a round, fit the two with the strongest in-sample
+    /// evidence jointly and accept both if the pair passes (effects that only generalise
+    /// together).
+    pub pairs: bool,
     /// Minimum score statistic for a refit.
     pub min_score_lm: f64,
     /// Held-out RMS must fall by at least this share (%).
@@ -107,6 +115,13 @@ pub struct DiagnoseSettings {
     pub min_heldout_gain_nm: f64,
     /// ΔBIC must be below this.
     pub max_delta_bic: f64,
+    /// A candidate whose ΔBIC is below this (strong in-sample evidence) needs only
+    /// [`DiagnoseSettings::strong_min_heldout_gain_pct`] of held-out gain.
+    pub strong_delta_bic: f64,
+    /// Held-out gain (%) asked of a candidate with ΔBIC below
+    /// [`DiagnoseSettings::strong_delta_bic`] (and at least half of
+    /// [`DiagnoseSettings::min_heldout_gain_nm`]).
+    pub strong_min_heldout_gain_pct: f64,
     /// Cosine above which an extension is confounded with the model's parameters.
     pub confound_cos: f64,
     /// Structure evidence (`−log10` of the structure tests' p-value) above which
@@ -206,10 +221,14 @@ impl Default for DiagnoseSettings {
             candidates: EffectKind::ALL.to_vec(),
             max_effects: 3,
             refits_per_round: 3,
+            exchange: true,
+            pairs: true,
             min_score_lm: 6.0,
             min_heldout_gain_pct: 2.0,
             min_heldout_gain_nm: 0.02,
             max_delta_bic: -10.0,
+            strong_delta_bic: -30.0,
+            strong_min_heldout_gain_pct: 0.5,
             confound_cos: 0.98,
             structure_threshold: 3.0,
             input_options: InputOptions::default(),
@@ -518,8 +537,7 @@ pub fn run(
                     rep.heldout_gain_pct = Some(r.gain_pct);
                     rep.fitted = Some(effect_values(r.fit, r.kind));
                 }
-                let need = (settings.min_heldout_gain_pct / 100.0 * current.heldout_rms)
-                    .max(settings.min_heldout_gain_nm);
+                let need = heldout_need(settings, current.heldout_rms, r.delta_bic);
                 // a collinear extension must also be estimated clearly away from its null
                 let collinear = reports
                     .get(&r.kind)
@@ -557,6 +575,23 @@ pub fn run(
             break Some(lead.kind);
         };
         let Some(best_kind) = best else {
+            // No single extension generalises, but two may only together: each alone leaves
+            // the other's error in the held-out cycles (a delay with fatigue). The two with the
+            // strongest in-sample evidence are fitted jointly and both accepted when the pair
+            // passes against the current model and each of its halves.
+            if settings.pairs && current.kinds.len() + 2 <= settings.max_effects {
+                let (pair, ev) = joint_pair(&ctx, &current, &fits, settings, nobs, &reports)?;
+                evaluations += ev;
+                if let Some(pair) = pair {
+                    for k in &pair.kinds[current.kinds.len()..] {
+                        if let Some(rep) = reports.get_mut(k) {
+                            rep.accepted = true;
+                        }
+                    }
+                    current = pair;
+                    continue;
+                }
+            }
             break;
         };
         let Some(best) = fits
@@ -569,6 +604,17 @@ pub fn run(
             rep.accepted = true;
         }
         current = best;
+    }
+    if settings.exchange && current.kinds.len() >= 2 {
+        notify(
+            observer,
+            Stage::Round(settings.max_effects),
+            "checking each cause against the alternatives".into(),
+            evaluations,
+        )?;
+        let (fit, ev) = exchange(&ctx, current, &eligible, settings, nobs, &mut reports)?;
+        evaluations += ev;
+        current = fit;
     }
     for rep in reports.values_mut() {
         if rep.confounded && !rep.accepted && !confounded.contains(&rep.effect) {
@@ -640,6 +686,165 @@ pub fn run(
     })
 }
 
+/// The held-out RMS reduction (N·m) a candidate with `delta_bic` must bring to a model with
+/// held-out RMS `heldout`: max(2 %, 0.02 N·m) by default, max(0.5 %, 0.01 N·m) when its
+/// in-sample evidence is strong (ΔBIC < −30).
+fn heldout_need(settings: &DiagnoseSettings, heldout: f64, delta_bic: f64) -> f64 {
+    if delta_bic < settings.strong_delta_bic {
+        (settings.strong_min_heldout_gain_pct / 100.0 * heldout)
+            .max(0.5 * settings.min_heldout_gain_nm)
+    } else {
+        (settings.min_heldout_gain_pct / 100.0 * heldout).max(settings.min_heldout_gain_nm)
+    }
+}
+
+/// The joint fit of the two refits of a round with the lowest ΔBIC below the margin (when no
+/// single one passed): returned when it passes the held-out and ΔBIC rules against `current`
+/// and its BIC also beats each single refit by the margin (both halves are needed), with the
+/// simulations spent.
+fn joint_pair(
+    ctx: &Context,
+    current: &Fit,
+    fits: &[Fit],
+    settings: &DiagnoseSettings,
+    nobs: usize,
+    reports: &BTreeMap<EffectKind, CandidateReport>,
+) -> Result<(Option<Fit>, usize), DiagnoseError> {
+    let mut strong: Vec<&Fit> = fits
+        .iter()
+        .filter(|f| f.bic(nobs) - current.bic(nobs) < settings.max_delta_bic)
+        .collect();
+    strong.sort_by(|a, b| a.bic(nobs).total_cmp(&b.bic(nobs)));
+    let [a, b] = match strong.as_slice() {
+        [a, b, ..] => [*a, *b],
+        _ => return Ok((None, 0)),
+    };
+    let (ka, kb) = (
+        *a.kinds.last().expect("a refit adds an effect"),
+        *b.kinds.last().expect("a refit adds an effect"),
+    );
+    let mut kinds = current.kinds.clone();
+    kinds.extend([ka, kb]);
+    let mut x0 = current.x.clone();
+    for (f, k) in [(a, ka), (b, kb)] {
+        x0.extend(
+            f.free
+                .iter()
+                .zip(&f.x)
+                .filter(|(id, _)| matches!(id, ParamId::Effect(e, _) if *e == k))
+                .map(|(_, v)| *v),
+        );
+    }
+    let pair = match ctx.fit(&kinds, &x0, true) {
+        Ok(f) => f,
+        Err(DiagnoseError::Fit { .. }) | Err(DiagnoseError::Model(_)) => return Ok((None, 0)),
+        Err(e) => return Err(e),
+    };
+    let ev = pair.evaluations;
+    let r = judge(&pair, current, nobs);
+    let need = heldout_need(settings, current.heldout_rms, r.delta_bic);
+    let halves = [a, b]
+        .iter()
+        .all(|f| pair.bic(nobs) - f.bic(nobs) < settings.max_delta_bic);
+    let clear = [ka, kb].iter().all(|k| {
+        let collinear = reports
+            .get(k)
+            .is_some_and(|rep| rep.cos_to_model > settings.confound_cos);
+        !collinear || effect_significance(&pair, *k, nobs) >= 3.0
+    });
+    let passes = r.gain_nm >= need && r.delta_bic < settings.max_delta_bic && halves && clear;
+    Ok((passes.then_some(pair), ev))
+}
+
+/// The exchange pass over a model with two or more effects (forward selection is greedy: an
+/// effect accepted early can stand in for two that come later, e.g. a gravity term fitted to
+/// an offset while a fatigue drift was still missing, and is then kept).
+///
+/// Each cause of the forward rounds in turn is dropped, the rest refitted, and one forward
+/// round run on that model (scores, then refits of the leaders other than the dropped cause).
+/// The best refit replaces the model when its BIC is lower by more than the ΔBIC margin
+/// ([`DiagnoseSettings::max_delta_bic`]) and its held-out error is not higher. Returns the
+/// final model and the simulations spent.
+fn exchange(
+    ctx: &Context,
+    mut current: Fit,
+    eligible: &[EffectKind],
+    settings: &DiagnoseSettings,
+    nobs: usize,
+    reports: &mut BTreeMap<EffectKind, CandidateReport>,
+) -> Result<(Fit, usize), DiagnoseError> {
+    let mut evaluations = 0;
+    for dropped in current.kinds.clone() {
+        let rest: Vec<EffectKind> = current
+            .kinds
+            .iter()
+            .copied()
+            .filter(|k| *k != dropped)
+            .collect();
+        let x0: Vec<f64> = current
+            .free
+            .iter()
+            .zip(&current.x)
+            .filter(|(id, _)| !matches!(id, ParamId::Effect(k, _) if *k == dropped))
+            .map(|(_, v)| *v)
+            .collect();
+        let reduced = ctx.fit(&rest, &x0, false)?;
+        evaluations += reduced.evaluations;
+        let mut scores: Vec<score::Score> = score::score_all(ctx, &reduced, eligible)
+            .into_iter()
+            .filter(|s| s.kind != dropped && !rest.contains(&s.kind))
+            .collect();
+        evaluations += 4 * scores.len();
+        scores.sort_by(|a, b| b.evidence.total_cmp(&a.evidence));
+        let leaders: Vec<&score::Score> = scores
+            .iter()
+            .filter(|s| s.lm >= settings.min_score_lm)
+            .take(settings.refits_per_round)
+            .collect();
+        let refits: Vec<Result<Fit, DiagnoseError>> = leaders
+            .par_iter()
+            .map(|s| {
+                let mut kinds = rest.clone();
+                kinds.push(s.kind);
+                ctx.fit(&kinds, &score::extended_start(&reduced, s), true)
+            })
+            .collect();
+        let mut best: Option<(Fit, &score::Score)> = None;
+        for (r, s) in refits.into_iter().zip(&leaders) {
+            let f = match r {
+                Ok(f) => f,
+                Err(DiagnoseError::Fit { .. }) | Err(DiagnoseError::Model(_)) => continue,
+                Err(e) => return Err(e),
+            };
+            evaluations += f.evaluations;
+            // by the same margin as an added effect: alternatives within it are confounded
+            let better = f.bic(nobs) - current.bic(nobs) < settings.max_delta_bic
+                && f.heldout_rms <= current.heldout_rms;
+            if better && best.as_ref().is_none_or(|(b, _)| f.bic(nobs) < b.bic(nobs)) {
+                best = Some((f, s));
+            }
+        }
+        let Some((fit, s)) = best else {
+            continue;
+        };
+        if let Some(rep) = reports.get_mut(&dropped) {
+            rep.accepted = false;
+        }
+        if let Some(rep) = reports.get_mut(&s.kind) {
+            rep.accepted = true;
+            rep.evidence = s.evidence;
+            rep.score_lm = s.lm;
+            rep.heldout_rms_nm = Some(fit.heldout_rms);
+            rep.delta_bic = Some(fit.bic(nobs) - reduced.bic(nobs));
+            // the dropped-cause model was not cross-validated
+            rep.heldout_gain_pct = None;
+            rep.fitted = Some(effect_values(&fit, s.kind));
+        }
+        current = fit;
+    }
+    Ok((current, evaluations))
+}
+
 fn check_settings(s: &DiagnoseSettings) -> Result<(), DiagnoseError> {
     let bad = |name: &'static str, reason: &str| {
         Err(DiagnoseError::Settings {
@@ -658,6 +863,12 @@ fn check_settings(s: &DiagnoseSettings) -> Result<(), DiagnoseError> {
     }
     if !s.max_delta_bic.is_finite() {
         return bad("max_delta_bic", "must be finite");
+    }
+    if !(s.strong_delta_bic.is_finite() && s.strong_delta_bic <= s.max_delta_bic) {
+        return bad("strong_delta_bic", "must be finite and ≤ max_delta_bic");
+    }
+    if !(s.strong_min_heldout_gain_pct.is_finite() && s.strong_min_heldout_gain_pct >= 0.0) {
+        return bad("strong_min_heldout_gain_pct", "must be finite and ≥ 0");
     }
     if !(s.confound_cos > 0.0 && s.confound_cos <= 1.0) {
         return bad("confound_cos", "must be in (0, 1]");

@@ -285,3 +285,14 @@ fn finds_two_effects_at_once() {
         10,
     );
 }
+
+/// A delay with fatigue: each alone may not lower the held-out error (each leaves the other's
+/// error in the held-out cycles), so this also exercises the joint fit of pairs.
+#[test]
+fn finds_delay_with_fatigue() {
+    check_named(
+        &[EffectKind::ElectromechanicalDelay, EffectKind::Fatigue],
+        false,
+        11,
+    );
+}
