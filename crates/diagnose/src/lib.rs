@@ -538,11 +538,7 @@ pub fn run(
                     rep.fitted = Some(effect_values(r.fit, r.kind));
                 }
                 let need = heldout_need(settings, current.heldout_rms, r.delta_bic);
-                // a collinear extension must also be estimated clearly away from its null
-                let collinear = reports
-                    .get(&r.kind)
-                    .is_some_and(|rep| rep.cos_to_model > settings.confound_cos);
-                let clear = !collinear || effect_significance(r.fit, r.kind, nobs) >= 3.0;
+                let clear = clear_of_null(r.fit, r.kind, &reports, settings, nobs);
                 if r.gain_nm >= need && r.delta_bic < settings.max_delta_bic && clear {
                     passing.push(r);
                 }
@@ -686,6 +682,23 @@ pub fn run(
     })
 }
 
+/// Whether effect `kind` of `fit` may be accepted as far as collinearity goes: an extension
+/// nearly collinear with the model's parameters (cosine above
+/// [`DiagnoseSettings::confound_cos`]) must also be estimated ≥ 3 standard errors from its
+/// null.
+fn clear_of_null(
+    fit: &Fit,
+    kind: EffectKind,
+    reports: &BTreeMap<EffectKind, CandidateReport>,
+    settings: &DiagnoseSettings,
+    nobs: usize,
+) -> bool {
+    let collinear = reports
+        .get(&kind)
+        .is_some_and(|rep| rep.cos_to_model > settings.confound_cos);
+    !collinear || effect_significance(fit, kind, nobs) >= 3.0
+}
+
 /// The held-out RMS reduction (N·m) a candidate with `delta_bic` must bring to a model with
 /// held-out RMS `heldout`: max(2 %, 0.02 N·m) by default, max(0.5 %, 0.01 N·m) when its
 /// in-sample evidence is strong (ΔBIC < −30).
@@ -746,12 +759,9 @@ fn joint_pair(
     let halves = [a, b]
         .iter()
         .all(|f| pair.bic(nobs) - f.bic(nobs) < settings.max_delta_bic);
-    let clear = [ka, kb].iter().all(|k| {
-        let collinear = reports
-            .get(k)
-            .is_some_and(|rep| rep.cos_to_model > settings.confound_cos);
-        !collinear || effect_significance(&pair, *k, nobs) >= 3.0
-    });
+    let clear = [ka, kb]
+        .iter()
+        .all(|k| clear_of_null(&pair, *k, reports, settings, nobs));
     let passes = r.gain_nm >= need && r.delta_bic < settings.max_delta_bic && halves && clear;
     Ok((passes.then_some(pair), ev))
 }
