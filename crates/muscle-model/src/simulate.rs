@@ -221,6 +221,30 @@ impl Workspace {
     }
 }
 
+/// What the fast integration of `unit` needs: its channel (`current` when it matches), its
+/// fibre constants and the equilibrium fibre length at the first sample.
+fn fast_prepare(
+    current: Option<&Arc<Channel>>,
+    inputs: &TrialInputs,
+    unit: &MuscleUnit,
+    delay: f64,
+) -> (Arc<Channel>, crate::fast::Fibre, f64) {
+    let y0 = unit.equilibrium_state(
+        inputs.envelope_at(unit.muscle.index(), inputs.times()[0] - delay),
+        inputs.angle()[0],
+    );
+    let ch = crate::fast::channel_for(current, inputs, unit, delay);
+    (ch, crate::fast::Fibre::new(unit), y0[IX_LM])
+}
+
+/// The integration error of muscle `muscle`.
+fn integration_error(muscle: Muscle) -> impl FnOnce(ode::OdeError) -> ModelError {
+    move |source| ModelError::Integration {
+        muscle: muscle.name(),
+        source,
+    }
+}
+
 /// Unit-`F0` torque `F̃T·r(q)` of `unit` at every sample into `out` ([`Formulation::Fast`]).
 #[allow(clippy::too_many_arguments)]
 fn fast_unit_torque(
@@ -232,20 +256,10 @@ fn fast_unit_torque(
     settings: &SimSettings,
     out: &mut [f64],
 ) -> Result<SimStats, ModelError> {
-    let t0 = inputs.times()[0];
-    let y0 = unit.equilibrium_state(
-        inputs.envelope_at(unit.muscle.index(), t0 - delay),
-        inputs.angle()[0],
-    );
-    let ch = crate::fast::channel_for(current.as_ref(), inputs, unit, delay);
-    let fib = crate::fast::Fibre::new(unit);
+    let (ch, fib, lm0) = fast_prepare(current.as_ref(), inputs, unit, delay);
     lm.resize(inputs.len(), 0.0);
-    let stats = crate::fast::run(&ch, inputs, &fib, y0[IX_LM], settings, lm).map_err(|source| {
-        ModelError::Integration {
-            muscle: unit.muscle.name(),
-            source,
-        }
-    })?;
+    let stats = crate::fast::run(&ch, inputs, &fib, lm0, settings, lm)
+        .map_err(integration_error(unit.muscle))?;
     crate::fast::unit_torque(&fib, &ch, lm, out);
     *current = Some(ch);
     Ok(stats)
@@ -315,17 +329,11 @@ fn run_muscle(
     let delay = delay_s(effects);
     let t = inputs.times();
     let j = m.index();
-    let y0 = unit.equilibrium_state(inputs.envelope_at(j, t[0] - delay), inputs.angle()[0]);
     if settings.formulation == Formulation::Fast {
-        let ch = crate::fast::channel_for(current.as_ref(), inputs, &unit, delay);
-        let fib = crate::fast::Fibre::new(&unit);
+        let (ch, fib, lm0) = fast_prepare(current.as_ref(), inputs, &unit, delay);
         let mut lm = vec![0.0; inputs.len()];
-        let stats = crate::fast::run(&ch, inputs, &fib, y0[IX_LM], settings, &mut lm).map_err(
-            |source| ModelError::Integration {
-                muscle: m.name(),
-                source,
-            },
-        )?;
+        let stats = crate::fast::run(&ch, inputs, &fib, lm0, settings, &mut lm)
+            .map_err(integration_error(m))?;
         let f0 = unit.f0;
         let activation = states.is_some().then(|| ch.activation(inputs));
         for (i, &lmi) in lm.iter().enumerate() {
@@ -340,6 +348,7 @@ fn run_muscle(
         *current = Some(ch);
         return Ok(stats);
     }
+    let y0 = unit.equilibrium_state(inputs.envelope_at(j, t[0] - delay), inputs.angle()[0]);
     let reduced = settings.formulation == Formulation::Reduced;
     let mut sys = UnitSystem {
         unit: &unit,
@@ -364,10 +373,7 @@ fn run_muscle(
             }
         }
     })
-    .map_err(|source| ModelError::Integration {
-        muscle: m.name(),
-        source,
-    })?;
+    .map_err(integration_error(m))?;
     Ok(stats.into())
 }
 
@@ -694,12 +700,6 @@ fn update_fast(
             ws.newest[j] = k;
         }
     }
-    let error = |j: usize| {
-        move |source| ModelError::Integration {
-            muscle: Muscle::ALL[j].name(),
-            source,
-        }
-    };
     if count == 1 {
         let j = todo.iter().position(Option::is_some).unwrap_or(0);
         if let Some((unit, key)) = todo[j] {
@@ -720,12 +720,7 @@ fn update_fast(
     let mut prepared: [Option<(Arc<Channel>, crate::fast::Fibre, f64)>; 3] = [None, None, None];
     for j in 0..3 {
         if let Some((unit, _)) = &todo[j] {
-            let y0 = unit.equilibrium_state(
-                inputs.envelope_at(j, inputs.times()[0] - delay),
-                inputs.angle()[0],
-            );
-            let ch = crate::fast::channel_for(ws.channels[j].as_ref(), inputs, unit, delay);
-            prepared[j] = Some((ch, crate::fast::Fibre::new(unit), y0[IX_LM]));
+            prepared[j] = Some(fast_prepare(ws.channels[j].as_ref(), inputs, unit, delay));
         }
     }
     for lm in &mut ws.lm {
@@ -740,7 +735,8 @@ fn update_fast(
             .zip(buf)
             .map(|((ch, fib, lm0), buf)| (&**ch, fib, *lm0, buf))
     });
-    let stats = crate::fast::run_lanes(lanes, inputs, settings).map_err(|(j, e)| error(j)(e))?;
+    let stats = crate::fast::run_lanes(lanes, inputs, settings)
+        .map_err(|(j, e)| integration_error(Muscle::ALL[j])(e))?;
     for j in 0..3 {
         if let (Some((ch, fib, _)), Some((_, key))) = (prepared[j].take(), todo[j]) {
             let sl = &mut ws.slots[j][ws.newest[j]];
