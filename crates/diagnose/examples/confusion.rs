@@ -7,13 +7,43 @@
 //! for the muscle parameters of the final model; with `--limits`, the detection rate per effect
 //! at sizes below and at the bottom of the realistic range (`--effects` keeps only the listed
 //! effects, or with `:size` only that size; trial `i` of an effect uses seed `BASE_SEED + 1000·kind + i` at every size, so a
-//! run split by `--effects` gives the same rows as one run).
+//! run split by `--effects` gives the same rows as one run). `SURAE_CONF_DUMP=FILE` appends
+//! one JSON line per diagnosis (seed, hidden effects, causes, near ties, the candidates' ΔBIC
+//! and held-out gains) to `FILE`.
 use std::collections::BTreeMap;
 use std::time::Instant;
 
 use diagnose::scenarios::{align_to_fit, headline, hidden_trial, hidden_trial_sized};
 use diagnose::{no_observer, run, DiagnoseSettings};
 use muscle_model::EffectKind;
+
+/// Appends one JSON line per diagnosis to the file named by `SURAE_CONF_DUMP` (if set): the
+/// seed, the hidden effects, the causes, the near ties and every refitted candidate's ΔBIC and
+/// held-out gain, for studying the decision rule's margins offline.
+fn dump(seed: u64, hidden: &[EffectKind], d: &diagnose::Diagnosis) -> std::io::Result<()> {
+    use std::io::Write;
+    let Ok(path) = std::env::var("SURAE_CONF_DUMP") else {
+        return Ok(());
+    };
+    let cands: Vec<serde_json::Value> = d
+        .candidates
+        .iter()
+        .map(|c| {
+            serde_json::json!({"effect": c.effect, "delta_bic": c.delta_bic,
+                "heldout_gain_pct": c.heldout_gain_pct, "round": c.round,
+                "accepted": c.accepted, "evidence": c.evidence})
+        })
+        .collect();
+    let line = serde_json::json!({"seed": seed,
+        "hidden": hidden.iter().map(|k| k.name()).collect::<Vec<_>>(),
+        "causes": d.causes, "near_ties": d.near_ties, "candidates": cands,
+        "wall_s": d.wall_s});
+    let mut f = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(path)?;
+    writeln!(f, "{line}")
+}
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
@@ -74,6 +104,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         &settings,
                         &mut no_observer,
                     )?;
+                    dump(seed, &[kind], &d)?;
                     if d.causes == vec![kind.name().to_string()] {
                         hit += 1;
                     } else if d.causes.iter().any(|c| c != kind.name()) {
@@ -123,6 +154,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 &mut no_observer,
             )?;
             wall = wall.max(t0.elapsed().as_secs_f64());
+            dump(seed, kinds, &d)?;
             let mut want: Vec<String> = kinds.iter().map(|k| k.name().to_string()).collect();
             want.sort();
             let mut got = d.causes.clone();

@@ -121,6 +121,22 @@ pub struct CandidateReport {
     pub fitted: Option<BTreeMap<String, f64>>,
 }
 
+/// An alternative explanation that fits a named cause's data about as well: replacing the
+/// cause by it changes the BIC by less than the ΔBIC margin and the held-out error by less
+/// than the held-out margin, so this trial cannot tell the two apart.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct NearTie {
+    /// The named cause.
+    pub cause: String,
+    /// The effect that could stand in for it.
+    pub alternative: String,
+    /// `BIC(model with the alternative) − BIC(named model)`: ≥ 0 when the named model is
+    /// better, negative when the alternative is better by less than the margin.
+    pub delta_bic: f64,
+    /// Held-out RMS of the model with the alternative instead of the cause (N·m).
+    pub heldout_rms_nm: f64,
+}
+
 /// The diagnosis of one trial (serialises to SPEC §7 `diagnosis.json`).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Diagnosis {
@@ -140,6 +156,9 @@ pub struct Diagnosis {
     pub candidates: Vec<CandidateReport>,
     /// Effects that cannot be told apart from the model's parameters on this trial.
     pub confounded: Vec<String>,
+    /// Named causes with an alternative effect that explains the trial about as well
+    /// (e.g. an offset and a gravity term over a 35° range of motion).
+    pub near_ties: Vec<NearTie>,
     /// Noise model used.
     pub noise: NoiseModel,
     /// How the held-out errors were cross-validated, e.g. `3 cycles held out in turn` or
@@ -272,6 +291,12 @@ impl Diagnosis {
                 self.confounded.join(", ")
             ));
         }
+        for t in &self.near_ties {
+            l.push(format!(
+                "near tie     {} or {} (ΔBIC {:+.1}, held-out {:.3} N·m): not told apart here",
+                t.cause, t.alternative, t.delta_bic, t.heldout_rms_nm
+            ));
+        }
         l.push(format!(
             "structure    {} (p = {:.1e})",
             if self.unexplained_structure {
@@ -282,11 +307,13 @@ impl Diagnosis {
             self.residual_analysis.structure_p_value
         ));
         l.push("candidates   effect                   evidence  held-out  ΔBIC".into());
-        for c in self.candidates.iter().take(20 - l.len() - 1) {
+        for c in self.candidates.iter().take(19usize.saturating_sub(l.len())) {
             l.push(format!(
                 "  {}{:<24} {:>9.1} {:>9} {:>8}",
                 if c.accepted {
                     "*"
+                } else if self.near_ties.iter().any(|t| t.alternative == c.effect) {
+                    "~"
                 } else if c.confounded {
                     "?"
                 } else {

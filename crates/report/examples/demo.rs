@@ -273,6 +273,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         heldout_rms_reduction_pct: 78.2,
         delta_bic: 5100.0,
         effect_values: &[("Flen", 1.68)],
+        near_ties: &[],
     };
     for p in report::diagnosis_story(&story) {
         page.paragraph(p);

@@ -23,6 +23,9 @@ pub struct DiagnosisSummary<'a> {
     pub delta_bic: f64,
     /// Fitted effect parameters `(label with unit, value)`.
     pub effect_values: &'a [(&'a str, f64)],
+    /// Near ties `(cause, alternative)`: a model with the alternative instead of the cause fits
+    /// about as well (within the decision margins).
+    pub near_ties: &'a [(&'a str, &'a str)],
 }
 
 /// Paragraphs that explain the diagnosis to a reader who has not seen the numbers.
@@ -32,6 +35,7 @@ pub struct DiagnosisSummary<'a> {
 ///     adequate: false, causes: &["fatigue"], unexplained_structure: false,
 ///     baseline_rms_nm: 6.0, baseline_heldout_rms_nm: 6.5, extended_heldout_rms_nm: Some(3.0),
 ///     heldout_rms_reduction_pct: 53.8, delta_bic: 410.0, effect_values: &[("fatigue: rate (1/s)", 0.031)],
+///     near_ties: &[],
 /// };
 /// let text = report::diagnosis_story(&s).join(" ");
 /// assert!(text.contains("loss of force"));
@@ -76,6 +80,15 @@ pub fn diagnosis_story(s: &DiagnosisSummary<'_>) -> Vec<String> {
                 .collect();
             out.push(format!("The fitted values are {}.", join_words(&vals)));
         }
+        for (cause, alt) in s.near_ties {
+            out.push(format!(
+                "This trial cannot tell {} ({cause}) from {} ({alt}): a model with the second \
+                 instead of the first fits about as well, in sample and on held-out data. A \
+                 protocol that separates them (another range of motion or speed) would decide.",
+                effect_description(cause),
+                effect_description(alt)
+            ));
+        }
     }
     out.push(if s.unexplained_structure {
         "The residual still has structure that none of the catalogued effects explains: \
@@ -110,6 +123,7 @@ mod tests {
             heldout_rms_reduction_pct: 0.0,
             delta_bic: 0.0,
             effect_values: &[],
+            near_ties: &[],
         }
     }
 
@@ -130,6 +144,7 @@ mod tests {
             heldout_rms_reduction_pct: 35.06,
             delta_bic: 1234.0,
             effect_values: &[("delay (ms)", 41.23)],
+            near_ties: &[("gravity", "torque_offset")],
             ..base()
         };
         let t = diagnosis_story(&s).join(" ");
@@ -138,5 +153,10 @@ mod tests {
         assert!(t.contains("from 2.31 N·m to 1.50 N·m (35.1 % less)"), "{t}");
         assert!(t.contains("delay (ms) = 41.2"));
         assert!(t.contains("something else is missing"));
+        assert!(t.contains("cannot tell the uncompensated weight"), "{t}");
+        assert!(
+            t.contains("(gravity) from ") && t.contains("(torque_offset): a model"),
+            "{t}"
+        );
     }
 }

@@ -156,6 +156,11 @@ fn write_figures(
         .iter()
         .map(|(l, v)| (l.as_str(), *v))
         .collect();
+    let ties: Vec<(&str, &str)> = d
+        .near_ties
+        .iter()
+        .map(|t| (t.cause.as_str(), t.alternative.as_str()))
+        .collect();
     let story = report::diagnosis_story(&report::DiagnosisSummary {
         adequate: d.causes.is_empty() && !d.unexplained_structure,
         causes: &causes,
@@ -166,6 +171,7 @@ fn write_figures(
         heldout_rms_reduction_pct: d.gain.heldout_rms_reduction_pct,
         delta_bic: -d.gain.delta_bic,
         effect_values: &effect_values,
+        near_ties: &ties,
     });
     for p in story {
         set.page().paragraph(p);
@@ -182,6 +188,8 @@ fn write_figures(
                 c.delta_bic.map_or("–".into(), |v| format!("{v:.1}")),
                 if c.accepted {
                     "named".into()
+                } else if let Some(t) = d.near_ties.iter().find(|t| t.alternative == c.effect) {
+                    format!("near tie with {}", t.cause)
                 } else if c.confounded {
                     "confounded".into()
                 } else {
