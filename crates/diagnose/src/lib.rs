@@ -717,8 +717,9 @@ pub fn run(
 
 /// `alt` (the model with `alternative` instead of `cause`) as a near tie of `cause` in `named`
 /// (the model that names it): their BICs differ by
-/// less than the ΔBIC margin and `alt`'s held-out RMS is not higher by the held-out margin
-/// ([`DiagnoseSettings::min_heldout_gain_pct`], [`DiagnoseSettings::min_heldout_gain_nm`]).
+/// less than the ΔBIC margin, `alt` has no more parameters or a lower BIC, and `alt`'s held-out
+/// RMS is not higher by the held-out margin ([`DiagnoseSettings::min_heldout_gain_pct`],
+/// [`DiagnoseSettings::min_heldout_gain_nm`]).
 fn near_tie(
     cause: EffectKind,
     named: &Fit,
@@ -729,8 +730,11 @@ fn near_tie(
 ) -> Option<NearTie> {
     let d = alt.bic(nobs) - named.bic(nobs);
     let worse = alt.heldout_rms - named.heldout_rms;
-    let tie =
-        d.abs() < -settings.max_delta_bic && worse < heldout_need(settings, named.heldout_rms, 0.0);
+    // a more complex alternative that is also worse only pays its extra parameters (a
+    // gravity term at φ ≈ ±90° contains an offset): not an ambiguity
+    let tie = d.abs() < -settings.max_delta_bic
+        && (alt.k() <= named.k() || d < 0.0)
+        && worse < heldout_need(settings, named.heldout_rms, 0.0);
     (tie && alternative != cause).then(|| NearTie {
         cause: cause.name().into(),
         alternative: alternative.name().into(),
@@ -1206,27 +1210,31 @@ mod tests {
     fn near_ties_lie_within_both_margins() {
         let s = DiagnoseSettings::default();
         let (off, grav) = (EffectKind::TorqueOffset, EffectKind::Gravity);
-        let named = fit(off, 10, 100.0, 1.50);
+        // gravity named; an offset (one parameter fewer) 2.5 BIC units worse, held-out 1 %
+        // higher: a tie, reported with its sign
+        let named = fit(grav, 11, 100.0, 1.50);
         assert!((named.bic(NOBS) - 100.0).abs() < 1e-9);
-        // 2.5 BIC units worse, held-out 1 % higher: a tie, reported with its sign
-        let t = near_tie(off, &named, grav, &fit(grav, 11, 102.5, 1.515), &s, NOBS).unwrap();
+        let t = near_tie(grav, &named, off, &fit(off, 10, 102.5, 1.515), &s, NOBS).unwrap();
         assert_eq!(
             (t.cause.as_str(), t.alternative.as_str()),
-            ("torque_offset", "gravity")
+            ("gravity", "torque_offset")
         );
         assert!((t.delta_bic - 2.5).abs() < 1e-9 && t.heldout_rms_nm == 1.515);
-        // better by less than the margin: still a tie (negative ΔBIC)
-        let t = near_tie(off, &named, grav, &fit(grav, 11, 91.0, 1.49), &s, NOBS).unwrap();
-        assert!((t.delta_bic + 9.0).abs() < 1e-9);
         // outside the ΔBIC margin on either side, held-out 2 % worse, or the cause itself
         for (alt, kind) in [
-            (fit(grav, 11, 110.5, 1.50), grav),
-            (fit(grav, 11, 89.5, 1.50), grav),
-            (fit(grav, 11, 101.0, 1.531), grav),
-            (fit(off, 10, 100.0, 1.50), off),
+            (fit(off, 10, 110.5, 1.50), off),
+            (fit(off, 10, 89.5, 1.50), off),
+            (fit(off, 10, 101.0, 1.531), off),
+            (fit(grav, 11, 100.0, 1.50), grav),
         ] {
-            assert!(near_tie(off, &named, kind, &alt, &s, NOBS).is_none());
+            assert!(near_tie(grav, &named, kind, &alt, &s, NOBS).is_none());
         }
+        // offset named: a gravity term (one parameter more) better by less than the margin is
+        // a tie; one that is worse only pays for its extra parameter and is not
+        let named = fit(off, 10, 100.0, 1.50);
+        let t = near_tie(off, &named, grav, &fit(grav, 11, 91.0, 1.49), &s, NOBS).unwrap();
+        assert!((t.delta_bic + 9.0).abs() < 1e-9);
+        assert!(near_tie(off, &named, grav, &fit(grav, 11, 102.5, 1.50), &s, NOBS).is_none());
     }
 
     #[test]
