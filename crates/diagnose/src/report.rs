@@ -122,8 +122,9 @@ pub struct CandidateReport {
 }
 
 /// An alternative explanation that fits a named cause's data about as well: replacing the
-/// cause by it changes the BIC by less than the ΔBIC margin and the held-out error by less
-/// than the held-out margin, so this trial cannot tell the two apart.
+/// cause by it changes the BIC by less than the ΔBIC margin and raises the held-out error by
+/// less than the held-out margin, and the alternative has no more parameters than the cause or
+/// a lower BIC, so this trial cannot tell the two apart.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct NearTie {
     /// The named cause.
