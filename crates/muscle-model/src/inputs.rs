@@ -15,6 +15,9 @@ use std::sync::{Arc, Mutex};
 #[derive(Default)]
 pub(crate) struct ChannelCache {
     pub(crate) tables: Mutex<Vec<Arc<crate::fast::ActTable>>>,
+    /// Tables without a delay, kept apart: a delayed table is one of them shifted in time, and
+    /// a delay fit makes new delayed tables at every step.
+    pub(crate) undelayed: Mutex<Vec<Arc<crate::fast::ActTable>>>,
     pub(crate) channels: Mutex<Vec<Arc<crate::fast::Channel>>>,
 }
 
