@@ -206,7 +206,7 @@ impl ActTable {
 fn delayed(inputs: &TrialInputs, s: f64, before: f64, at: impl Fn(usize) -> (f64, f64)) -> f64 {
     let n = inputs.len();
     let x = (s - inputs.t0()) * inputs.fs();
-    if !(x > 0.0) {
+    if x.is_nan() || x <= 0.0 {
         return before;
     }
     let k = (x as usize).min(n - 2);
