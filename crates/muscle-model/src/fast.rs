@@ -14,7 +14,8 @@
 //! `a_d(t) = a₀(t − d)` (and `a₀(t₀)` before `t₀ + d`) and
 //! `∫₀ᵗ â_d = â(a₀(t₀))·d + ∫₀^{t−d} â₀` after it. A delayed table is therefore the undelayed
 //! one read at `tᵢ − d` by cubic Hermite interpolation from its values and rates at the
-//! samples (error ∝ Δt⁴ a⁗, below 10⁻⁸ of the activation at 2 kHz), with `ȧ` from the
+//! samples (the envelope's kinks at the samples make the error O(Δt²): 1.2·10⁻⁸ of the
+//! activation against an RK4 of the delayed input at 2048 Hz), with `ȧ` from the
 //! activation equation at the delayed input: a delay fit costs one read per sample instead of
 //! an RK4 integration of the three muscles.
 //!
@@ -788,7 +789,7 @@ mod tests {
             let e = Effects::from_json_str(r#"{"fatigue": {"rate_per_s": 0.03}}"#).unwrap();
             let u = Muscle::ALL.map(|m| MuscleUnit::new(&ModelParams::nominal(), m, &e));
             let act = u[0].activation;
-            // 0.3 samples, 37.4 ms, and longer than the whole rest before the first step
+            // 0.3 samples, 37.4 ms, and the largest delay allowed (150 ms)
             for d in [0.3 / fs, 0.0374, 0.150] {
                 let key = ChannelKey::new(&tr, &u[1], d).table;
                 let [(a, adot)] = integrate_activation(&[key], &tr, act);
