@@ -156,7 +156,8 @@ impl ActTable {
         let mut a = Vec::with_capacity(key.n);
         let mut adot = Vec::with_capacity(key.n);
         for &ti in inputs.times() {
-            let ai = delayed(inputs, ti - key.delay, a0[0], |k| (a0[k], adot0[k]));
+            // `a₀(t₀)` at and before the first sample: the rest before `t₀ + d`
+            let ai = inputs.hermite_at(a0, adot0, ti - key.delay);
             a.push(ai);
             let u = inputs.envelope_at(key.j, ti - key.delay);
             adot.push(act.rate(u.clamp(0.0, 1.0), ai));
@@ -183,12 +184,13 @@ impl ActTable {
                 }
                 Some(b) => {
                     let (z0, nl, d) = (b.z(inputs), self.act.nonlinearity, self.key.delay);
-                    let rest = nl.apply(b.a[0]);
+                    let ah0: Vec<f64> = b.a.iter().map(|&a| nl.apply(a)).collect();
+                    let rest = ah0[0];
                     let t0 = inputs.t0();
                     for &ti in inputs.times() {
                         let s = ti - d;
                         let zi = if s > t0 {
-                            rest * d + delayed(inputs, s, 0.0, |k| (z0[k], nl.apply(b.a[k])))
+                            rest * d + inputs.hermite_at(z0, &ah0, s)
                         } else {
                             rest * (ti - t0)
                         };
@@ -199,26 +201,6 @@ impl ActTable {
             z
         })
     }
-}
-
-/// A quantity known at the samples as value and rate `at(k)`, read at time `s` by cubic
-/// Hermite interpolation; `before` when `s` is at or before the first sample.
-#[inline]
-fn delayed(inputs: &TrialInputs, s: f64, before: f64, at: impl Fn(usize) -> (f64, f64)) -> f64 {
-    let n = inputs.len();
-    let x = (s - inputs.t0()) * inputs.fs();
-    if x.is_nan() || x <= 0.0 {
-        return before;
-    }
-    let k = (x as usize).min(n - 2);
-    let f = (x - k as f64).min(1.0);
-    let dt = 1.0 / inputs.fs();
-    let ((p0, r0), (p1, r1)) = (at(k), at(k + 1));
-    let (f2, f3) = (f * f, f * f * f);
-    (2.0 * f3 - 3.0 * f2 + 1.0) * p0
-        + (f3 - 2.0 * f2 + f) * dt * r0
-        + (-2.0 * f3 + 3.0 * f2) * p1
-        + (f3 - f2) * dt * r1
 }
 
 /// Classical RK4 on `ȧ = rate(u_l(t − d), a)` for the muscles `keys[l].j` together (their

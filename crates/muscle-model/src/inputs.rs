@@ -226,14 +226,21 @@ impl TrialInputs {
     /// Angle at time `t` (cubic Hermite interpolation; cheaper than [`TrialInputs::angle_at`]).
     #[inline]
     pub fn angle_value_at(&self, t: f64) -> f64 {
+        self.hermite_at(&self.angle, &self.velocity, t)
+    }
+
+    /// A quantity known at the samples as values `v` and time derivatives `dv`, at time `t`
+    /// (cubic Hermite interpolation; the first or last value outside the trial).
+    #[inline]
+    pub(crate) fn hermite_at(&self, v: &[f64], dv: &[f64], t: f64) -> f64 {
         let (i, s) = self.locate(t);
         let dt = 1.0 / self.fs;
         let s2 = s * s;
         let s3 = s2 * s;
-        (2.0 * s3 - 3.0 * s2 + 1.0) * self.angle[i]
-            + (s3 - 2.0 * s2 + s) * dt * self.velocity[i]
-            + (-2.0 * s3 + 3.0 * s2) * self.angle[i + 1]
-            + (s3 - s2) * dt * self.velocity[i + 1]
+        (2.0 * s3 - 3.0 * s2 + 1.0) * v[i]
+            + (s3 - 2.0 * s2 + s) * dt * dv[i]
+            + (-2.0 * s3 + 3.0 * s2) * v[i + 1]
+            + (s3 - s2) * dt * dv[i + 1]
     }
 
     /// Envelope of muscle index `j` (0..3) at time `t` (linear interpolation).
