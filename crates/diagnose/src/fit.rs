@@ -309,9 +309,9 @@ impl Context {
 /// linear in `(A, B)`, while in `(m, φ)` a term of either sign has two representations,
 /// `(m, φ)` and `(−m, φ ± 180°)`, and the phase's bound at ±180° cuts the valley of every term
 /// whose representation lies near it. A start from the score test (`m ≥ 0`) of a negative
-/// moment at a small phase is exactly such a term: the fit stopped against the bound, with a
-/// cost above that of a plain offset (fixture trial `400705`: gravity ΔBIC +12.2 against
-/// −109.9 for the offset, on a gravity trial). So the minimisation runs in `(A, B)` (both
+/// moment at a small phase is exactly such a term, and its fit could stop against the bound
+/// (gravity trial `hidden_trial(gravity, 400711)`, −5.63 N·m at −24.6°, was named an offset;
+/// in linear coordinates gravity −5.58 N·m at −26.9°). So the minimisation runs in `(A, B)` (both
 /// inside the moment's bounds) and the result is returned in `(m, φ)` with `φ ∈ [−90°, 90°]`,
 /// its Jacobian columns transformed by the chain rule. Without a gravity term this is
 /// [`minimise`].

@@ -909,9 +909,9 @@ fn exchange(
                 Err(e) => return Err(e),
             }
         }
-        // by the same margin as an added effect, or by any margin with fewer parameters
-        // (parsimony: an offset for a gravity term); other alternatives within the margin
-        // are near ties
+        // by the same margin as an added effect, or as a simpler model the data cannot tell
+        // from the current one (an offset for a gravity term); other alternatives within the
+        // margins are near ties
         let mut best: Option<usize> = None;
         for (i, (f, _)) in alts.iter().enumerate() {
             if replaces(f, &current, settings, nobs)
@@ -955,7 +955,8 @@ fn exchange(
 }
 
 /// Whether the exchange pass's refit `alt` replaces `current`: its held-out RMS is not higher
-/// and its BIC is lower by more than the ΔBIC margin, or lower at all with fewer parameters.
+/// and its BIC is lower by more than the ΔBIC margin, or it has fewer parameters and the data
+/// cannot tell the two apart ([`simpler_tie`]).
 fn replaces(alt: &Fit, current: &Fit, settings: &DiagnoseSettings, nobs: usize) -> bool {
     let d = alt.bic(nobs) - current.bic(nobs);
     (d < settings.max_delta_bic && alt.heldout_rms <= current.heldout_rms)
