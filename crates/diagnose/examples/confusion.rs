@@ -13,7 +13,7 @@
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-use diagnose::scenarios::{align_to_fit, headline, hidden_trial, hidden_trial_sized};
+use diagnose::scenarios::{align_to_fit, headline, hidden_trial, hidden_trial_sized, limit_sizes};
 use diagnose::{no_observer, run, DiagnoseSettings};
 use muscle_model::EffectKind;
 
@@ -57,23 +57,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .parse()?;
     }
     if args.iter().any(|a| a == "--limits") {
-        let sizes: Vec<(EffectKind, Vec<f64>)> = vec![
-            (EffectKind::TorqueOffset, vec![0.5, 1.0, 2.0, 3.0, 5.0]),
-            (EffectKind::PassiveJointTorque, vec![1.0, 2.0, 3.5, 5.0]),
-            (EffectKind::Gravity, vec![1.0, 2.0, 3.0, 5.0, 8.0]),
-            (
-                EffectKind::ElectromechanicalDelay,
-                vec![3.0, 6.0, 10.0, 20.0],
-            ),
-            (EffectKind::Fatigue, vec![0.002, 0.005, 0.01]),
-            (
-                EffectKind::AntagonistCoactivation,
-                vec![0.5, 1.0, 2.0, 3.0, 5.0, 8.0, 10.0],
-            ),
-            (EffectKind::EccentricEnhancement, vec![0.03, 0.06, 0.1, 0.2]),
-            (EffectKind::ViscousDamping, vec![0.5, 1.0, 2.0, 4.0]),
-            (EffectKind::Inertia, vec![0.01, 0.02, 0.05, 0.1, 0.2, 0.3]),
-        ];
+        let sizes = limit_sizes();
         let only: Option<Vec<String>> = args
             .iter()
             .position(|a| a == "--effects")

@@ -287,7 +287,7 @@ fn time_basis(ctx: &Context) -> Vec<Vec<f64>> {
 }
 
 /// Natural log of the gamma function (Lanczos approximation, g = 7, 9 terms; x > 0).
-fn ln_gamma(x: f64) -> f64 {
+pub(crate) fn ln_gamma(x: f64) -> f64 {
     const C: [f64; 9] = [
         0.999_999_999_999_809_9,
         676.520_368_121_885_1,

@@ -75,6 +75,7 @@ mod error;
 pub mod fit;
 pub mod lm;
 pub mod noise;
+pub mod power;
 pub mod profile;
 mod report;
 pub mod scenarios;
@@ -333,32 +334,12 @@ pub fn run(
 ) -> Result<Diagnosis, DiagnoseError> {
     let t0 = Instant::now();
     check_settings(settings)?;
-    let inputs = model_inputs(trial, &settings.input_options)?;
+    let (inputs, seg) = prepare(trial, settings)?;
     let n = inputs.len();
     let fs = inputs.fs();
-    let act: Vec<f64> = (0..n)
-        .map(|i| {
-            Muscle::ALL
-                .iter()
-                .map(|m| inputs.envelope(*m)[i])
-                .sum::<f64>()
-                / 3.0
-        })
-        .collect();
-    let seg = Segmentation::new(inputs.angle(), fs, Some(&act)).map_err(|reason| {
-        DiagnoseError::Segmentation {
-            recording: "trial",
-            reason,
-        }
-    })?;
     notify(observer, Stage::Noise, "fitting the noise model".into(), 0)?;
     let times: Vec<f64> = (0..n).map(|i| i as f64 / fs).collect();
-    let nominal = ParamId::identified().map(|p| {
-        p.get(
-            &muscle_model::ModelParams::nominal(),
-            &muscle_model::Effects::none(),
-        )
-    });
+    let nominal = nominal_muscles();
     let mut evaluations = 0;
     let lm = settings.lm;
     let cv_lm = LmSettings {
@@ -727,6 +708,41 @@ pub fn run(
         residual_analysis: ra,
         evaluations,
         wall_s: t0.elapsed().as_secs_f64(),
+    })
+}
+
+/// The model inputs of `trial` and the segmentation of its motion (the mean envelope marks
+/// the relaxed cycle).
+fn prepare(
+    trial: &Trial,
+    settings: &DiagnoseSettings,
+) -> Result<(muscle_model::TrialInputs, Segmentation), DiagnoseError> {
+    let inputs = model_inputs(trial, &settings.input_options)?;
+    let act: Vec<f64> = (0..inputs.len())
+        .map(|i| {
+            Muscle::ALL
+                .iter()
+                .map(|m| inputs.envelope(*m)[i])
+                .sum::<f64>()
+                / 3.0
+        })
+        .collect();
+    let seg = Segmentation::new(inputs.angle(), inputs.fs(), Some(&act)).map_err(|reason| {
+        DiagnoseError::Segmentation {
+            recording: "trial",
+            reason,
+        }
+    })?;
+    Ok((inputs, seg))
+}
+
+/// The nominal values of the 9 identified muscle parameters (the baseline's first start).
+fn nominal_muscles() -> [f64; 9] {
+    ParamId::identified().map(|p| {
+        p.get(
+            &muscle_model::ModelParams::nominal(),
+            &muscle_model::Effects::none(),
+        )
     })
 }
 

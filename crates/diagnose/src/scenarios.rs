@@ -137,6 +137,28 @@ pub fn draw_effect_sized(kind: EffectKind, size: f64, rng: &mut impl Rng) -> [f6
     v
 }
 
+/// The sizes ([`draw_effect_sized`]) of the detection-limit study of docs/diagnosis.md, per
+/// effect: from below its detection limit to the bottom of its realistic range or past it.
+pub fn limit_sizes() -> Vec<(EffectKind, Vec<f64>)> {
+    vec![
+        (EffectKind::TorqueOffset, vec![0.5, 1.0, 2.0, 3.0, 5.0]),
+        (EffectKind::PassiveJointTorque, vec![1.0, 2.0, 3.5, 5.0]),
+        (EffectKind::Gravity, vec![1.0, 2.0, 3.0, 5.0, 8.0]),
+        (
+            EffectKind::ElectromechanicalDelay,
+            vec![3.0, 6.0, 10.0, 20.0],
+        ),
+        (EffectKind::Fatigue, vec![0.002, 0.005, 0.01]),
+        (
+            EffectKind::AntagonistCoactivation,
+            vec![0.5, 1.0, 2.0, 3.0, 5.0, 8.0, 10.0],
+        ),
+        (EffectKind::EccentricEnhancement, vec![0.03, 0.06, 0.1, 0.2]),
+        (EffectKind::ViscousDamping, vec![0.5, 1.0, 2.0, 4.0]),
+        (EffectKind::Inertia, vec![0.01, 0.02, 0.05, 0.1, 0.2, 0.3]),
+    ]
+}
+
 /// Like [`hidden_trial`] with one effect of a given size ([`draw_effect_sized`]).
 ///
 /// # Errors

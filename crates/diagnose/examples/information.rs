@@ -1,0 +1,97 @@
+//! The information limit of the detection-limit and confusion studies (module
+//! `diagnose::power`): for each trial, the noncentrality `λ` of its hidden effect under the
+//! true SPEC §4 noise, and from it the most often the ΔBIC rule (margin −10) and any test with
+//! a false-alarm rate of 10⁻³ could name the effect.
+//!
+//! `cargo run --release -p diagnose --example information -- [N] [BASE_SEED] [--scenarios] [--effects a,b]`
+//!
+//! Without `--scenarios`: the sizes of `confusion --limits`, trial `i` of an effect with seed
+//! `BASE_SEED + 1000·kind + i` (the same trials as `confusion -- N BASE_SEED --limits`). With
+//! `--scenarios`: the single-effect scenarios of `confusion -- N BASE_SEED` (seed
+//! `BASE_SEED + 100000·scenario + i`, magnitudes drawn in the realistic ranges). Each row gives
+//! the median and smallest `λ` and the expected number of trials (out of N) each bound allows.
+use diagnose::power::{noncentrality, rule_power, test_power};
+use diagnose::scenarios::{hidden_trial, hidden_trial_sized, limit_sizes, HiddenTrial};
+use diagnose::DiagnoseSettings;
+use experiment::DynamometerSettings;
+use muscle_model::{Ar1White, EffectKind};
+
+/// `λ` of one trial and the two bounds.
+fn bounds(
+    t: &HiddenTrial,
+    kind: EffectKind,
+    settings: &DiagnoseSettings,
+) -> Result<(f64, f64, f64), Box<dyn std::error::Error>> {
+    let dyn_settings = DynamometerSettings::default();
+    let fs = t.synthetic.trial.sample_rate_hz();
+    let q = dyn_settings.quantisation_step_nm();
+    let noise = Ar1White::new(
+        dyn_settings.ar1_phi(1.0 / fs),
+        dyn_settings.ar1_sd_nm,
+        (dyn_settings.white_sd_nm.powi(2) + q * q / 12.0).sqrt(),
+    )?;
+    let info = noncentrality(
+        &t.synthetic.trial,
+        &t.synthetic.model_torque,
+        &noise,
+        settings,
+    )?;
+    let k = kind.params().len();
+    Ok((
+        info.lambda,
+        rule_power(info.lambda, k, info.n_obs, settings.max_delta_bic),
+        test_power(info.lambda, k, 1e-3),
+    ))
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().collect();
+    let n: u64 = args.get(1).map_or(Ok(10), |s| s.parse())?;
+    let base: u64 = args.get(2).map_or(Ok(900), |s| s.parse())?;
+    let scenarios = args.iter().any(|a| a == "--scenarios");
+    let only: Option<Vec<String>> = args
+        .iter()
+        .position(|a| a == "--effects")
+        .and_then(|i| args.get(i + 1))
+        .map(|s| s.split(',').map(str::to_string).collect());
+    let settings = DiagnoseSettings::default();
+    let rows: Vec<(EffectKind, Option<f64>)> = if scenarios {
+        EffectKind::ALL.iter().map(|k| (*k, None)).collect()
+    } else {
+        limit_sizes()
+            .into_iter()
+            .flat_map(|(k, sizes)| sizes.into_iter().map(move |s| (k, Some(s))))
+            .collect()
+    };
+    println!("effect | size | median λ | min λ | ΔBIC rule at best (of {n}) | any test at α = 10⁻³ (of {n})");
+    for (kind, size) in rows {
+        if only
+            .as_ref()
+            .is_some_and(|o| !o.iter().any(|e| e == kind.name()))
+        {
+            continue;
+        }
+        let mut lambdas = Vec::new();
+        let (mut rule, mut test) = (0.0, 0.0);
+        for i in 0..n {
+            let t = match size {
+                Some(s) => hidden_trial_sized(kind, s, base + 1000 * kind as u64 + i)?,
+                // the confusion study's scenario index: none, none+ta, then the effects in order
+                None => hidden_trial(&[kind], false, base + 100_000 * (2 + kind as u64) + i)?,
+            };
+            let (l, r, p) = bounds(&t, kind, &settings)?;
+            lambdas.push(l);
+            rule += r;
+            test += p;
+        }
+        lambdas.sort_by(f64::total_cmp);
+        let median = lambdas[lambdas.len() / 2];
+        println!(
+            "{} | {} | {median:.1} | {:.1} | {rule:.1} | {test:.1}",
+            kind.name(),
+            size.map_or("range".to_string(), |s| s.to_string()),
+            lambdas[0],
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,43 @@
+//! How well one unloaded run pins down the noise model: the SPEC §4 unloaded run (3 cycles,
+//! about 8 s) of `N` seeds, each fitted like a diagnosis fits it ([`diagnose::NoiseModel::fit`]),
+//! and the scatter of the estimated low-frequency level `σ_a²(1+φ)/(1−φ) + σ_w²` (the noise
+//! power per sample at frequency 0, which sets the evidence of every slow term) against the
+//! true one.
+//!
+//! `cargo run --release -p diagnose --example noise_scatter -- [N] [BASE_SEED]`
+use diagnose::{NoiseModel, NoiseSource, Segmentation};
+use experiment::{unloaded_run, DynamometerSettings};
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().collect();
+    let n: u64 = args.get(1).map_or(Ok(50), |s| s.parse())?;
+    let base: u64 = args.get(2).map_or(Ok(1), |s| s.parse())?;
+    let s = DynamometerSettings::default();
+    let level =
+        |phi: f64, sd_ar: f64, sd_w: f64| sd_ar * sd_ar * (1.0 + phi) / (1.0 - phi) + sd_w * sd_w;
+    let mut ratios = Vec::new();
+    let mut truth = f64::NAN;
+    for seed in base..base + n {
+        let u = unloaded_run(&s, seed)?;
+        let fs = u.sample_rate_hz();
+        let q = s.quantisation_step_nm();
+        truth = level(
+            s.ar1_phi(1.0 / fs),
+            s.ar1_sd_nm,
+            (s.white_sd_nm.powi(2) + q * q / 12.0).sqrt(),
+        );
+        let seg = Segmentation::new(&u.ankle_angle_deg, fs, None)?;
+        let m = NoiseModel::fit(&u.torque_nm, fs, &seg.events, true, NoiseSource::Unloaded);
+        ratios.push(level(m.phi, m.sd_ar_nm, m.sd_white_nm) / truth);
+    }
+    let k = ratios.len() as f64;
+    let mean = ratios.iter().sum::<f64>() / k;
+    let sd = (ratios.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / (k - 1.0)).sqrt();
+    ratios.sort_by(f64::total_cmp);
+    println!(
+        "true level {truth:.1} N·m² per sample; estimate / truth over {n} unloaded runs: mean {mean:.3}, sd {sd:.3}, min {:.2}, max {:.2}",
+        ratios[0],
+        ratios[ratios.len() - 1]
+    );
+    Ok(())
+}

@@ -1,0 +1,248 @@
+//! What a trial can tell at best about an effect: the noncentrality of the likelihood-ratio
+//! test and the detection rate it allows, whatever the decision rule.
+//!
+//! Let `τ*` be the noise-free torque of the true model (with the effect) and `W` the whitening
+//! of the noise model (module [`crate::noise`]). The baseline (9 muscle parameters, no effect)
+//! fitted to `τ*` leaves
+//!
+//! ```text
+//! λ = min_θ ‖W (τ* − τ_base(θ))‖²
+//! ```
+//!
+//! the part of the effect that no muscle parameter can absorb, measured in units of the noise.
+//! With noise, the likelihood-ratio statistic `2Δlog L` of the model with the effect (`k`
+//! parameters) against the baseline is, to first order, noncentral `χ²_k(λ)`. A rule that
+//! names the effect when `ΔBIC = −2Δlog L + k ln n` is below `β` (the ΔBIC margin, −10)
+//! therefore names it with probability at most
+//!
+//! ```text
+//! P(χ²_k(λ) > k ln n − β),    P(χ²_k(λ) > c) = Σ_j Pois(j; λ/2) · P(χ²_{k+2j} > c)
+//! ```
+//!
+//! and no test with false-alarm rate `α` per candidate does better than
+//! `P(χ²_k(λ) > χ²_{k, 1−α})`. Both are upper bounds: they assume the noise model is known,
+//! the fits reach their optima and no other candidate competes. A measured detection rate far
+//! below them points at the method; one close to them at the data.
+//!
+//! # Example
+//!
+//! ```no_run
+//! use diagnose::power::{noncentrality, rule_power};
+//! use diagnose::scenarios::hidden_trial_sized;
+//! use muscle_model::{Ar1White, EffectKind};
+//!
+//! let t = hidden_trial_sized(EffectKind::Inertia, 0.1, 8900)?;
+//! let dt = 1.0 / t.synthetic.trial.sample_rate_hz();
+//! let noise = Ar1White::new((-dt / 0.03f64).exp(), 1.2, 0.41)?;
+//! let settings = diagnose::DiagnoseSettings::default();
+//! let info = noncentrality(&t.synthetic.trial, &t.synthetic.model_torque, &noise, &settings)?;
+//! println!("λ = {:.1}, ΔBIC rule names it at most {:.0} % of the time", info.lambda,
+//!          100.0 * rule_power(info.lambda, 1, info.n_obs, settings.max_delta_bic));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+use experiment::Trial;
+use muscle_model::{Ar1White, EffectKind};
+
+use crate::analysis::{chi2_survival, ln_gamma};
+use crate::fit::{latin_hypercube, Context};
+use crate::lm::LmSettings;
+use crate::noise::{NoiseModel, NoiseSource, Transient};
+use crate::{check_settings, prepare, DiagnoseError, DiagnoseSettings};
+
+/// The baseline's misfit to a noise-free trial.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Information {
+    /// `λ`: whitened sum of squares of the best baseline fit to the noise-free torque.
+    pub lambda: f64,
+    /// RMS of that fit's residual (N·m), unwhitened.
+    pub rms_nm: f64,
+    /// Samples (the `n` of the BIC).
+    pub n_obs: usize,
+    /// Simulations spent.
+    pub evaluations: usize,
+}
+
+/// `λ` of [`Information`]: the baseline (from the nominal parameters and
+/// [`DiagnoseSettings::baseline_extra_starts`] Latin-hypercube starts, the lowest cost wins;
+/// Levenberg–Marquardt run to convergence, at least 300 iterations and a relative decrease of
+/// 10⁻¹²) fitted to `clean_torque` (the noise-free torque of the true model on `trial`'s inputs, one
+/// value per sample) by least squares whitened with `noise`.
+///
+/// # Errors
+/// Invalid settings, a trial that cannot be turned into inputs or segmented, a
+/// `clean_torque` of another length or with a non-finite value, or a baseline that cannot be
+/// simulated.
+pub fn noncentrality(
+    trial: &Trial,
+    clean_torque: &[f64],
+    noise: &Ar1White,
+    settings: &DiagnoseSettings,
+) -> Result<Information, DiagnoseError> {
+    check_settings(settings)?;
+    let (inputs, seg) = prepare(trial, settings)?;
+    let n = inputs.len();
+    if clean_torque.len() != n || clean_torque.iter().any(|v| !v.is_finite()) {
+        return Err(DiagnoseError::Settings {
+            name: "clean_torque",
+            reason: format!(
+                "needs {n} finite values (one per sample of the trial), got {}",
+                clean_torque.len()
+            ),
+        });
+    }
+    let model = NoiseModel {
+        source: NoiseSource::Unloaded,
+        offset_nm: 0.0,
+        transient: Transient::none(),
+        phi: noise.phi,
+        sd_ar_nm: noise.sigma_ar,
+        sd_white_nm: noise.sigma_white,
+        remainder_rms_nm: 0.0,
+    };
+    let plan = model.plan(n, None);
+    // to convergence: with the diagnosis's stopping rule (30 iterations, relative decrease
+    // 10⁻⁷) a fit to a noise-free trial without effect stops at λ ≈ 0.5, not ≈ 0
+    let lm = LmSettings {
+        max_iterations: settings.lm.max_iterations.max(300),
+        ftol_rel: settings.lm.ftol_rel.min(1e-12),
+        ..settings.lm
+    };
+    let ctx = Context {
+        inputs,
+        y: clean_torque.to_vec(),
+        noise: model,
+        seg,
+        plan,
+        folds: Vec::new(),
+        lm,
+        cv_lm: lm,
+        extended_extra_starts: settings.extended_extra_starts,
+        start_seed: settings.start_seed,
+    };
+    let kinds: [EffectKind; 0] = [];
+    let mut starts = vec![crate::nominal_muscles().to_vec()];
+    let box9 = ctx.problem(&kinds)?.bounds().to_vec();
+    starts.extend(latin_hypercube(
+        &box9,
+        settings.baseline_extra_starts,
+        settings.start_seed,
+    ));
+    let fit = ctx.fit_from(&kinds, &starts, false)?;
+    Ok(Information {
+        lambda: fit.white_ss,
+        rms_nm: fit.rms,
+        n_obs: ctx.plan.n_obs(),
+        evaluations: fit.evaluations,
+    })
+}
+
+/// `P(χ²_df(λ) > x)`, the upper tail of the noncentral χ² with noncentrality `lambda`, as the
+/// Poisson(λ/2) mixture of central tails, summed until the remaining Poisson mass is below
+/// `10⁻¹²`. `lambda ≤ 0` gives the central tail.
+pub fn noncentral_chi2_survival(x: f64, df: usize, lambda: f64) -> f64 {
+    if lambda <= 0.0 || !lambda.is_finite() {
+        return chi2_survival(x, df);
+    }
+    let mu = lambda / 2.0;
+    let mut sum = 0.0;
+    let mut mass = 0.0;
+    // start at the Poisson mode and walk both ways, so that a large λ does not underflow
+    let mode = mu.floor() as usize;
+    let weight = |j: usize| (j as f64 * mu.ln() - mu - ln_gamma(j as f64 + 1.0)).exp();
+    for j in (0..=mode).rev() {
+        let w = weight(j);
+        sum += w * chi2_survival(x, df + 2 * j);
+        mass += w;
+        if w < 1e-16 {
+            break;
+        }
+    }
+    let mut j = mode + 1;
+    while 1.0 - mass > 1e-12 && j < mode + 100_000 {
+        let w = weight(j);
+        sum += w * chi2_survival(x, df + 2 * j);
+        mass += w;
+        j += 1;
+    }
+    sum.clamp(0.0, 1.0)
+}
+
+/// The `x` with `P(χ²_df > x) = alpha` (bisection to `10⁻¹⁰` relative), for `0 < alpha < 1`.
+pub fn chi2_upper_quantile(alpha: f64, df: usize) -> f64 {
+    let (mut lo, mut hi) = (0.0f64, 1.0f64);
+    while chi2_survival(hi, df) > alpha {
+        hi *= 2.0;
+    }
+    while hi - lo > 1e-10 * hi {
+        let mid = 0.5 * (lo + hi);
+        if chi2_survival(mid, df) > alpha {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// The most often a ΔBIC rule with margin `max_delta_bic` can name an effect of `k`
+/// parameters with noncentrality `lambda` on `n_obs` samples: `P(χ²_k(λ) > k ln n − β)`.
+pub fn rule_power(lambda: f64, k: usize, n_obs: usize, max_delta_bic: f64) -> f64 {
+    noncentral_chi2_survival(k as f64 * (n_obs as f64).ln() - max_delta_bic, k, lambda)
+}
+
+/// The most often any test with false-alarm rate `alpha` can detect an effect of `k`
+/// parameters with noncentrality `lambda`: `P(χ²_k(λ) > χ²_{k,1−α})`.
+pub fn test_power(lambda: f64, k: usize, alpha: f64) -> f64 {
+    noncentral_chi2_survival(chi2_upper_quantile(alpha, k), k, lambda)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn noncentral_tail_matches_the_normal_for_one_degree_of_freedom() {
+        // χ²_1(λ) is (Z + √λ)²: P(|Z + 3| > 1.959964) = Φ(−4.959964) + Φ(−1.040036)
+        let p = noncentral_chi2_survival(3.841_459, 1, 9.0);
+        assert!((p - 0.850_838).abs() < 1e-5, "{p}");
+        // λ = 0 is the central tail; a huge λ puts everything above x
+        assert!((noncentral_chi2_survival(3.841_459, 1, 0.0) - 0.05).abs() < 1e-6);
+        assert!(noncentral_chi2_survival(20.0, 2, 2000.0) > 1.0 - 1e-12);
+        // two degrees of freedom, λ = 10, x = 10: 0.65 (Poisson mixture evaluated by hand
+        // to 30 terms with the closed-form even-df tails)
+        let p2 = noncentral_chi2_survival(10.0, 2, 10.0);
+        let mut by_hand = 0.0;
+        let mut w = (-5.0f64).exp();
+        for j in 0..60 {
+            // P(χ²_{2+2j} > 10) = e^{−5} Σ_{i ≤ j} 5^i / i!
+            let mut tail = 0.0;
+            let mut t = (-5.0f64).exp();
+            for i in 0..=j {
+                if i > 0 {
+                    t *= 5.0 / i as f64;
+                }
+                tail += t;
+            }
+            by_hand += w * tail;
+            w *= 5.0 / (j + 1) as f64;
+        }
+        assert!((p2 - by_hand).abs() < 1e-10, "{p2} vs {by_hand}");
+    }
+
+    #[test]
+    fn quantile_inverts_the_tail() {
+        assert!((chi2_upper_quantile(0.05, 1) - 3.841_459).abs() < 1e-5);
+        assert!((chi2_upper_quantile(1e-3, 2) - 13.815_511).abs() < 1e-5);
+        // the rule's power rises with λ and is the central tail at λ = 0
+        let n = 17_000;
+        let p0 = rule_power(0.0, 1, n, -10.0);
+        assert!((p0 - chi2_survival((n as f64).ln() + 10.0, 1)).abs() < 1e-12);
+        let ps: Vec<f64> = [5.0, 20.0, 40.0]
+            .iter()
+            .map(|l| rule_power(*l, 1, n, -10.0))
+            .collect();
+        assert!(p0 < ps[0] && ps[0] < ps[1] && ps[1] < ps[2], "{p0} {ps:?}");
+        assert!(test_power(20.0, 1, 1e-3) > rule_power(20.0, 1, n, -10.0));
+    }
+}
