@@ -3,13 +3,15 @@
 //! true SPEC §4 noise, and from it the most often the ΔBIC rule (margin −10) and any test with
 //! a false-alarm rate of 10⁻³ could name the effect.
 //!
-//! `cargo run --release -p diagnose --example information -- [N] [BASE_SEED] [--scenarios] [--effects a,b]`
+//! `cargo run --release -p diagnose --example information -- [N] [BASE_SEED] [--scenarios] [--effects a,b] [--against c,d]`
 //!
 //! Without `--scenarios`: the sizes of `confusion --limits`, trial `i` of an effect with seed
 //! `BASE_SEED + 1000·kind + i` (the same trials as `confusion -- N BASE_SEED --limits`). With
 //! `--scenarios`: the single-effect scenarios of `confusion -- N BASE_SEED` (seed
 //! `BASE_SEED + 100000·scenario + i`, magnitudes drawn in the realistic ranges). Each row gives
 //! the median and smallest `λ` and the expected number of trials (out of N) each bound allows.
+//! `--against c,d` puts those effects in the null model (e.g. `--effects gravity --against
+//! torque_offset`: what a gravity term adds to an offset).
 use diagnose::power::{noncentrality, rule_power, test_power};
 use diagnose::scenarios::{hidden_trial, hidden_trial_sized, limit_sizes, HiddenTrial};
 use diagnose::DiagnoseSettings;
@@ -20,6 +22,7 @@ use muscle_model::{Ar1White, EffectKind};
 fn bounds(
     t: &HiddenTrial,
     kind: EffectKind,
+    null: &[EffectKind],
     settings: &DiagnoseSettings,
 ) -> Result<(f64, f64, f64), Box<dyn std::error::Error>> {
     let dyn_settings = DynamometerSettings::default();
@@ -33,10 +36,16 @@ fn bounds(
     let info = noncentrality(
         &t.synthetic.trial,
         &t.synthetic.model_torque,
+        null,
         &noise,
         settings,
     )?;
-    let k = kind.params().len();
+    // the parameters the effect adds to the null model (a gravity term adds one to an offset)
+    let k = kind
+        .params()
+        .len()
+        .saturating_sub(null.iter().map(|n| n.params().len()).sum::<usize>())
+        .max(1);
     Ok((
         info.lambda,
         rule_power(info.lambda, k, info.n_obs, settings.max_delta_bic),
@@ -54,6 +63,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .position(|a| a == "--effects")
         .and_then(|i| args.get(i + 1))
         .map(|s| s.split(',').map(str::to_string).collect());
+    let against: Vec<EffectKind> = match args.iter().position(|a| a == "--against") {
+        Some(i) => args
+            .get(i + 1)
+            .ok_or("--against needs effect names")?
+            .split(',')
+            .map(|n| EffectKind::from_name(n).ok_or(format!("unknown effect {n}")))
+            .collect::<Result<_, _>>()?,
+        None => Vec::new(),
+    };
     let settings = DiagnoseSettings::default();
     let rows: Vec<(EffectKind, Option<f64>)> = if scenarios {
         EffectKind::ALL.iter().map(|k| (*k, None)).collect()
@@ -79,7 +97,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 // the confusion study's scenario index: none, none+ta, then the effects in order
                 None => hidden_trial(&[kind], false, base + 100_000 * (2 + kind as u64) + i)?,
             };
-            let (l, r, p) = bounds(&t, kind, &settings)?;
+            let (l, r, p) = bounds(&t, kind, &against, &settings)?;
             lambdas.push(l);
             rule += r;
             test += p;

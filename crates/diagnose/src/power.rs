@@ -20,7 +20,9 @@
 //! ```
 //!
 //! and no test with false-alarm rate `α` per candidate does better than
-//! `P(χ²_k(λ) > χ²_{k, 1−α})`. Both are upper bounds: they assume the noise model is known,
+//! `P(χ²_k(λ) > χ²_{k, 1−α})`. With effects in the null model (the baseline plus, say,
+//! `torque_offset`), `λ` measures what the effect adds to that model: whether a gravity term
+//! can be told from an offset at all. Both are upper bounds: they assume the noise model is known,
 //! the fits reach their optima and no other candidate competes. A measured detection rate far
 //! below them points at the method; one close to them at the data.
 //!
@@ -35,7 +37,8 @@
 //! let dt = 1.0 / t.synthetic.trial.sample_rate_hz();
 //! let noise = Ar1White::new((-dt / 0.03f64).exp(), 1.2, 0.41)?;
 //! let settings = diagnose::DiagnoseSettings::default();
-//! let info = noncentrality(&t.synthetic.trial, &t.synthetic.model_torque, &noise, &settings)?;
+//! let info = noncentrality(&t.synthetic.trial, &t.synthetic.model_torque, &[], &noise,
+//!                          &settings)?;
 //! println!("λ = {:.1}, ΔBIC rule names it at most {:.0} % of the time", info.lambda,
 //!          100.0 * rule_power(info.lambda, 1, info.n_obs, settings.max_delta_bic));
 //! # Ok::<(), Box<dyn std::error::Error>>(())
@@ -50,10 +53,10 @@ use crate::lm::LmSettings;
 use crate::noise::{NoiseModel, NoiseSource, Transient};
 use crate::{check_settings, prepare, DiagnoseError, DiagnoseSettings};
 
-/// The baseline's misfit to a noise-free trial.
+/// The null model's misfit to a noise-free trial.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Information {
-    /// `λ`: whitened sum of squares of the best baseline fit to the noise-free torque.
+    /// `λ`: whitened sum of squares of the null model's best fit to the noise-free torque.
     pub lambda: f64,
     /// RMS of that fit's residual (N·m), unwhitened.
     pub rms_nm: f64,
@@ -63,10 +66,11 @@ pub struct Information {
     pub evaluations: usize,
 }
 
-/// `λ` of [`Information`]: the baseline (from the nominal parameters and
-/// [`DiagnoseSettings::baseline_extra_starts`] Latin-hypercube starts, the lowest cost wins;
-/// Levenberg–Marquardt run to convergence, at least 300 iterations and a relative decrease of
-/// 10⁻¹²) fitted to `clean_torque` (the noise-free torque of the true model on `trial`'s inputs, one
+/// `λ` of [`Information`]: the null model, the baseline with the effects `null` (none: the
+/// baseline alone), fitted from the nominal parameters (effects at their null values) and
+/// [`DiagnoseSettings::baseline_extra_starts`] Latin-hypercube starts, the lowest cost winning
+/// (Levenberg–Marquardt run to convergence: at least 300 iterations and a relative decrease of
+/// 10⁻¹²), to `clean_torque` (the noise-free torque of the true model on `trial`'s inputs, one
 /// value per sample) by least squares whitened with `noise`.
 ///
 /// # Errors
@@ -76,6 +80,7 @@ pub struct Information {
 pub fn noncentrality(
     trial: &Trial,
     clean_torque: &[f64],
+    null: &[EffectKind],
     noise: &Ar1White,
     settings: &DiagnoseSettings,
 ) -> Result<Information, DiagnoseError> {
@@ -120,15 +125,18 @@ pub fn noncentrality(
         extended_extra_starts: settings.extended_extra_starts,
         start_seed: settings.start_seed,
     };
-    let kinds: [EffectKind; 0] = [];
-    let mut starts = vec![crate::nominal_muscles().to_vec()];
-    let box9 = ctx.problem(&kinds)?.bounds().to_vec();
+    let mut x0 = crate::nominal_muscles().to_vec();
+    for k in null {
+        x0.extend(&k.null_values()[..k.params().len()]);
+    }
+    let bounds = ctx.problem(null)?.bounds().to_vec();
+    let mut starts = vec![x0];
     starts.extend(latin_hypercube(
-        &box9,
+        &bounds,
         settings.baseline_extra_starts,
         settings.start_seed,
     ));
-    let fit = ctx.fit_from(&kinds, &starts, false)?;
+    let fit = ctx.fit_from(null, &starts, false)?;
     Ok(Information {
         lambda: fit.white_ss,
         rms_nm: fit.rms,

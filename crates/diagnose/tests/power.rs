@@ -21,6 +21,7 @@ fn the_baseline_leaves_nothing_of_a_trial_without_effect() {
     let info = noncentrality(
         &t.synthetic.trial,
         &t.synthetic.model_torque,
+        &[],
         &spec_noise(),
         &DiagnoseSettings::default(),
     )
@@ -41,6 +42,7 @@ fn noncentrality_grows_with_the_square_of_a_small_effect() {
         noncentrality(
             &t.synthetic.trial,
             &t.synthetic.model_torque,
+            &[],
             &spec_noise(),
             &settings,
         )
@@ -80,6 +82,7 @@ fn a_clean_torque_of_the_wrong_length_is_refused() {
     let err = noncentrality(
         &t.synthetic.trial,
         short,
+        &[],
         &spec_noise(),
         &DiagnoseSettings::default(),
     )
@@ -95,4 +98,31 @@ fn a_clean_torque_of_the_wrong_length_is_refused() {
         "{err}"
     );
     assert!(err.to_string().contains("got 100"), "{err}");
+}
+
+#[test]
+fn an_effect_in_the_null_model_leaves_only_what_the_other_adds() {
+    let settings = DiagnoseSettings::default();
+    let lambda = |kind, size, null: &[EffectKind]| {
+        let t = hidden_trial_sized(kind, size, 978).expect("trial");
+        noncentrality(
+            &t.synthetic.trial,
+            &t.synthetic.model_torque,
+            null,
+            &spec_noise(),
+            &settings,
+        )
+        .expect("fit")
+        .lambda
+    };
+    // an offset against a null model with an offset: nothing left
+    let offset = EffectKind::TorqueOffset;
+    assert!(lambda(offset, 5.0, &[offset]) < 0.1);
+    // a gravity term: the offset takes part of it, not all
+    let g = EffectKind::Gravity;
+    let (alone, beyond) = (lambda(g, 5.0, &[]), lambda(g, 5.0, &[offset]));
+    assert!(
+        beyond < alone && beyond > 0.5,
+        "gravity 5 N·m: λ {alone} against the baseline, {beyond} against baseline + offset"
+    );
 }
