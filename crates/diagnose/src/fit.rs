@@ -42,7 +42,12 @@ pub(crate) struct Fit {
     pub rms: f64,
     /// Whitened Jacobian (x units).
     pub jac: DMatrix<f64>,
+    /// Pooled held-out RMS of the cross-validation folds (N·m; NaN without them).
     pub heldout_rms: f64,
+    /// Held-out deviance: `Σ ν_t²/S_t` over the held-out samples of every fold, the fold
+    /// fit's residual whitened by the noise model's filter run over the whole trial (χ²
+    /// units; NaN without cross-validation).
+    pub heldout_dev: f64,
     pub evaluations: usize,
 }
 
@@ -197,11 +202,13 @@ impl Context {
             rms,
             jac: out.jacobian,
             heldout_rms: f64::NAN,
+            heldout_dev: f64::NAN,
             evaluations: out.evaluations,
         };
         if cv {
-            let (h, ev) = self.cross_validate(&problem, &out.x);
+            let (h, dev, ev) = self.cross_validate(&problem, &out.x);
             fit.heldout_rms = h;
+            fit.heldout_dev = dev;
             fit.evaluations += ev;
         }
         Ok(fit)
@@ -271,10 +278,17 @@ impl Context {
             .collect())
     }
 
-    /// Cycle-wise cross-validation: refit without each cycle, predict it; pooled held-out RMS.
-    fn cross_validate(&self, problem: &Problem, x: &[f64]) -> (f64, usize) {
+    /// Cycle-wise cross-validation: refit without each cycle, predict it. Returns the pooled
+    /// held-out RMS, the held-out deviance (see [`Fit::heldout_dev`]) and the simulations.
+    ///
+    /// The deviance weighs the held-out residual as the likelihood does. The unweighted RMS
+    /// is dominated by the noise's slow AR(1) part, so it overrates slow terms and barely
+    /// registers an inertia term confined to the 50 ms acceleration ramps: on inertia trials
+    /// of 0.1 kg·m² with ΔBIC −13 … −45 the held-out RMS moved by −2.0 … +1.9 % while the
+    /// held-out deviance fell by 12–45 (docs/diagnosis.md).
+    fn cross_validate(&self, problem: &Problem, x: &[f64]) -> (f64, f64, usize) {
         let bounds = problem.bounds();
-        let res: Vec<(f64, usize, usize)> = self
+        let res: Vec<(f64, f64, usize, usize)> = self
             .folds
             .par_iter()
             .map(|(held, plan)| {
@@ -284,21 +298,25 @@ impl Context {
                 let pred = problem
                     .predict(&xf)
                     .unwrap_or_else(|_| vec![0.0; self.y.len()]);
-                let mut ss = 0.0;
-                let mut cnt = 0;
-                for i in 0..pred.len() {
+                let e: Vec<f64> = self.y.iter().zip(&pred).map(|(a, b)| a - b).collect();
+                let mut w = vec![0.0; e.len()];
+                self.plan.whiten(&e, &mut w);
+                let (mut ss, mut dev, mut cnt) = (0.0, 0.0, 0);
+                for i in 0..e.len() {
                     if held[i] {
-                        ss += (self.y[i] - pred[i]).powi(2);
+                        ss += e[i] * e[i];
+                        dev += w[i] * w[i];
                         cnt += 1;
                     }
                 }
-                (ss, cnt, ev)
+                (ss, dev, cnt, ev)
             })
             .collect();
         let ss: f64 = res.iter().map(|r| r.0).sum();
-        let cnt: usize = res.iter().map(|r| r.1).sum();
-        let ev: usize = res.iter().map(|r| r.2).sum();
-        ((ss / cnt.max(1) as f64).sqrt(), ev)
+        let dev: f64 = res.iter().map(|r| r.1).sum();
+        let cnt: usize = res.iter().map(|r| r.2).sum();
+        let ev: usize = res.iter().map(|r| r.3).sum();
+        ((ss / cnt.max(1) as f64).sqrt(), dev, ev)
     }
 }
 

@@ -19,14 +19,16 @@
 //!    (each cycle held out in turn: zero weight, states still simulated over the whole trial;
 //!    a trial with fewer than three cycles is cut into 0.5 s blocks in 5 folds instead,
 //!    [`CvFolds`]).
-//!    An extension is **accepted** when
-//!    `heldout_before − heldout_after ≥ max(2 % · heldout_before, 0.02 N·m)` **and**
-//!    `ΔBIC = BIC_ext − BIC_base < −10`; the best accepted one (lowest ΔBIC) joins the model
-//!    and the ranking is repeated on the new residual (greedy forward selection). Refits start
-//!    from the current fit, from nominal and from Latin-hypercube muscle parameters; before a
-//!    candidate is accepted the current model is refitted from the candidate's values, so that
-//!    a better optimum of parameters it already has is not credited to the new effect.
-//!    With strong in-sample evidence (`ΔBIC < −30`) 0.5 % of held-out gain suffices. When no
+//!    The held-out error is measured twice: the pooled RMS of the held-out samples, and
+//!    the **held-out deviance** `Σ ν_t²/S_t` over them (the fold fit's residual whitened by
+//!    the noise model over the whole trial, the likelihood's own weighting).
+//!    An extension is **accepted** when its held-out deviance is lower than the current
+//!    model's, its held-out RMS is not higher, **and** `ΔBIC = BIC_ext − BIC_base < −10`;
+//!    the best accepted one (lowest ΔBIC) joins the model and the ranking is repeated on the
+//!    new residual (greedy forward selection). Refits start from the current fit, from
+//!    nominal and from Latin-hypercube muscle parameters; before a candidate is accepted the
+//!    current model is refitted from the candidate's values, so that a better optimum of
+//!    parameters it already has is not credited to the new effect. When no
 //!    single extension passes, the two strongest are fitted jointly (they may only generalise
 //!    together). With two or more causes, an **exchange** pass drops each cause in turn and
 //!    lets the others' alternatives replace it by more than the ΔBIC margin. In a round and in
@@ -121,19 +123,16 @@ pub struct DiagnoseSettings {
     pub pairs: bool,
     /// Minimum score statistic for a refit.
     pub min_score_lm: f64,
-    /// Held-out RMS must fall by at least this share (%).
+    /// An added effect must lower the held-out deviance ([`CandidateReport::heldout_dev_gain`],
+    /// χ² units) by at least this, without raising the held-out RMS.
+    pub min_heldout_dev_gain: f64,
+    /// Held-out margin of the tie rules (near ties, a simpler model named instead): two
+    /// models' held-out RMS differ by less than this share (%) …
     pub min_heldout_gain_pct: f64,
-    /// … and by at least this much (N·m).
+    /// … or less than this (N·m), whichever is larger.
     pub min_heldout_gain_nm: f64,
     /// ΔBIC must be below this.
     pub max_delta_bic: f64,
-    /// A candidate whose ΔBIC is below this (strong in-sample evidence) needs only
-    /// [`DiagnoseSettings::strong_min_heldout_gain_pct`] of held-out gain.
-    pub strong_delta_bic: f64,
-    /// Held-out gain (%) asked of a candidate with ΔBIC below
-    /// [`DiagnoseSettings::strong_delta_bic`] (and at least half of
-    /// [`DiagnoseSettings::min_heldout_gain_nm`]).
-    pub strong_min_heldout_gain_pct: f64,
     /// Cosine above which an extension is confounded with the model's parameters.
     pub confound_cos: f64,
     /// Structure evidence (`−log10` of the structure tests' p-value) above which
@@ -236,11 +235,10 @@ impl Default for DiagnoseSettings {
             exchange: true,
             pairs: true,
             min_score_lm: 6.0,
+            min_heldout_dev_gain: 0.0,
             min_heldout_gain_pct: 2.0,
             min_heldout_gain_nm: 0.02,
             max_delta_bic: -10.0,
-            strong_delta_bic: -30.0,
-            strong_min_heldout_gain_pct: 0.5,
             confound_cos: 0.98,
             structure_threshold: 3.0,
             input_options: InputOptions::default(),
@@ -307,6 +305,8 @@ struct Refit<'a> {
     delta_bic: f64,
     gain_nm: f64,
     gain_pct: f64,
+    /// Fall of the held-out deviance (χ² units).
+    dev_gain: f64,
 }
 
 /// A candidate's fit judged against the current model.
@@ -318,7 +318,14 @@ fn judge<'a>(fit: &'a Fit, current: &Fit, nobs: usize) -> Refit<'a> {
         delta_bic: fit.bic(nobs) - current.bic(nobs),
         gain_nm,
         gain_pct: 100.0 * gain_nm / current.heldout_rms,
+        dev_gain: current.heldout_dev - fit.heldout_dev,
     }
+}
+
+/// Whether a refit generalises: it lowers the held-out deviance by at least
+/// [`DiagnoseSettings::min_heldout_dev_gain`] and does not raise the held-out RMS.
+fn generalises(r: &Refit, settings: &DiagnoseSettings) -> bool {
+    r.dev_gain >= settings.min_heldout_dev_gain && r.gain_nm >= 0.0
 }
 
 /// Diagnoses a measured trial (and its unloaded run when available).
@@ -480,6 +487,7 @@ pub fn run(
                     heldout_rms_nm: None,
                     delta_bic: None,
                     heldout_gain_pct: None,
+                    heldout_dev_gain: None,
                     cos_to_model: s.cos_baseline,
                     round,
                     accepted: false,
@@ -529,11 +537,11 @@ pub fn run(
                     rep.heldout_rms_nm = Some(r.fit.heldout_rms);
                     rep.delta_bic = Some(r.delta_bic);
                     rep.heldout_gain_pct = Some(r.gain_pct);
+                    rep.heldout_dev_gain = Some(r.dev_gain);
                     rep.fitted = Some(effect_values(r.fit, r.kind));
                 }
-                let need = heldout_need(settings, current.heldout_rms, r.delta_bic);
                 let clear = clear_of_null(r.fit, r.kind, &reports, settings, nobs);
-                if r.gain_nm >= need && r.delta_bic < settings.max_delta_bic && clear {
+                if generalises(r, settings) && r.delta_bic < settings.max_delta_bic && clear {
                     passing.push(r);
                 }
             }
@@ -689,6 +697,7 @@ pub fn run(
     let ext_rep = model_report(&current, nobs, true, &intervals);
     let gain = Gain {
         heldout_rms_reduction_pct: 100.0 * (1.0 - current.heldout_rms / baseline.heldout_rms),
+        heldout_deviance_reduction: baseline.heldout_dev - current.heldout_dev,
         delta_bic: current.bic(nobs) - baseline.bic(nobs),
         delta_log_likelihood: current.loglik - baseline.loglik,
         rms_reduction_pct: 100.0 * (1.0 - current.rms / baseline.rms),
@@ -765,7 +774,7 @@ fn near_tie(
     // gravity term at φ ≈ ±90° contains an offset): not an ambiguity
     let tie = d.abs() < -settings.max_delta_bic
         && (alt.k() <= named.k() || d < 0.0)
-        && worse < heldout_need(settings, named.heldout_rms, 0.0);
+        && worse < heldout_margin(settings, named.heldout_rms);
     (tie && alternative != cause).then(|| NearTie {
         cause: cause.name().into(),
         alternative: alternative.name().into(),
@@ -791,16 +800,10 @@ fn clear_of_null(
     !collinear || effect_significance(fit, kind, nobs) >= 3.0
 }
 
-/// The held-out RMS reduction (N·m) a candidate with `delta_bic` must bring to a model with
-/// held-out RMS `heldout`: max(2 %, 0.02 N·m) by default, max(0.5 %, 0.01 N·m) when its
-/// in-sample evidence is strong (ΔBIC < −30).
-fn heldout_need(settings: &DiagnoseSettings, heldout: f64, delta_bic: f64) -> f64 {
-    if delta_bic < settings.strong_delta_bic {
-        (settings.strong_min_heldout_gain_pct / 100.0 * heldout)
-            .max(0.5 * settings.min_heldout_gain_nm)
-    } else {
-        (settings.min_heldout_gain_pct / 100.0 * heldout).max(settings.min_heldout_gain_nm)
-    }
+/// The held-out margin of the tie rules for a model with held-out RMS `heldout` (N·m):
+/// max(2 %, 0.02 N·m) by default.
+fn heldout_margin(settings: &DiagnoseSettings, heldout: f64) -> f64 {
+    (settings.min_heldout_gain_pct / 100.0 * heldout).max(settings.min_heldout_gain_nm)
 }
 
 /// The joint fit of the two refits of a round with the lowest ΔBIC below the margin (when no
@@ -847,14 +850,14 @@ fn joint_pair(
     };
     let ev = pair.evaluations;
     let r = judge(&pair, current, nobs);
-    let need = heldout_need(settings, current.heldout_rms, r.delta_bic);
     let halves = [a, b]
         .iter()
         .all(|f| pair.bic(nobs) - f.bic(nobs) < settings.max_delta_bic);
     let clear = [ka, kb]
         .iter()
         .all(|k| clear_of_null(&pair, *k, reports, settings, nobs));
-    let passes = r.gain_nm >= need && r.delta_bic < settings.max_delta_bic && halves && clear;
+    let passes =
+        generalises(&r, settings) && r.delta_bic < settings.max_delta_bic && halves && clear;
     Ok((passes.then_some(pair), ev))
 }
 
@@ -963,6 +966,7 @@ fn exchange(
             rep.delta_bic = Some(fit.bic(nobs) - reduced.bic(nobs));
             // the dropped-cause model was not cross-validated
             rep.heldout_gain_pct = None;
+            rep.heldout_dev_gain = None;
             rep.fitted = Some(effect_values(&fit, s.kind));
         }
         current = fit;
@@ -988,7 +992,7 @@ fn simpler_tie(simple: &Fit, complex: &Fit, settings: &DiagnoseSettings, nobs: u
     let worse = simple.heldout_rms - complex.heldout_rms;
     simple.k() < complex.k()
         && d < -settings.max_delta_bic
-        && worse < heldout_need(settings, complex.heldout_rms, 0.0)
+        && worse < heldout_margin(settings, complex.heldout_rms)
 }
 
 fn check_settings(s: &DiagnoseSettings) -> Result<(), DiagnoseError> {
@@ -1010,11 +1014,8 @@ fn check_settings(s: &DiagnoseSettings) -> Result<(), DiagnoseError> {
     if !s.max_delta_bic.is_finite() {
         return bad("max_delta_bic", "must be finite");
     }
-    if !(s.strong_delta_bic.is_finite() && s.strong_delta_bic <= s.max_delta_bic) {
-        return bad("strong_delta_bic", "must be finite and ≤ max_delta_bic");
-    }
-    if !(s.strong_min_heldout_gain_pct.is_finite() && s.strong_min_heldout_gain_pct >= 0.0) {
-        return bad("strong_min_heldout_gain_pct", "must be finite and ≥ 0");
+    if !s.min_heldout_dev_gain.is_finite() {
+        return bad("min_heldout_dev_gain", "must be finite");
     }
     if !(s.confound_cos > 0.0 && s.confound_cos <= 1.0) {
         return bad("confound_cos", "must be in (0, 1]");
@@ -1245,10 +1246,38 @@ mod tests {
             rms: 1.0,
             jac: nalgebra::DMatrix::zeros(0, 0),
             heldout_rms: heldout,
+            heldout_dev: f64::NAN,
             evaluations: 0,
         }
     }
     const NOBS: usize = 6827;
+
+    #[test]
+    fn a_refit_generalises_when_the_heldout_deviance_falls_and_the_rms_does_not_rise() {
+        let s = DiagnoseSettings::default();
+        let mut base = fit(EffectKind::Inertia, 9, 0.0, 1.40);
+        base.heldout_dev = 15_000.0;
+        let mut ext = fit(EffectKind::Inertia, 10, -20.0, 1.40);
+        ext.heldout_dev = 14_980.0;
+        // the same RMS (an inertia term lives in 50 ms ramps) and 20 units of deviance
+        assert!(generalises(&judge(&ext, &base, NOBS), &s));
+        ext.heldout_dev = 15_000.5;
+        assert!(!generalises(&judge(&ext, &base, NOBS), &s));
+        ext.heldout_dev = 14_980.0;
+        ext.heldout_rms = 1.401;
+        assert!(!generalises(&judge(&ext, &base, NOBS), &s));
+        ext.heldout_rms = 1.39;
+        let strict = DiagnoseSettings {
+            min_heldout_dev_gain: 25.0,
+            ..s
+        };
+        assert!(!generalises(&judge(&ext, &base, NOBS), &strict));
+        assert!(check_settings(&DiagnoseSettings {
+            min_heldout_dev_gain: f64::NAN,
+            ..DiagnoseSettings::default()
+        })
+        .is_err());
+    }
 
     #[test]
     fn near_ties_lie_within_both_margins() {

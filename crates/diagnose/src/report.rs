@@ -85,6 +85,9 @@ impl ParamInterval {
 pub struct Gain {
     /// `100·(1 − heldout_ext/heldout_base)`.
     pub heldout_rms_reduction_pct: f64,
+    /// `dev_base − dev_ext`, the fall of the held-out deviance (`Σ ν²/S` over the held-out
+    /// samples, χ² units; positive favours the extension).
+    pub heldout_deviance_reduction: f64,
     /// `BIC_ext − BIC_base` (negative favours the extension).
     pub delta_bic: f64,
     /// `log L_ext − log L_base`.
@@ -108,6 +111,9 @@ pub struct CandidateReport {
     pub delta_bic: Option<f64>,
     /// Relative held-out gain of the refit (%).
     pub heldout_gain_pct: Option<f64>,
+    /// Fall of the held-out deviance with this candidate added (χ² units; null if not
+    /// refitted, or after an exchange).
+    pub heldout_dev_gain: Option<f64>,
     /// Cosine between its fitted signature and the span of the model's parameters.
     pub cos_to_model: f64,
     /// Selection round (0 = against the baseline).
@@ -280,8 +286,9 @@ impl Diagnosis {
                 self.extended.rms_nm, self.extended.heldout_rms_nm
             ));
             l.push(format!(
-                "gain         held-out RMS −{:.1} %, ΔBIC {:.1}, Δlog L {:.1}",
+                "gain         held-out RMS −{:.1} %, deviance −{:.1}, ΔBIC {:.1}, Δlog L {:.1}",
                 self.gain.heldout_rms_reduction_pct,
+                self.gain.heldout_deviance_reduction,
                 self.gain.delta_bic,
                 self.gain.delta_log_likelihood
             ));
