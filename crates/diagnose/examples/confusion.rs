@@ -30,7 +30,8 @@ fn dump(seed: u64, hidden: &[EffectKind], d: &diagnose::Diagnosis) -> std::io::R
         .iter()
         .map(|c| {
             serde_json::json!({"effect": c.effect, "delta_bic": c.delta_bic,
-                "heldout_gain_pct": c.heldout_gain_pct, "round": c.round,
+                "heldout_gain_pct": c.heldout_gain_pct,
+                "heldout_dev_gain": c.heldout_dev_gain, "round": c.round,
                 "accepted": c.accepted, "evidence": c.evidence})
         })
         .collect();
