@@ -12,11 +12,11 @@
 //! the median and smallest `λ` and the expected number of trials (out of N) each bound allows.
 //! `--against c,d` puts those effects in the null model (e.g. `--effects gravity --against
 //! torque_offset`: what a gravity term adds to an offset).
-use diagnose::power::{noncentrality, rule_power, test_power};
+use diagnose::power::{noncentrality, rule_power, test_power, true_noise};
 use diagnose::scenarios::{hidden_trial, hidden_trial_sized, limit_sizes, HiddenTrial};
 use diagnose::DiagnoseSettings;
 use experiment::DynamometerSettings;
-use muscle_model::{Ar1White, EffectKind};
+use muscle_model::EffectKind;
 
 /// `λ` of one trial and the two bounds.
 fn bounds(
@@ -25,13 +25,9 @@ fn bounds(
     null: &[EffectKind],
     settings: &DiagnoseSettings,
 ) -> Result<(f64, f64, f64), Box<dyn std::error::Error>> {
-    let dyn_settings = DynamometerSettings::default();
-    let fs = t.synthetic.trial.sample_rate_hz();
-    let q = dyn_settings.quantisation_step_nm();
-    let noise = Ar1White::new(
-        dyn_settings.ar1_phi(1.0 / fs),
-        dyn_settings.ar1_sd_nm,
-        (dyn_settings.white_sd_nm.powi(2) + q * q / 12.0).sqrt(),
+    let noise = true_noise(
+        &DynamometerSettings::default(),
+        t.synthetic.trial.sample_rate_hz(),
     )?;
     let info = noncentrality(
         &t.synthetic.trial,

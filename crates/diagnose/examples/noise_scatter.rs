@@ -5,6 +5,7 @@
 //! true one.
 //!
 //! `cargo run --release -p diagnose --example noise_scatter -- [N] [BASE_SEED]`
+use diagnose::power::{low_frequency_level, true_noise};
 use diagnose::{NoiseModel, NoiseSource, Segmentation};
 use experiment::{unloaded_run, DynamometerSettings};
 
@@ -13,22 +14,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let n: u64 = args.get(1).map_or(Ok(50), |s| s.parse())?;
     let base: u64 = args.get(2).map_or(Ok(1), |s| s.parse())?;
     let s = DynamometerSettings::default();
-    let level =
-        |phi: f64, sd_ar: f64, sd_w: f64| sd_ar * sd_ar * (1.0 + phi) / (1.0 - phi) + sd_w * sd_w;
     let mut ratios = Vec::new();
     let mut truth = f64::NAN;
     for seed in base..base + n {
         let u = unloaded_run(&s, seed)?;
         let fs = u.sample_rate_hz();
-        let q = s.quantisation_step_nm();
-        truth = level(
-            s.ar1_phi(1.0 / fs),
-            s.ar1_sd_nm,
-            (s.white_sd_nm.powi(2) + q * q / 12.0).sqrt(),
-        );
+        truth = low_frequency_level(&true_noise(&s, fs)?);
         let seg = Segmentation::new(&u.ankle_angle_deg, fs, None)?;
         let m = NoiseModel::fit(&u.torque_nm, fs, &seg.events, true, NoiseSource::Unloaded);
-        ratios.push(level(m.phi, m.sd_ar_nm, m.sd_white_nm) / truth);
+        ratios.push(low_frequency_level(&m.random_part()) / truth);
     }
     let k = ratios.len() as f64;
     let mean = ratios.iter().sum::<f64>() / k;

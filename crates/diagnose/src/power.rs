@@ -29,13 +29,14 @@
 //! # Example
 //!
 //! ```no_run
-//! use diagnose::power::{noncentrality, rule_power};
+//! use diagnose::power::{noncentrality, rule_power, true_noise};
 //! use diagnose::scenarios::hidden_trial_sized;
-//! use muscle_model::{Ar1White, EffectKind};
+//! use experiment::DynamometerSettings;
+//! use muscle_model::EffectKind;
 //!
 //! let t = hidden_trial_sized(EffectKind::Inertia, 0.1, 8900)?;
-//! let dt = 1.0 / t.synthetic.trial.sample_rate_hz();
-//! let noise = Ar1White::new((-dt / 0.03f64).exp(), 1.2, 0.41)?;
+//! let fs = t.synthetic.trial.sample_rate_hz();
+//! let noise = true_noise(&DynamometerSettings::default(), fs)?;
 //! let settings = diagnose::DiagnoseSettings::default();
 //! let info = noncentrality(&t.synthetic.trial, &t.synthetic.model_torque, &[], &noise,
 //!                          &settings)?;
@@ -44,7 +45,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-use experiment::Trial;
+use experiment::{DynamometerSettings, Trial};
 use muscle_model::{Ar1White, EffectKind};
 
 use crate::analysis::{chi2_survival, ln_gamma};
@@ -145,6 +146,27 @@ pub fn noncentrality(
     })
 }
 
+/// The random part of the SPEC §4 dynamometer error at `fs` Hz, as [`noncentrality`] wants
+/// it: AR(1) with `φ = exp(−1/(fs·τc))` and SD `σ_ar`, plus white noise whose variance
+/// includes the ADC's quantisation, `σ_w² + step²/12`.
+///
+/// # Errors
+/// Settings that give no valid AR(1) model (e.g. a non-positive `fs`).
+pub fn true_noise(s: &DynamometerSettings, fs: f64) -> Result<Ar1White, DiagnoseError> {
+    let q = s.quantisation_step_nm();
+    Ok(Ar1White::new(
+        s.ar1_phi(1.0 / fs),
+        s.ar1_sd_nm,
+        (s.white_sd_nm.powi(2) + q * q / 12.0).sqrt(),
+    )?)
+}
+
+/// The noise power per sample at frequency 0, `σ_ar²(1+φ)/(1−φ) + σ_w²`: what a slow term's
+/// evidence is measured against.
+pub fn low_frequency_level(m: &Ar1White) -> f64 {
+    m.sigma_ar.powi(2) * (1.0 + m.phi) / (1.0 - m.phi) + m.sigma_white.powi(2)
+}
+
 /// `P(χ²_df(λ) > x)`, the upper tail of the noncentral χ² with noncentrality `lambda`, as the
 /// Poisson(λ/2) mixture of central tails, summed until the remaining Poisson mass is below
 /// `10⁻¹²`. `lambda ≤ 0` gives the central tail.
@@ -236,6 +258,15 @@ mod tests {
             w *= 5.0 / (j + 1) as f64;
         }
         assert!((p2 - by_hand).abs() < 1e-10, "{p2} vs {by_hand}");
+    }
+
+    #[test]
+    fn the_spec_noise_has_its_low_frequency_level() {
+        let m = true_noise(&DynamometerSettings::default(), 2048.0).expect("valid");
+        assert!((m.phi - (-1.0 / (2048.0 * 0.03f64)).exp()).abs() < 1e-12);
+        // 1.2²·(1+φ)/(1−φ) + 0.4² + (1356/4096)²/12 = 177.1 N·m² per sample
+        assert!((low_frequency_level(&m) - 177.1).abs() < 0.05, "{m:?}");
+        assert!(true_noise(&DynamometerSettings::default(), -1.0).is_err());
     }
 
     #[test]

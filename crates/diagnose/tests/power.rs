@@ -1,18 +1,13 @@
 //! The information limit (`diagnose::power`) on hidden-effect trials.
 
-use diagnose::power::{noncentrality, rule_power};
+use diagnose::power::{noncentrality, rule_power, true_noise};
 use diagnose::scenarios::{hidden_trial, hidden_trial_sized};
 use diagnose::{DiagnoseError, DiagnoseSettings};
+use experiment::DynamometerSettings;
 use muscle_model::{Ar1White, EffectKind};
 
 fn spec_noise() -> Ar1White {
-    let q: f64 = 1356.0 / 4096.0;
-    Ar1White::new(
-        (-1.0 / (2048.0 * 0.03f64)).exp(),
-        1.2,
-        (0.16 + q * q / 12.0).sqrt(),
-    )
-    .expect("valid noise")
+    true_noise(&DynamometerSettings::default(), 2048.0).expect("valid noise")
 }
 
 #[test]
