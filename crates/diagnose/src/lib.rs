@@ -412,6 +412,7 @@ pub fn run(
                 sd_ar_nm: 0.0,
                 sd_white_nm: 1.0,
                 remainder_rms_nm: 0.0,
+                level_dof: f64::INFINITY,
             };
             let ctx0 = make_ctx(trial.torque_nm.clone(), pre_noise);
             let f0 = ctx0.fit(&[], &nominal, false)?;

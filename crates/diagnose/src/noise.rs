@@ -84,6 +84,11 @@ pub struct NoiseModel {
     pub sd_white_nm: f64,
     /// RMS of the remainder after the systematic part (N·m).
     pub remainder_rms_nm: f64,
+    /// Effective degrees of freedom `ν` of the low-frequency level
+    /// ([`low_frequency_level`]) as estimated from the record the random part was fitted
+    /// on ([`level_dof`]): `2/CV²` of the estimate. `∞` (`null` in JSON) when the noise is
+    /// known exactly.
+    pub level_dof: f64,
 }
 
 impl NoiseModel {
@@ -204,6 +209,10 @@ impl NoiseModel {
             }
         }
         let rms = (rem.iter().map(|e| e * e).sum::<f64>() / n.max(1) as f64).sqrt();
+        let level_dof = match Ar1White::new(phi, sd_ar, sd_white.max(1e-5)) {
+            Ok(m) => level_dof(&m, n, LEVEL_DOF_REPLICATES, LEVEL_DOF_SEED),
+            Err(_) => f64::INFINITY,
+        };
         NoiseModel {
             source,
             offset_nm: offset,
@@ -212,8 +221,72 @@ impl NoiseModel {
             sd_ar_nm: sd_ar,
             sd_white_nm: sd_white,
             remainder_rms_nm: rms,
+            level_dof,
         }
     }
+}
+
+/// The noise power per sample at frequency 0, `σ_ar²(1+φ)/(1−φ) + σ_w²`: what a slow term's
+/// evidence is measured against.
+pub fn low_frequency_level(m: &Ar1White) -> f64 {
+    m.sigma_ar.powi(2) * (1.0 + m.phi) / (1.0 - m.phi) + m.sigma_white.powi(2)
+}
+
+/// Records simulated by [`NoiseModel::fit`] to find [`NoiseModel::level_dof`].
+pub const LEVEL_DOF_REPLICATES: usize = 128;
+
+/// Seed of those records (fixed: the same recording gives the same diagnosis).
+pub const LEVEL_DOF_SEED: u64 = 0x1e7e_1d0f;
+
+/// Effective degrees of freedom of the low-frequency level that [`fit_ar1_white`] estimates
+/// from `n` samples of the noise `m`: `ν = 2/CV²`, the coefficient of variation `CV` taken
+/// over `replicates` records of `n` samples simulated from `m` (a parametric bootstrap), so
+/// that the estimated level scatters like `level·χ²_ν/ν`.
+///
+/// Replicate `r` draws from its own ChaCha8 stream (`seed`, `r`), so the value does not depend
+/// on the number of threads. The result is clamped to `[2, 10⁶]`; fewer than 16 samples or
+/// 2 replicates give 2 (the record says almost nothing about the level).
+pub fn level_dof(m: &Ar1White, n: usize, replicates: usize, seed: u64) -> f64 {
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, StandardNormal};
+    use rayon::prelude::*;
+    if n < 16 || replicates < 2 {
+        return 2.0;
+    }
+    let innov = m.sigma_ar * (1.0 - m.phi * m.phi).max(0.0).sqrt();
+    let levels: Vec<f64> = (0..replicates)
+        .into_par_iter()
+        .map(|r| {
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+            rng.set_stream(r as u64);
+            let mut normal = || -> f64 { StandardNormal.sample(&mut rng) };
+            let mut x = m.sigma_ar * normal();
+            let y: Vec<f64> = (0..n)
+                .map(|i| {
+                    if i > 0 {
+                        x = m.phi * x + innov * normal();
+                    }
+                    x + m.sigma_white * normal()
+                })
+                .collect();
+            let (phi, sd_ar, sd_white) = fit_ar1_white(&y);
+            low_frequency_level(&Ar1White {
+                phi,
+                sigma_ar: sd_ar,
+                sigma_white: sd_white,
+            })
+        })
+        .collect();
+    let k = levels.len() as f64;
+    let mean = levels.iter().sum::<f64>() / k;
+    let var = levels.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (k - 1.0);
+    if !(mean > 0.0 && var.is_finite()) {
+        return 2.0;
+    }
+    if var <= 0.0 {
+        return 1e6;
+    }
+    (2.0 * mean * mean / var).clamp(2.0, 1e6)
 }
 
 /// Keeps in `best` = (SS, c, transient) the lowest-SS fit over the grid `taus × freqs`;
@@ -456,3 +529,60 @@ pub fn fit_ar1_white(u: &[f64]) -> (f64, f64, f64) {
 /// Precomputed Kalman gains for one mask ([`muscle_model::WhitenPlan`]): whitening is then one
 /// pass per vector.
 pub type WhitenPlan = muscle_model::WhitenPlan;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::power::true_noise;
+    use experiment::DynamometerSettings;
+
+    /// The SPEC noise at 2048 Hz.
+    fn spec() -> Ar1White {
+        true_noise(&DynamometerSettings::default(), 2048.0).expect("valid SPEC noise")
+    }
+
+    #[test]
+    fn level_dof_of_an_unloaded_run_matches_the_scatter_of_full_noise_fits() {
+        // `noise_scatter -- 200 1` (full fits of 200 simulated 8 s unloaded runs, systematic
+        // part included) measured a 19.7 % SD of the level, i.e. ν = 2/0.197² ≈ 52
+        let nu = level_dof(&spec(), 8 * 2048, LEVEL_DOF_REPLICATES, LEVEL_DOF_SEED);
+        assert!((30.0..90.0).contains(&nu), "ν = {nu}");
+        // a record four times longer pins the level about four times better
+        let nu4 = level_dof(&spec(), 32 * 2048, LEVEL_DOF_REPLICATES, LEVEL_DOF_SEED);
+        assert!((2.5..6.0).contains(&(nu4 / nu)), "ν = {nu} → {nu4}");
+    }
+
+    #[test]
+    fn level_dof_is_reproducible_and_independent_of_the_threads() {
+        let m = spec();
+        let a = level_dof(&m, 4096, 32, 7);
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .expect("pool");
+        let b = one.install(|| level_dof(&m, 4096, 32, 7));
+        assert_eq!(a.to_bits(), b.to_bits());
+        assert_ne!(a.to_bits(), level_dof(&m, 4096, 32, 8).to_bits());
+        assert_eq!(level_dof(&m, 10, 32, 7), 2.0);
+    }
+
+    #[test]
+    fn unloaded_fit_reports_finite_level_dof() {
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, StandardNormal};
+        let m = spec();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let innov = m.sigma_ar * (1.0 - m.phi * m.phi).sqrt();
+        let mut x = 0.0;
+        let y: Vec<f64> = (0..8 * 2048)
+            .map(|_| {
+                let a: f64 = StandardNormal.sample(&mut rng);
+                let b: f64 = StandardNormal.sample(&mut rng);
+                x = m.phi * x + innov * a;
+                x + m.sigma_white * b
+            })
+            .collect();
+        let fit = NoiseModel::fit(&y, 2048.0, &[], true, NoiseSource::Unloaded);
+        assert!(fit.level_dof.is_finite() && fit.level_dof > 10.0, "{fit:?}");
+    }
+}

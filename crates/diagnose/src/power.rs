@@ -105,6 +105,7 @@ pub fn noncentrality(
         sd_ar_nm: noise.sigma_ar,
         sd_white_nm: noise.sigma_white,
         remainder_rms_nm: 0.0,
+        level_dof: f64::INFINITY,
     };
     let plan = model.plan(n, None);
     // to convergence: with the diagnosis's stopping rule (30 iterations, relative decrease
@@ -161,11 +162,7 @@ pub fn true_noise(s: &DynamometerSettings, fs: f64) -> Result<Ar1White, Diagnose
     )?)
 }
 
-/// The noise power per sample at frequency 0, `σ_ar²(1+φ)/(1−φ) + σ_w²`: what a slow term's
-/// evidence is measured against.
-pub fn low_frequency_level(m: &Ar1White) -> f64 {
-    m.sigma_ar.powi(2) * (1.0 + m.phi) / (1.0 - m.phi) + m.sigma_white.powi(2)
-}
+pub use crate::noise::low_frequency_level;
 
 /// `P(χ²_df(λ) > x)`, the upper tail of the noncentral χ² with noncentrality `lambda`, as the
 /// Poisson(λ/2) mixture of central tails, summed until the remaining Poisson mass is below
