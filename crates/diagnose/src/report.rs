@@ -305,14 +305,19 @@ impl Diagnosis {
                 t.cause, t.alternative, t.delta_bic, t.heldout_rms_nm
             ));
         }
+        let ra = &self.residual_analysis;
         l.push(format!(
-            "structure    {} (p = {:.1e})",
+            "structure    {} (p = {:.1e}; motion steps LM {:.1}/{}, time blocks {:.1}/{})",
             if self.unexplained_structure {
                 "UNEXPLAINED structure remains in the residual"
             } else {
                 "no unexplained structure"
             },
-            self.residual_analysis.structure_p_value
+            ra.structure_p_value,
+            ra.extended_structure_lm,
+            ra.structure_df,
+            ra.extended_time_structure_lm,
+            ra.time_structure_df
         ));
         l.push("candidates   effect                   evidence  held-out  ΔBIC".into());
         for c in self.candidates.iter().take(19usize.saturating_sub(l.len())) {
