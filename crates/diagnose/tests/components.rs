@@ -1,6 +1,6 @@
 //! Component tests: segmentation, the dynamometer noise model and its whitening, the LM solver.
 
-use diagnose::noise::{NoiseModel, NoiseSource};
+use diagnose::noise::{NoiseModel, NoiseSource, Transient};
 use diagnose::{lm, CvFolds, PhaseLabel, Segmentation};
 use experiment::{unloaded_run, DynamometerSettings, Protocol, ProtocolTrace};
 use muscle_model::EffectKind;
@@ -130,6 +130,41 @@ fn transient_is_fitted_by_generalised_least_squares() {
     }
     let mean = errs.iter().map(|e| e.1).sum::<f64>() / errs.len() as f64;
     assert!(mean < 0.22, "mean template error {mean:.3}");
+}
+
+#[test]
+fn a_recording_without_a_transient_gets_none() {
+    // Without the test of `noise::TRANSIENT_MIN_EVIDENCE` the grid search fitted the AR(1)
+    // wander of such a run (τ near 1 s, B and C up to 300 N·m and nearly cancelling), and
+    // that shape was subtracted after every event of the trial.
+    let s = DynamometerSettings {
+        transient_amplitude_nm: 0.0,
+        ..Default::default()
+    };
+    for seed in 5000..5004 {
+        let u = unloaded_run(&s, seed).unwrap();
+        let fs = u.sample_rate_hz();
+        let seg = Segmentation::new(&u.ankle_angle_deg, fs, None).unwrap();
+        let m = NoiseModel::fit(&u.torque_nm, fs, &seg.events, true, NoiseSource::Unloaded);
+        assert_eq!(m.transient, Transient::none(), "seed {seed}: {m:?}");
+        assert!(
+            (m.offset_nm - s.offset_nm).abs() < 0.5,
+            "seed {seed}: {m:?}"
+        );
+    }
+    // the SPEC transient is kept, from the same noise
+    let s = DynamometerSettings::default();
+    for seed in 5000..5004 {
+        let u = unloaded_run(&s, seed).unwrap();
+        let fs = u.sample_rate_hz();
+        let seg = Segmentation::new(&u.ankle_angle_deg, fs, None).unwrap();
+        let m = NoiseModel::fit(&u.torque_nm, fs, &seg.events, true, NoiseSource::Unloaded);
+        let amp = m.transient.b_nm.hypot(m.transient.c_nm);
+        assert!(
+            (amp - 4.0).abs() < 1.5,
+            "seed {seed}: amplitude {amp:.2}: {m:?}"
+        );
+    }
 }
 
 #[test]
