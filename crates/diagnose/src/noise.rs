@@ -262,28 +262,16 @@ pub const LEVEL_DOF_SEED: u64 = 0x1e7e_1d0f;
 /// 2 replicates give 2 (the record says almost nothing about the level).
 pub fn level_dof(m: &Ar1White, n: usize, replicates: usize, seed: u64) -> f64 {
     use rand::SeedableRng;
-    use rand_distr::{Distribution, StandardNormal};
     use rayon::prelude::*;
     if n < 16 || replicates < 2 {
         return 2.0;
     }
-    let innov = m.sigma_ar * (1.0 - m.phi * m.phi).max(0.0).sqrt();
     let levels: Vec<f64> = (0..replicates)
         .into_par_iter()
         .map(|r| {
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
             rng.set_stream(r as u64);
-            let mut normal = || -> f64 { StandardNormal.sample(&mut rng) };
-            let mut x = m.sigma_ar * normal();
-            let y: Vec<f64> = (0..n)
-                .map(|i| {
-                    if i > 0 {
-                        x = m.phi * x + innov * normal();
-                    }
-                    x + m.sigma_white * normal()
-                })
-                .collect();
-            let (phi, sd_ar, sd_white) = fit_ar1_white(&y);
+            let (phi, sd_ar, sd_white) = fit_ar1_white(&simulate(m, n, &mut rng));
             low_frequency_level(&Ar1White {
                 phi,
                 sigma_ar: sd_ar,
@@ -301,6 +289,24 @@ pub fn level_dof(m: &Ar1White, n: usize, replicates: usize, seed: u64) -> f64 {
         return 1e6;
     }
     (2.0 * mean * mean / var).clamp(2.0, 1e6)
+}
+
+/// `n` samples of the AR(1)-plus-white noise `m` from `rng`: `x₀ = σ_ar·ξ₀` (the stationary
+/// start), `xᵢ = φ·xᵢ₋₁ + σ_ar·√(1−φ²)·ξᵢ`, `yᵢ = xᵢ + σ_w·ηᵢ`, with `ξᵢ` then `ηᵢ` drawn for each
+/// sample in turn.
+pub fn simulate(m: &Ar1White, n: usize, rng: &mut impl rand::Rng) -> Vec<f64> {
+    use rand_distr::{Distribution, StandardNormal};
+    let innov = m.sigma_ar * (1.0 - m.phi * m.phi).max(0.0).sqrt();
+    let mut normal = || -> f64 { StandardNormal.sample(rng) };
+    let mut x = m.sigma_ar * normal();
+    (0..n)
+        .map(|i| {
+            if i > 0 {
+                x = m.phi * x + innov * normal();
+            }
+            x + m.sigma_white * normal()
+        })
+        .collect()
 }
 
 /// Fewest units of whitened sum of squares (χ² units) by which the event transient must
@@ -604,19 +610,8 @@ mod tests {
     #[test]
     fn unloaded_fit_reports_finite_level_dof() {
         use rand::SeedableRng;
-        use rand_distr::{Distribution, StandardNormal};
-        let m = spec();
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-        let innov = m.sigma_ar * (1.0 - m.phi * m.phi).sqrt();
-        let mut x = 0.0;
-        let y: Vec<f64> = (0..8 * 2048)
-            .map(|_| {
-                let a: f64 = StandardNormal.sample(&mut rng);
-                let b: f64 = StandardNormal.sample(&mut rng);
-                x = m.phi * x + innov * a;
-                x + m.sigma_white * b
-            })
-            .collect();
+        let y = simulate(&spec(), 8 * 2048, &mut rng);
         let fit = NoiseModel::fit(&y, 2048.0, &[], true, NoiseSource::Unloaded);
         assert!(fit.level_dof.is_finite() && fit.level_dof > 10.0, "{fit:?}");
     }

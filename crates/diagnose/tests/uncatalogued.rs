@@ -62,18 +62,8 @@ fn slow_drift_is_flagged_as_unexplained_structure() {
     )
     .unwrap_or_else(|e| panic!("seed {seed}: diagnosis failed: {e}"));
     let ra = &d.residual_analysis;
-    let ctx = format!(
-        "seed {seed}, drift {amp:.2} N·m, period {period:.2} s; p {:.2e}, motion LM {:.1}/{}, \
-         time LM {:.1}/{}; summary:\n{}",
-        ra.structure_p_value,
-        ra.extended_structure_lm,
-        ra.structure_df,
-        ra.extended_time_structure_lm,
-        ra.time_structure_df,
-        d.summary_lines().join("\n")
-    );
     // one line per run (`-- --nocapture`), for the pass-rate study of docs/diagnosis.md
-    println!(
+    let line = format!(
         "drift seed {seed}: {amp:.2} N·m, {period:.2} s, structure p {:.2e} (motion LM {:.1}/{}, \
          time LM {:.1}/{}, ν {:.1}), causes {:?}",
         ra.structure_p_value,
@@ -84,6 +74,8 @@ fn slow_drift_is_flagged_as_unexplained_structure() {
         ra.noise_level_dof,
         d.causes
     );
+    println!("{line}");
+    let ctx = format!("{line}; summary:\n{}", d.summary_lines().join("\n"));
     assert!(d.unexplained_structure, "not flagged; {ctx}");
     assert_eq!(d.verdict, Verdict::Deficient, "{ctx}");
     assert!(
