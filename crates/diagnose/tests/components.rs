@@ -133,6 +133,27 @@ fn transient_is_fitted_by_generalised_least_squares() {
 }
 
 #[test]
+fn a_least_squares_start_in_the_wrong_basin_is_searched_again() {
+    // On these two SPEC unloaded runs (of confusion-study trials) the ordinary least-squares
+    // grid ended near 2.5 and 9.3 Hz, and the whitened refinement around it stayed there:
+    // the first lost its transient (relative template error 1.0), the second had 0.53.
+    // The whitened search over the whole coarse grid finds the 12 Hz transient.
+    let s = DynamometerSettings::default();
+    for seed in [1_100_712, 500_711] {
+        let u = unloaded_run(&s, seed).unwrap();
+        let fs = u.sample_rate_hz();
+        let seg = Segmentation::new(&u.ankle_angle_deg, fs, None).unwrap();
+        let m = NoiseModel::fit(&u.torque_nm, fs, &seg.events, true, NoiseSource::Unloaded);
+        let e = transient_error(&m, &s);
+        assert!(e < 0.3, "seed {seed}: template error {e:.3}: {m:?}");
+        assert!(
+            (m.transient.freq_hz - 12.0).abs() < 1.0,
+            "seed {seed}: {m:?}"
+        );
+    }
+}
+
+#[test]
 fn a_recording_without_a_transient_gets_none() {
     // Without the test of `noise::TRANSIENT_MIN_EVIDENCE` the grid search fitted the AR(1)
     // wander of such a run (τ near 1 s, B and C up to 300 N·m and nearly cancelling), and
