@@ -1,20 +1,26 @@
 //! Confusion table and detection limits over random hidden-effect trials.
 //!
-//! `cargo run --release -p diagnose --example confusion -- [N] [BASE_SEED] [--limits [--effects a,b:size]] [--max-delta-bic X]`
+//! `cargo run --release -p diagnose --example confusion -- [N] [BASE_SEED] [--limits [--effects a,b:size] [--protocol P] [--null]] [--max-delta-bic X]`
 //! prints, per scenario, how often the named causes equal the hidden ones, what was named
 //! instead, the magnitude error, the time and how often the true effect parameters fall inside the
 //! reported 68 % profile intervals (and within ±1 Laplace standard error), for the effect and
 //! for the muscle parameters of the final model; with `--limits`, the detection rate per effect
 //! at sizes below and at the bottom of the realistic range (`--effects` keeps only the listed
 //! effects, or with `:size` only that size; trial `i` of an effect uses seed `BASE_SEED + 1000·kind + i` at every size, so a
-//! run split by `--effects` gives the same rows as one run). `SURAE_CONF_DUMP=FILE` appends
+//! run split by `--effects` gives the same rows as one run). `--protocol relaxed+8` makes the
+//! limit trials on another protocol (same seeds, parameters and effects); `--null` adds N
+//! no-effect trials on it first (seed `BASE_SEED + i`, every odd one with `emg_ta`), counting
+//! the trials where any cause was named. `SURAE_CONF_DUMP=FILE` appends
 //! one JSON line per diagnosis (seed, hidden effects, causes, near ties, the candidates' ΔBIC
 //! and held-out gains) to `FILE`.
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-use diagnose::scenarios::{align_to_fit, headline, hidden_trial, hidden_trial_sized, limit_sizes};
+use diagnose::scenarios::{
+    align_to_fit, headline, hidden_trial, hidden_trial_on, hidden_trial_sized_on, limit_sizes,
+};
 use diagnose::{no_observer, run, DiagnoseSettings};
+use experiment::Protocol;
 use muscle_model::EffectKind;
 
 /// Appends one JSON line per diagnosis to the file named by `SURAE_CONF_DUMP` (if set): the
@@ -64,6 +70,32 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .position(|a| a == "--effects")
             .and_then(|i| args.get(i + 1))
             .map(|s| s.split(',').map(str::to_string).collect());
+        let protocol: Protocol = match args.iter().position(|a| a == "--protocol") {
+            Some(i) => args
+                .get(i + 1)
+                .ok_or("--protocol needs a protocol")?
+                .parse()?,
+            None => "relaxed+2".parse()?,
+        };
+        if args.iter().any(|a| a == "--null") {
+            let mut alarms = 0;
+            for i in 0..n {
+                let seed = base + i;
+                let t = hidden_trial_on(&[], i % 2 == 1, seed, protocol)?;
+                let d = run(
+                    &t.synthetic.trial,
+                    Some(&t.synthetic.unloaded),
+                    &settings,
+                    &mut no_observer,
+                )?;
+                dump(seed, &[], &d)?;
+                if !d.causes.is_empty() {
+                    alarms += 1;
+                    eprintln!("seed {seed} none: named {:?}", d.causes);
+                }
+            }
+            println!("none, -, {alarms}/{n} with a cause named");
+        }
         println!("effect, size, detected/N, other named");
         for (kind, ss) in sizes {
             for s in ss {
@@ -82,7 +114,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 let mut other = 0;
                 for i in 0..n {
                     let seed = base + 1000 * (kind as u64) + i;
-                    let t = hidden_trial_sized(kind, s, seed)?;
+                    let t = hidden_trial_sized_on(kind, s, seed, protocol)?;
                     let d = run(
                         &t.synthetic.trial,
                         Some(&t.synthetic.unloaded),

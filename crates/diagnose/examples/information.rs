@@ -3,7 +3,7 @@
 //! true SPEC §4 noise, and from it the most often the ΔBIC rule (margin −10) and any test with
 //! a false-alarm rate of 10⁻³ could name the effect.
 //!
-//! `cargo run --release -p diagnose --example information -- [N] [BASE_SEED] [--scenarios] [--effects a,b] [--against c,d]`
+//! `cargo run --release -p diagnose --example information -- [N] [BASE_SEED] [--scenarios] [--effects a,b] [--against c,d] [--protocol P] [--sizes x,y]`
 //!
 //! Without `--scenarios`: the sizes of `confusion --limits`, trial `i` of an effect with seed
 //! `BASE_SEED + 1000·kind + i` (the same trials as `confusion -- N BASE_SEED --limits`). With
@@ -11,11 +11,14 @@
 //! `BASE_SEED + 100000·scenario + i`, magnitudes drawn in the realistic ranges). Each row gives
 //! the median and smallest `λ` and the expected number of trials (out of N) each bound allows.
 //! `--against c,d` puts those effects in the null model (e.g. `--effects gravity --against
-//! torque_offset`: what a gravity term adds to an offset).
+//! torque_offset`: what a gravity term adds to an offset). `--protocol relaxed+8` makes the
+//! detection-limit trials on another protocol (the same seeds draw the same parameters and
+//! effects); `--sizes x,y` replaces each effect's sizes.
 use diagnose::power::{noncentrality, rule_power, test_power, true_noise};
-use diagnose::scenarios::{hidden_trial, hidden_trial_sized, limit_sizes, HiddenTrial};
+use diagnose::scenarios::{hidden_trial, hidden_trial_sized_on, limit_sizes, HiddenTrial};
 use diagnose::DiagnoseSettings;
 use experiment::DynamometerSettings;
+use experiment::Protocol;
 use muscle_model::EffectKind;
 
 /// `λ` of one trial and the two bounds.
@@ -68,13 +71,36 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .collect::<Result<_, _>>()?,
         None => Vec::new(),
     };
+    let protocol: Protocol = match args.iter().position(|a| a == "--protocol") {
+        Some(i) => args
+            .get(i + 1)
+            .ok_or("--protocol needs a protocol")?
+            .parse()?,
+        None => "relaxed+2".parse()?,
+    };
+    let sizes: Option<Vec<f64>> = match args.iter().position(|a| a == "--sizes") {
+        Some(i) => Some(
+            args.get(i + 1)
+                .ok_or("--sizes needs numbers")?
+                .split(',')
+                .map(str::parse)
+                .collect::<Result<_, _>>()?,
+        ),
+        None => None,
+    };
+    if scenarios && (protocol != "relaxed+2".parse()? || sizes.is_some()) {
+        return Err("--protocol and --sizes apply to the detection-limit trials only".into());
+    }
     let settings = DiagnoseSettings::default();
     let rows: Vec<(EffectKind, Option<f64>)> = if scenarios {
         EffectKind::ALL.iter().map(|k| (*k, None)).collect()
     } else {
         limit_sizes()
             .into_iter()
-            .flat_map(|(k, sizes)| sizes.into_iter().map(move |s| (k, Some(s))))
+            .flat_map(|(k, own)| {
+                let list = sizes.clone().unwrap_or(own);
+                list.into_iter().map(move |s| (k, Some(s)))
+            })
             .collect()
     };
     println!("effect | size | median λ | min λ | ΔBIC rule at best (of {n}) | any test at α = 10⁻³ (of {n})");
@@ -89,7 +115,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let (mut rule, mut test) = (0.0, 0.0);
         for i in 0..n {
             let t = match size {
-                Some(s) => hidden_trial_sized(kind, s, base + 1000 * kind as u64 + i)?,
+                Some(s) => hidden_trial_sized_on(kind, s, base + 1000 * kind as u64 + i, protocol)?,
                 // the confusion study's scenario index: none, none+ta, then the effects in order
                 None => hidden_trial(&[kind], false, base + 100_000 * (2 + kind as u64) + i)?,
             };

@@ -99,6 +99,20 @@ pub fn hidden_trial(
     with_ta: bool,
     seed: u64,
 ) -> Result<HiddenTrial, DiagnoseError> {
+    hidden_trial_on(kinds, with_ta, seed, "relaxed+2".parse()?)
+}
+
+/// [`hidden_trial`] on another protocol (the same seed draws the same parameters and
+/// effects on every protocol).
+///
+/// # Errors
+/// A failed synthesis.
+pub fn hidden_trial_on(
+    kinds: &[EffectKind],
+    with_ta: bool,
+    seed: u64,
+    protocol: Protocol,
+) -> Result<HiddenTrial, DiagnoseError> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let params = random_params(&mut rng, &ModelParams::nominal());
     let mut effects = Effects::none();
@@ -106,7 +120,6 @@ pub fn hidden_trial(
         effects.set_values(*k, draw_effect(*k, &mut rng));
     }
     effects.validate()?;
-    let protocol: Protocol = "relaxed+2".parse()?;
     let mut cfg = SynthConfig::new(protocol, seed)
         .with_params(params)
         .with_effects(effects);
@@ -168,12 +181,26 @@ pub fn hidden_trial_sized(
     size: f64,
     seed: u64,
 ) -> Result<HiddenTrial, DiagnoseError> {
+    hidden_trial_sized_on(kind, size, seed, "relaxed+2".parse()?)
+}
+
+/// [`hidden_trial_sized`] on another protocol (e.g. `relaxed+8`: how the detection limits
+/// fall with more cycles). The same seed draws the same parameters and effect on every
+/// protocol; the noise records differ in length.
+///
+/// # Errors
+/// A failed synthesis or an effect out of its bounds.
+pub fn hidden_trial_sized_on(
+    kind: EffectKind,
+    size: f64,
+    seed: u64,
+    protocol: Protocol,
+) -> Result<HiddenTrial, DiagnoseError> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let params = random_params(&mut rng, &ModelParams::nominal());
     let mut effects = Effects::none();
     effects.set_values(kind, draw_effect_sized(kind, size, &mut rng));
     effects.validate()?;
-    let protocol: Protocol = "relaxed+2".parse()?;
     let cfg = SynthConfig::new(protocol, seed)
         .with_params(params)
         .with_effects(effects);
@@ -184,4 +211,30 @@ pub fn hidden_trial_sized(
         params,
         seed,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_longer_protocol_hides_the_same_effect_in_the_same_subject() {
+        let kind = EffectKind::AntagonistCoactivation;
+        let short = hidden_trial_sized(kind, 3.0, 5900).unwrap();
+        let long = hidden_trial_sized_on(kind, 3.0, 5900, "relaxed+4".parse().unwrap()).unwrap();
+        assert_eq!(short.params, long.params);
+        assert_eq!(short.effects, long.effects);
+        let (n2, n4) = (
+            short.synthetic.trial.time_s.len(),
+            long.synthetic.trial.time_s.len(),
+        );
+        assert!(n4 > n2 + 2 * 4000, "relaxed+2 {n2} samples, relaxed+4 {n4}");
+        // the default protocol is relaxed+2
+        let same = hidden_trial_on(&[kind], true, 5900, "relaxed+2".parse().unwrap()).unwrap();
+        let again = hidden_trial(&[kind], true, 5900).unwrap();
+        assert_eq!(
+            same.synthetic.trial.torque_nm,
+            again.synthetic.trial.torque_nm
+        );
+    }
 }
