@@ -96,7 +96,10 @@ pub use analysis::{AcfPoint, Bin, ResidualAnalysis, Series};
 pub use error::DiagnoseError;
 pub use lm::LmSettings;
 pub use noise::{NoiseModel, NoiseSource, Transient};
-pub use report::{CandidateReport, Diagnosis, Gain, ModelReport, NearTie, ParamInterval, Verdict};
+pub use report::{
+    detection_limit_unit, CandidateReport, Diagnosis, Gain, ModelReport, NearTie, ParamInterval,
+    Verdict,
+};
 pub use segment::{PhaseLabel, Segmentation};
 
 use fit::{Context, Fit};
@@ -494,6 +497,7 @@ pub fn run(
                     accepted: false,
                     confounded: conf,
                     fitted: None,
+                    detection_limit: None,
                 },
             );
         }
@@ -656,6 +660,19 @@ pub fn run(
         "residual analysis".into(),
         evaluations,
     )?;
+    notify(
+        observer,
+        Stage::Analysis,
+        "detection limits of the effects not named".into(),
+        evaluations,
+    )?;
+    let limits = score::detection_limits(&ctx, &current, &eligible, settings.max_delta_bic);
+    for (kind, limit, ev) in limits {
+        evaluations += ev;
+        if let Some(rep) = reports.get_mut(&kind) {
+            rep.detection_limit = Some(limit);
+        }
+    }
     let ra = analysis::analyse(&ctx, &baseline, &current, settings.structure_threshold);
     let unexplained = ra.structure_evidence > settings.structure_threshold;
     let causes: Vec<String> = current.kinds.iter().map(|k| k.name().to_string()).collect();

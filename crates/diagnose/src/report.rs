@@ -2,6 +2,7 @@
 
 use std::collections::BTreeMap;
 
+use muscle_model::EffectKind;
 use serde::Serialize;
 
 use crate::analysis::ResidualAnalysis;
@@ -125,6 +126,40 @@ pub struct CandidateReport {
     /// Fitted parameter values of the refit (if refitted).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub fitted: Option<BTreeMap<String, f64>>,
+    /// For an effect not in the final model: the smallest size the ΔBIC rule would name in
+    /// 95 % of trials like this one if every fit reached its optimum (same inputs, noise
+    /// model and final model; see docs/diagnosis.md, method item 10), so a smaller effect
+    /// may be present and missed. The decision's other rules and imperfect fits make the
+    /// real limit somewhat larger (docs/diagnosis.md, "Detection limit of a trial"). In the
+    /// units of [`detection_limit_unit`]: `|offset|` N·m, passive torque at +15° (stiffness
+    /// 8/rad) N·m, `|moment|` (φ = 0) N·m, delay ms, fatigue rate /s, antagonist gain N·m,
+    /// `Flen − 1.4`, `|b|` N·m·s/rad, `I` kg·m².
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub detection_limit: Option<f64>,
+}
+
+/// The unit (or quantity) of [`CandidateReport::detection_limit`] for an effect.
+pub fn detection_limit_unit(kind: EffectKind) -> &'static str {
+    match kind {
+        EffectKind::TorqueOffset
+        | EffectKind::PassiveJointTorque
+        | EffectKind::Gravity
+        | EffectKind::AntagonistCoactivation => "N·m",
+        EffectKind::ElectromechanicalDelay => "ms",
+        EffectKind::Fatigue => "/s",
+        EffectKind::EccentricEnhancement => "Flen−1.4",
+        EffectKind::ViscousDamping => "N·m·s/rad",
+        EffectKind::Inertia => "kg·m²",
+    }
+}
+
+/// `x` with three significant digits.
+fn sig3(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    let digits = (2 - x.abs().log10().floor() as i32).max(0) as usize;
+    format!("{x:.digits$}")
 }
 
 /// An alternative explanation that fits a named cause's data about as well: replacing the
@@ -319,24 +354,35 @@ impl Diagnosis {
             ra.extended_time_structure_lm,
             ra.time_structure_df
         ));
-        l.push("candidates   effect                   evidence  held-out  ΔBIC".into());
+        l.push(
+            "candidates   effect                   evidence  held-out  ΔBIC  could be missed below"
+                .into(),
+        );
         for c in self.candidates.iter().take(19usize.saturating_sub(l.len())) {
-            l.push(format!(
-                "  {}{:<24} {:>9.1} {:>9} {:>8}",
-                if c.accepted {
-                    "*"
-                } else if self.near_ties.iter().any(|t| t.alternative == c.effect) {
-                    "~"
-                } else if c.confounded {
-                    "?"
-                } else {
-                    " "
-                },
-                c.effect,
-                c.evidence,
-                c.heldout_rms_nm.map_or("-".into(), |h| format!("{h:.3}")),
-                c.delta_bic.map_or("-".into(), |d| format!("{d:.1}"))
-            ));
+            let limit = match (c.detection_limit, EffectKind::from_name(&c.effect)) {
+                (Some(x), Some(k)) => format!("{} {}", sig3(x), detection_limit_unit(k)),
+                _ => String::new(),
+            };
+            l.push(
+                format!(
+                    "  {}{:<24} {:>9.1} {:>9} {:>8}  {limit}",
+                    if c.accepted {
+                        "*"
+                    } else if self.near_ties.iter().any(|t| t.alternative == c.effect) {
+                        "~"
+                    } else if c.confounded {
+                        "?"
+                    } else {
+                        " "
+                    },
+                    c.effect,
+                    c.evidence,
+                    c.heldout_rms_nm.map_or("-".into(), |h| format!("{h:.3}")),
+                    c.delta_bic.map_or("-".into(), |d| format!("{d:.1}"))
+                )
+                .trim_end()
+                .to_string(),
+            );
         }
         l.push(format!(
             "work         {} simulations, {:.1} s",

@@ -245,3 +245,127 @@ pub(crate) fn extended_start(fit: &Fit, s: &Score) -> Vec<f64> {
     x.extend_from_slice(&s.start[..np]);
     x
 }
+
+/// Stiffness (1/rad) at which the passive joint torque's detection limit is stated.
+pub const PASSIVE_LIMIT_STIFFNESS: f64 = 8.0;
+
+/// The noncentrality at which the ΔBIC rule (margin `max_delta_bic`) names an effect of `k`
+/// parameters in 95 % of trials on `n_obs` samples ([`crate::power::rule_power`] = 0.95;
+/// bisection).
+pub(crate) fn lambda_95(k: usize, n_obs: usize, max_delta_bic: f64) -> f64 {
+    let (mut lo, mut hi) = (0.0f64, 1.0f64);
+    while crate::power::rule_power(hi, k, n_obs, max_delta_bic) < 0.95 {
+        hi *= 2.0;
+    }
+    while hi - lo > 1e-6 * hi {
+        let mid = 0.5 * (lo + hi);
+        if crate::power::rule_power(mid, k, n_obs, max_delta_bic) < 0.95 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// The smallest size of each eligible effect not in `fit` that the ΔBIC rule would name in
+/// 95 % of trials like this one, in the effect's headline units (see
+/// [`crate::report::CandidateReport::detection_limit`]).
+///
+/// An effect of size `θ` hidden in this trial would leave, after the model's own parameters
+/// have absorbed what they can, a noncentrality `λ(θ)`: the whitened sum of squares of the
+/// fit to the noise-free torque `pred + τ_θ` (`pred` the fit's prediction, `τ_θ` the effect's
+/// torque), the quantity [`crate::power::noncentrality`] computes. The ΔBIC rule names it
+/// in 95 % of trials when `λ = λ₉₅` ([`lambda_95`], the effect's number of parameters).
+/// Two steps per effect:
+///
+/// 1. linearised at `fit`: `λ(θ) ≈ θ²‖P⊥s‖²`, `s` the whitened sensitivity of the score
+///    test, gives `θ₁ = √(λ₉₅/‖P⊥s‖²)`. This is optimistic: the muscle parameters absorb
+///    more than their first-order directions (on the antagonist limit trials `5900…5907`,
+///    `θ₁` was 0.6× the limit implied by `power::noncentrality`);
+/// 2. the fit's model is refitted from `fit.x` to the noise-free torque with the effect at
+///    `θ₁` (Levenberg–Marquardt, up to 60 iterations), and with `λ ∝ θ²` the limit is
+///    `θ₁·√(λ₉₅/λ(θ₁))`.
+///
+/// Directions: gravity with `φ = 0` (`m sin q`), the passive torque at stiffness
+/// [`PASSIVE_LIMIT_STIFFNESS`].
+pub(crate) fn detection_limits(
+    ctx: &Context,
+    fit: &Fit,
+    eligible: &[EffectKind],
+    max_delta_bic: f64,
+) -> Vec<(EffectKind, f64, usize)> {
+    let proj = Projector::new(ctx, fit);
+    let n = proj.n;
+    let todo: Vec<EffectKind> = eligible
+        .iter()
+        .copied()
+        .filter(|k| !fit.kinds.contains(k))
+        .collect();
+    let torque_15 = (PASSIVE_LIMIT_STIFFNESS * crate::scenarios::PASSIVE_REFERENCE_RAD).exp() - 1.0;
+    todo.par_iter()
+        .filter_map(|&kind| {
+            let vars = variants(ctx, fit, kind);
+            // the column of the headline direction and the headline per unit of it
+            let (col, per_unit) = match kind {
+                EffectKind::PassiveJointTorque => {
+                    let i = PASSIVE_STIFFNESS_GRID
+                        .iter()
+                        .position(|k| *k == PASSIVE_LIMIT_STIFFNESS)?;
+                    (vars.into_iter().nth(i)?.0.into_iter().next()?, torque_15)
+                }
+                _ => (vars.into_iter().next()?.0.into_iter().next()?, 1.0),
+            };
+            let mut w = vec![0.0; col.len()];
+            ctx.plan.whiten(&col, &mut w);
+            let info = proj.perp(&DVector::from_vec(w)).norm_squared();
+            if !(info > 0.0 && info.is_finite()) {
+                return None;
+            }
+            let lambda = lambda_95(kind.params().len(), n, max_delta_bic);
+            let linear = (lambda / info).sqrt() * per_unit;
+            // the effect's parameters at headline size `linear`
+            let values: [f64; 2] = match kind {
+                EffectKind::PassiveJointTorque => [linear / torque_15, PASSIVE_LIMIT_STIFFNESS],
+                EffectKind::EccentricEnhancement => [1.4 + linear, 0.0],
+                _ => [linear, 0.0],
+            };
+            let (refitted, evaluations) = absorbed(ctx, fit, kind, values)?;
+            if !(refitted > 0.0 && refitted.is_finite()) {
+                return Some((kind, linear, evaluations));
+            }
+            Some((kind, linear * (lambda / refitted).sqrt(), evaluations))
+        })
+        .collect()
+}
+
+/// `λ`: the whitened sum of squares left when `fit`'s model is refitted (from `fit.x`) to
+/// the noise-free torque of `fit` plus effect `kind` at `values`, and the simulations used.
+fn absorbed(ctx: &Context, fit: &Fit, kind: EffectKind, values: [f64; 2]) -> Option<(f64, usize)> {
+    let mut kinds = fit.kinds.clone();
+    kinds.push(kind);
+    let with = ctx.problem(&kinds).ok()?;
+    let mut x = fit.x.clone();
+    x.extend_from_slice(&values[..kind.params().len()]);
+    let target = with.predict(&x).ok()?;
+    let clean = Context {
+        inputs: ctx.inputs.clone(),
+        y: target,
+        noise: ctx.noise,
+        seg: ctx.seg.clone(),
+        plan: ctx.plan.clone(),
+        folds: Vec::new(),
+        lm: crate::lm::LmSettings {
+            max_iterations: 60,
+            ftol_rel: 1e-10,
+            ..ctx.lm
+        },
+        cv_lm: ctx.cv_lm,
+        extended_extra_starts: 0,
+        start_seed: ctx.start_seed,
+    };
+    let refit = clean
+        .fit_from(&fit.kinds, std::slice::from_ref(&fit.x), false)
+        .ok()?;
+    Some((refit.white_ss, refit.evaluations + 1))
+}

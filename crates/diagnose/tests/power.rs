@@ -121,3 +121,53 @@ fn an_effect_in_the_null_model_leaves_only_what_the_other_adds() {
         "gravity 5 N·m: λ {alone} against the baseline, {beyond} against baseline + offset"
     );
 }
+
+#[test]
+fn a_trials_detection_limit_is_where_the_rule_finds_the_effect_in_most_trials() {
+    // The diagnosis of a no-effect trial reports, per effect it did not name, the size the
+    // ΔBIC rule would name in 95 % of such trials. Hiding exactly that size in the same
+    // subject and noise (the same seed draws the same parameters and noise), the information
+    // limit of `power` must give the rule a high but not certain chance: the reported limit is
+    // computed from the diagnosis's own fit and noise model, `power` from the true ones.
+    let settings = DiagnoseSettings::default();
+    let seed = 2026;
+    let t = hidden_trial(&[], false, seed).expect("trial");
+    let d = diagnose::run(
+        &t.synthetic.trial,
+        Some(&t.synthetic.unloaded),
+        &settings,
+        &mut diagnose::no_observer,
+    )
+    .expect("diagnosis");
+    assert!(d.causes.is_empty(), "{:?}", d.causes);
+    for kind in [EffectKind::TorqueOffset, EffectKind::Inertia] {
+        let limit = d
+            .candidates
+            .iter()
+            .find(|c| c.effect == kind.name())
+            .and_then(|c| c.detection_limit)
+            .expect("a detection limit");
+        let hidden = hidden_trial_sized(kind, limit, seed).expect("trial");
+        assert_eq!(hidden.params, t.params);
+        let info = noncentrality(
+            &hidden.synthetic.trial,
+            &hidden.synthetic.model_torque,
+            &[],
+            &spec_noise(),
+            &settings,
+        )
+        .expect("fit");
+        let power = rule_power(
+            info.lambda,
+            kind.params().len(),
+            info.n_obs,
+            settings.max_delta_bic,
+        );
+        eprintln!(
+            "{}: limit {limit:.4}, λ {:.1}, rule power {power:.3}",
+            kind.name(),
+            info.lambda
+        );
+        assert!((0.6..=0.999).contains(&power), "{}: {power}", kind.name());
+    }
+}
