@@ -77,17 +77,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 .parse()?,
             None => "relaxed+2".parse()?,
         };
+        let diagnose_trial = |t: &diagnose::scenarios::HiddenTrial| {
+            run(
+                &t.synthetic.trial,
+                Some(&t.synthetic.unloaded),
+                &settings,
+                &mut no_observer,
+            )
+        };
         if args.iter().any(|a| a == "--null") {
             let mut alarms = 0;
             for i in 0..n {
                 let seed = base + i;
-                let t = hidden_trial_on(&[], i % 2 == 1, seed, protocol)?;
-                let d = run(
-                    &t.synthetic.trial,
-                    Some(&t.synthetic.unloaded),
-                    &settings,
-                    &mut no_observer,
-                )?;
+                let d = diagnose_trial(&hidden_trial_on(&[], i % 2 == 1, seed, protocol)?)?;
                 dump(seed, &[], &d)?;
                 if !d.causes.is_empty() {
                     alarms += 1;
@@ -114,13 +116,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 let mut other = 0;
                 for i in 0..n {
                     let seed = base + 1000 * (kind as u64) + i;
-                    let t = hidden_trial_sized_on(kind, s, seed, protocol)?;
-                    let d = run(
-                        &t.synthetic.trial,
-                        Some(&t.synthetic.unloaded),
-                        &settings,
-                        &mut no_observer,
-                    )?;
+                    let d = diagnose_trial(&hidden_trial_sized_on(kind, s, seed, protocol)?)?;
                     dump(seed, &[kind], &d)?;
                     if d.causes == vec![kind.name().to_string()] {
                         hit += 1;

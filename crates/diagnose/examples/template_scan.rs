@@ -8,7 +8,7 @@
 //! relative L2 error over its first 0.5 s against the SPEC §4 transient (1.0: no transient
 //! found) and the fitted noise model, then the number of runs with an error above 0.4.
 
-use diagnose::{NoiseModel, NoiseSource, Segmentation};
+use diagnose::{NoiseModel, NoiseSource, Segmentation, Transient};
 use experiment::DynamometerSettings;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -27,15 +27,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let fs = u.sample_rate_hz();
             let seg = Segmentation::new(&u.ankle_angle_deg, fs, None)?;
             let m = NoiseModel::fit(&u.torque_nm, fs, &seg.events, true, NoiseSource::Unloaded);
-            let (mut num, mut den) = (0.0, 0.0);
-            for k in 0..1024 {
-                let ts = k as f64 / 2048.0;
-                let w = 2.0 * std::f64::consts::PI * s.transient_freq_hz * ts;
-                let truth = s.transient_amplitude_nm * (-ts / s.transient_tau_s).exp() * w.sin();
-                num += (m.transient.at(ts) - truth).powi(2);
-                den += truth * truth;
-            }
-            let err = (num / den).sqrt();
+            let truth = Transient {
+                b_nm: s.transient_amplitude_nm,
+                c_nm: 0.0,
+                tau_s: s.transient_tau_s,
+                freq_hz: s.transient_freq_hz,
+            };
+            let err = m.transient.relative_error(&truth, 0.5, 2048.0);
             total += 1;
             if err > 0.4 {
                 bad += 1;

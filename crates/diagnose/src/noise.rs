@@ -65,6 +65,19 @@ impl Transient {
         let w = 2.0 * std::f64::consts::PI * self.freq_hz * s;
         (-s / self.tau_s).exp() * (self.b_nm * w.sin() + self.c_nm * w.cos())
     }
+
+    /// `‖self − truth‖ / ‖truth‖` over the first `window_s` seconds after an event, sampled
+    /// at `fs` (1.0 for no transient against a real one).
+    pub fn relative_error(&self, truth: &Transient, window_s: f64, fs: f64) -> f64 {
+        let (mut num, mut den) = (0.0, 0.0);
+        for i in 0..(window_s * fs).round() as usize {
+            let s = i as f64 / fs;
+            let t = truth.at(s);
+            num += (self.at(s) - t).powi(2);
+            den += t * t;
+        }
+        (num / den).sqrt()
+    }
 }
 
 /// The noise model of the torque residual.

@@ -192,15 +192,20 @@ impl Projector {
     }
 }
 
+/// The eligible effects not yet in `fit`.
+fn untested(fit: &Fit, eligible: &[EffectKind]) -> Vec<EffectKind> {
+    eligible
+        .iter()
+        .copied()
+        .filter(|k| !fit.kinds.contains(k))
+        .collect()
+}
+
 /// Scores every eligible candidate not yet in `fit`.
 pub(crate) fn score_all(ctx: &Context, fit: &Fit, eligible: &[EffectKind]) -> Vec<Score> {
     let proj = Projector::new(ctx, fit);
     let n = proj.n;
-    let todo: Vec<EffectKind> = eligible
-        .iter()
-        .copied()
-        .filter(|k| !fit.kinds.contains(k))
-        .collect();
+    let todo = untested(fit, eligible);
     todo.par_iter()
         .filter_map(|&kind| {
             let vars = variants(ctx, fit, kind);
@@ -297,11 +302,7 @@ pub(crate) fn detection_limits(
 ) -> Vec<(EffectKind, f64, usize)> {
     let proj = Projector::new(ctx, fit);
     let n = proj.n;
-    let todo: Vec<EffectKind> = eligible
-        .iter()
-        .copied()
-        .filter(|k| !fit.kinds.contains(k))
-        .collect();
+    let todo = untested(fit, eligible);
     let torque_15 = (PASSIVE_LIMIT_STIFFNESS * crate::scenarios::PASSIVE_REFERENCE_RAD).exp() - 1.0;
     todo.par_iter()
         .filter_map(|&kind| {

@@ -98,15 +98,16 @@ fn auto_folds_are_cycles_from_three_cycles_on_and_blocks_below() {
 
 /// Relative L2 error of a fitted event transient against the true one over 0.5 s.
 fn transient_error(m: &NoiseModel, s: &DynamometerSettings) -> f64 {
-    let (mut num, mut den) = (0.0, 0.0);
-    for i in 0..1024 {
-        let t = i as f64 / 2048.0;
-        let w = 2.0 * std::f64::consts::PI * s.transient_freq_hz * t;
-        let truth = s.transient_amplitude_nm * (-t / s.transient_tau_s).exp() * w.sin();
-        num += (m.transient.at(t) - truth).powi(2);
-        den += truth * truth;
+    m.transient.relative_error(&spec_transient(s), 0.5, 2048.0)
+}
+
+fn spec_transient(s: &DynamometerSettings) -> Transient {
+    Transient {
+        b_nm: s.transient_amplitude_nm,
+        c_nm: 0.0,
+        tau_s: s.transient_tau_s,
+        freq_hz: s.transient_freq_hz,
     }
-    (num / den).sqrt()
 }
 
 #[test]
