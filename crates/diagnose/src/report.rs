@@ -138,6 +138,16 @@ pub struct CandidateReport {
     pub detection_limit: Option<f64>,
 }
 
+impl CandidateReport {
+    /// [`CandidateReport::detection_limit`] with three significant digits and its unit
+    /// (e.g. `7.30 N·m`); `None` for an effect in the final model.
+    pub fn detection_limit_text(&self) -> Option<String> {
+        let kind = EffectKind::from_name(&self.effect)?;
+        let x = self.detection_limit?;
+        Some(format!("{} {}", sig3(x), detection_limit_unit(kind)))
+    }
+}
+
 /// The unit (or quantity) of [`CandidateReport::detection_limit`] for an effect.
 pub fn detection_limit_unit(kind: EffectKind) -> &'static str {
     match kind {
@@ -359,10 +369,7 @@ impl Diagnosis {
                 .into(),
         );
         for c in self.candidates.iter().take(19usize.saturating_sub(l.len())) {
-            let limit = match (c.detection_limit, EffectKind::from_name(&c.effect)) {
-                (Some(x), Some(k)) => format!("{} {}", sig3(x), detection_limit_unit(k)),
-                _ => String::new(),
-            };
+            let limit = c.detection_limit_text().unwrap_or_default();
             l.push(
                 format!(
                     "  {}{:<24} {:>9.1} {:>9} {:>8}  {limit}",

@@ -186,6 +186,7 @@ fn write_figures(
                 format!("{:.1}", c.evidence),
                 c.heldout_rms_nm.map_or("–".into(), |v| format!("{v:.3}")),
                 c.delta_bic.map_or("–".into(), |v| format!("{v:.1}")),
+                c.detection_limit_text().unwrap_or_else(|| "–".into()),
                 if c.accepted {
                     "named".into()
                 } else if let Some(t) = d.near_ties.iter().find(|t| t.alternative == c.effect) {
@@ -200,8 +201,17 @@ fn write_figures(
         .collect();
     set.page()
         .table(
-            "Candidate effects (score-test evidence, refit held-out RMS and ΔBIC)",
-            &["effect", "evidence", "held-out RMS (N·m)", "ΔBIC", ""],
+            "Candidate effects (score-test evidence, refit held-out RMS and ΔBIC) and, for \
+             those not named, the size this trial would reveal in 95 % of such trials: a \
+             smaller effect could be present and missed",
+            &[
+                "effect",
+                "evidence",
+                "held-out RMS (N·m)",
+                "ΔBIC",
+                "could be missed below",
+                "",
+            ],
             &rows,
         )
         .map_err(|e| Failure::internal(e.to_string()))?;
