@@ -151,13 +151,7 @@ impl NoiseModel {
         if !events.is_empty() {
             try_grid(&coarse_taus, &coarse_freqs, &mut best);
             for _ in 0..2 {
-                let t0 = best.2.tau_s;
-                let f0 = best.2.freq_hz;
-                let taus: Vec<f64> = (-6..=6).map(|k| t0 * 1.04f64.powi(k)).collect();
-                let freqs: Vec<f64> = (-10..=10)
-                    .map(|k| f0 + 0.05 * k as f64)
-                    .filter(|f| *f > 0.0)
-                    .collect();
+                let (taus, freqs) = grid_around(best.2.tau_s, 1.04, 6, best.2.freq_hz, 0.05, 10);
                 try_grid(&taus, &freqs, &mut best);
             }
         } else {
@@ -169,13 +163,14 @@ impl NoiseModel {
             best = (0.0, c, Transient::none());
         }
         let (_, mut offset, mut transient) = best;
-        let remainder = |offset: f64, transient: &Transient| {
+        // the remainder after a systematic part, and the random part fitted to it
+        let random_part = |offset: f64, transient: &Transient| {
             let mut rem: Vec<f64> = y.iter().map(|v| v - offset).collect();
             add_scaled_transients(&mut rem, &times, events, transient, -1.0);
-            rem
+            let ar = fit_ar1_white(&rem);
+            (rem, ar)
         };
-        let mut rem = remainder(offset, &transient);
-        let (mut phi, mut sd_ar, mut sd_white) = fit_ar1_white(&rem);
+        let (mut rem, (mut phi, mut sd_ar, mut sd_white)) = random_part(offset, &transient);
         // Generalised least squares: the random part is strongly autocorrelated (AR(1) with a
         // correlation time of tens of ms, like the transient itself), so ordinary least squares
         // weighs its low frequencies as if they were independent and misplaces τ and f. Refit
@@ -193,23 +188,17 @@ impl NoiseModel {
                 };
                 // round 0: around the least-squares optimum (τ × 1.3^±3, f ± 4 Hz), then
                 // two finer grids (τ × 1.06^±3 and f ± 0.5 Hz; τ × 1.02^±3 and f ± 0.15 Hz)
-                let (t0, f0) = (best.2.tau_s, best.2.freq_hz);
                 if round == 0 {
-                    let taus: Vec<f64> = (-3..=3).map(|k| t0 * 1.3f64.powi(k)).collect();
-                    let freqs: Vec<f64> = (-4..=4)
-                        .map(|k| f0.round() + k as f64)
-                        .filter(|f| *f > 0.0)
-                        .collect();
+                    let f0 = best.2.freq_hz.round();
+                    let (taus, freqs) = grid_around(best.2.tau_s, 1.3, 3, f0, 1.0, 4);
                     try_grid(&taus, &freqs, &mut best);
                 }
                 refine(&mut best, |tau, f| gls.fit(tau, f));
                 if !best.0.is_finite() {
                     break;
                 }
-                offset = best.1;
-                transient = best.2;
-                rem = remainder(offset, &transient);
-                (phi, sd_ar, sd_white) = fit_ar1_white(&rem);
+                (offset, transient) = (best.1, best.2);
+                (rem, (phi, sd_ar, sd_white)) = random_part(offset, &transient);
             }
             // The rounds above search near the least-squares optimum. The AR(1) wander can
             // pull that into another basin (on one SPEC unloaded run, seed 1100712, to 2.5 Hz
@@ -226,18 +215,11 @@ impl NoiseModel {
                 let freqs: Vec<f64> = coarse_freqs.iter().copied().skip(1).step_by(2).collect();
                 grid_search(&taus, &freqs, &mut best, |tau, f| gls.fit(tau, f));
                 if best.2 != transient {
-                    let (t0, f0) = (best.2.tau_s, best.2.freq_hz);
-                    let taus: Vec<f64> = (-1..=1).map(|k| t0 * 1.3f64.powi(k)).collect();
-                    let freqs: Vec<f64> = (-1..=1)
-                        .map(|k| f0 + k as f64)
-                        .filter(|f| *f > 0.0)
-                        .collect();
+                    let (taus, freqs) = grid_around(best.2.tau_s, 1.3, 1, best.2.freq_hz, 1.0, 1);
                     grid_search(&taus, &freqs, &mut best, |tau, f| gls.fit(tau, f));
                     refine(&mut best, |tau, f| gls.fit(tau, f));
-                    offset = best.1;
-                    transient = best.2;
-                    rem = remainder(offset, &transient);
-                    (phi, sd_ar, sd_white) = fit_ar1_white(&rem);
+                    (offset, transient) = (best.1, best.2);
+                    (rem, (phi, sd_ar, sd_white)) = random_part(offset, &transient);
                 }
             }
             // keep the transient only when the recording has one: without it, the grid
@@ -248,10 +230,8 @@ impl NoiseModel {
                 let with = gls.fit(transient.tau_s, transient.freq_hz).0;
                 let (without, c) = gls.without_transient();
                 if with.is_finite() && without - with < TRANSIENT_MIN_EVIDENCE {
-                    offset = c;
-                    transient = Transient::none();
-                    rem = remainder(offset, &transient);
-                    (phi, sd_ar, sd_white) = fit_ar1_white(&rem);
+                    (offset, transient) = (c, Transient::none());
+                    (rem, (phi, sd_ar, sd_white)) = random_part(offset, &transient);
                 }
             }
         }
@@ -364,14 +344,20 @@ fn coarse_grid() -> (Vec<f64>, Vec<f64>) {
 /// `f` ± 0.15 Hz).
 fn refine(best: &mut (f64, f64, Transient), fit: impl Fn(f64, f64) -> (f64, f64, f64, f64)) {
     for (tf, fstep) in [(1.06f64, 0.1), (1.02, 0.03)] {
-        let (t0, f0) = (best.2.tau_s, best.2.freq_hz);
-        let taus: Vec<f64> = (-3..=3).map(|k| t0 * tf.powi(k)).collect();
-        let freqs: Vec<f64> = (-5..=5)
-            .map(|k| f0 + fstep * k as f64)
-            .filter(|f| *f > 0.0)
-            .collect();
+        let (taus, freqs) = grid_around(best.2.tau_s, tf, 3, best.2.freq_hz, fstep, 5);
         grid_search(&taus, &freqs, best, &fit);
     }
+}
+
+/// A grid around `(τ₀, f₀)`: `τ₀·ratio^k` for `|k| ≤ kt` and the positive `f₀ + fstep·k` for
+/// `|k| ≤ kf`.
+fn grid_around(t0: f64, ratio: f64, kt: i32, f0: f64, fstep: f64, kf: i32) -> (Vec<f64>, Vec<f64>) {
+    let taus = (-kt..=kt).map(|k| t0 * ratio.powi(k)).collect();
+    let freqs = (-kf..=kf)
+        .map(|k| f0 + fstep * k as f64)
+        .filter(|f| *f > 0.0)
+        .collect();
+    (taus, freqs)
 }
 
 /// Keeps in `best` = (SS, c, transient) the lowest-SS fit over the grid `taus × freqs`;

@@ -303,6 +303,8 @@ pub(crate) fn detection_limits(
     let proj = Projector::new(ctx, fit);
     let n = proj.n;
     let todo = untested(fit, eligible);
+    // λ₉₅ depends only on the number of parameters (1 or 2): found once per number
+    let lambdas = [1, 2].map(|k| lambda_95(k, n, max_delta_bic));
     let torque_15 = (PASSIVE_LIMIT_STIFFNESS * crate::scenarios::PASSIVE_REFERENCE_RAD).exp() - 1.0;
     todo.par_iter()
         .filter_map(|&kind| {
@@ -323,7 +325,10 @@ pub(crate) fn detection_limits(
             if !(info > 0.0 && info.is_finite()) {
                 return None;
             }
-            let lambda = lambda_95(kind.params().len(), n, max_delta_bic);
+            let lambda = match kind.params().len() {
+                k @ 1..=2 => lambdas[k - 1],
+                k => lambda_95(k, n, max_delta_bic),
+            };
             let linear = (lambda / info).sqrt() * per_unit;
             // the effect's parameters at headline size `linear`
             let values: [f64; 2] = match kind {
