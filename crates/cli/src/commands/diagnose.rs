@@ -23,7 +23,7 @@ const PLANNED: &[&str] = &[
 /// Arguments of `surae diagnose`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Trial CSV (SPEC §5); the bundled seed trial (and its unloaded run) when omitted.
+    /// Trial CSV (format in docs/formats.md); the bundled seed trial (and its unloaded run) when omitted.
     #[arg(long)]
     pub trial: Option<PathBuf>,
     /// Unloaded run CSV: its cycle-locked error is removed from the measured

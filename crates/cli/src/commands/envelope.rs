@@ -1,4 +1,4 @@
-//! `surae envelope`: normalised EMG envelopes of a trial (SPEC §2).
+//! `surae envelope`: normalised EMG envelopes of a trial (filter chain in docs/model.md).
 
 use super::{load_trial, out_file};
 use crate::error::{CmdResult, Failure};
@@ -10,7 +10,7 @@ use std::path::PathBuf;
 /// Arguments of `surae envelope`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Trial CSV (SPEC §5); the bundled seed trial when omitted.
+    /// Trial CSV (format in docs/formats.md); the bundled seed trial when omitted.
     #[arg(long)]
     pub trial: Option<PathBuf>,
     /// Output: a `.csv` file, or a folder to write `envelope.csv` into

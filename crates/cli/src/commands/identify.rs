@@ -1,4 +1,4 @@
-//! `surae identify`: fit LST, F0 and α0 of the three muscles (SPEC §7–8) by
+//! `surae identify`: fit LST, F0 and α0 of the three muscles (docs/results.md) by
 //! simulated annealing or MCMC.
 
 use super::{load_model_config, load_trial, load_unloaded, trial_inputs, LoadedTrial, ModelArgs};
@@ -49,7 +49,7 @@ pub struct Args {
     /// `sa` (simulated annealing) or `mcmc` (Metropolis–Hastings).
     #[arg(long, value_enum)]
     pub method: Method,
-    /// Trial CSV (SPEC §5); the bundled seed trial (and its unloaded run) when omitted.
+    /// Trial CSV (format in docs/formats.md); the bundled seed trial (and its unloaded run) when omitted.
     #[arg(long)]
     pub trial: Option<PathBuf>,
     /// Unloaded run CSV (`time_s, ankle_angle_deg, torque_nm`): its cycle-locked
@@ -59,7 +59,7 @@ pub struct Args {
     /// Seed of every random choice (results do not depend on the thread count).
     #[arg(long, default_value_t = 42)]
     pub seed: u64,
-    /// True parameters (a SPEC §5 parameters JSON, or a fixture's `truth.json`):
+    /// True parameters (a parameters JSON, docs/formats.md, or a fixture's `truth.json`):
     /// adds `errors_pct`. The bundled trial's truth is used when no `--trial` is given.
     #[arg(long)]
     pub truth: Option<PathBuf>,

@@ -101,14 +101,14 @@ pub fn out_file(out: Option<&Path>, command: &str, default_file: &str) -> PathBu
 /// Model options shared by the commands that simulate.
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct ModelArgs {
-    /// Parameters JSON (SPEC §5; any subset, the rest is nominal).
+    /// Parameters JSON (docs/formats.md; any subset, the rest is nominal).
     #[arg(long)]
     pub params: Option<PathBuf>,
-    /// Effects JSON (SPEC §6): `{"<effect>": {"<param>": value}}`.
+    /// Effects JSON (effects and their parameters in docs/formats.md): `{"<effect>": {"<param>": value}}`.
     #[arg(long)]
     pub effects: Option<PathBuf>,
     /// The EMG columns are already normalised envelopes in [0, 1] (skip the
-    /// SPEC §2 filtering).
+    /// EMG filtering of docs/model.md).
     #[arg(long)]
     pub emg_is_envelope: bool,
 }

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 /// Arguments of `surae sensitivity`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Trial CSV (SPEC §5); the bundled seed trial when omitted.
+    /// Trial CSV (format in docs/formats.md); the bundled seed trial when omitted.
     #[arg(long)]
     pub trial: Option<PathBuf>,
     #[command(flatten)]

@@ -1,4 +1,4 @@
-//! `surae simulate`: the model's torque for a trial (SPEC §3, §6).
+//! `surae simulate`: the model's torque for a trial (docs/model.md; effects in docs/formats.md).
 
 use super::{load_model_config, load_trial, out_file, trial_inputs, ModelArgs};
 use crate::error::{CmdResult, Failure};
@@ -9,7 +9,7 @@ use std::path::PathBuf;
 /// Arguments of `surae simulate`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Trial CSV (SPEC §5); the bundled seed trial when omitted.
+    /// Trial CSV (format in docs/formats.md); the bundled seed trial when omitted.
     #[arg(long)]
     pub trial: Option<PathBuf>,
     #[command(flatten)]
