@@ -1,3 +1,5 @@
 //! End-to-end tests across the surae crates live in `tests/tests/`: the model
-//! against an independent implementation of SPEC §2–3 (`bench/peer`), through
-//! the same file-reading and envelope path a user's recording takes.
+//! against an independent implementation of its equations (`bench/peer` for the
+//! muscle torque, the joint-level effects written in the test from their
+//! definitions), through the same file-reading and envelope path a user's
+//! recording takes.

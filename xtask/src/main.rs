@@ -7,6 +7,7 @@
 //! | folder | protocol | truth | seed |
 //! |---|---|---|---|
 //! | `seed` | `seed` | nominal parameters, no effect | 2016 |
+//! | `offnominal` | `seed` | the 9 identified parameters off nominal ([`OFF_NOMINAL`]), no effect | 2018 |
 //! | `relaxed2` | `relaxed+2` | nominal parameters, no effect | 2017 |
 //! | `<effect>` (9 folders, SPEC §6 names) | `relaxed+2` | nominal parameters + that effect | 3001…3009 |
 //!
@@ -28,7 +29,7 @@ use std::process::ExitCode;
 
 use anyhow::{bail, Context, Result};
 use experiment::{format_trial, format_unloaded, sorted_json, synthesize, Protocol, SynthConfig};
-use muscle_model::{EffectKind, Effects};
+use muscle_model::{EffectKind, Effects, ModelParams, ParamId};
 use serde_json::Value;
 
 /// The generator's name, written into every `truth.json` and comment line.
@@ -38,6 +39,43 @@ const GENERATOR: &str = "cargo xtask gen-fixtures";
 const SEED_SEED: u64 = 2016;
 /// Seed of `fixtures/relaxed2`.
 const SEED_RELAXED2: u64 = 2017;
+/// Seed of `fixtures/offnominal`.
+const SEED_OFFNOMINAL: u64 = 2018;
+
+/// The truth of `fixtures/offnominal`: each identified parameter times its factor.
+///
+/// The identification starts one chain (SA) and one mode search (MCMC) at the nominal
+/// parameters, so a nominal truth cannot tell a recovered parameter from one that never
+/// moved. These factors put every parameter away from nominal and away from the bounds
+/// (LST ±5 %, F0 and α0 ±20 %): LST by 2–3 %, F0 and α0 by 10–12 %, with signs mixed
+/// within and across muscles so that no common scale of the three muscles reproduces the
+/// truth.
+const OFF_NOMINAL: [(&str, f64); 9] = [
+    ("sol.lst_m", 1.03),
+    ("sol.fom_n", 0.88),
+    ("sol.alpha_deg", 1.10),
+    ("gm.lst_m", 0.97),
+    ("gm.fom_n", 1.10),
+    ("gm.alpha_deg", 0.88),
+    ("gl.lst_m", 1.02),
+    ("gl.fom_n", 0.90),
+    ("gl.alpha_deg", 1.12),
+];
+
+/// The nominal parameters with [`OFF_NOMINAL`] applied.
+fn off_nominal_params() -> Result<ModelParams> {
+    let mut params = ModelParams::nominal();
+    let mut effects = Effects::none();
+    for (name, factor) in OFF_NOMINAL {
+        let id = ParamId::parse(name).with_context(|| format!("parameter {name}"))?;
+        let v = id.get(&params, &effects) * factor;
+        id.set(&mut params, &mut effects, v);
+    }
+    params
+        .validate()
+        .context("the off-nominal fixture's parameters")?;
+    Ok(params)
+}
 /// Seed of the effect folders: this + 1-based catalogue index (3001 … 3009).
 const SEED_EFFECTS_BASE: u64 = 3000;
 
@@ -104,6 +142,8 @@ struct Fixture {
     name: String,
     config: SynthConfig,
     description: String,
+    /// How the true parameters are named in the trial's comment line.
+    params_text: &'static str,
 }
 
 fn fixtures() -> Result<Vec<Fixture>> {
@@ -113,11 +153,22 @@ fn fixtures() -> Result<Vec<Fixture>> {
             config: SynthConfig::new(Protocol::Seed, SEED_SEED),
             description:
                 "the dissertation's experiment: seed protocol, nominal parameters, no effect".into(),
+            params_text: "nominal parameters",
+        },
+        Fixture {
+            name: "offnominal".into(),
+            config: SynthConfig::new(Protocol::Seed, SEED_OFFNOMINAL)
+                .with_params(off_nominal_params()?),
+            description: "seed protocol, the 9 identified parameters off nominal \
+                          (LST ×1.03/0.97/1.02, F0 ×0.88/1.10/0.90, α0 ×1.10/0.88/1.12 for sol/gm/gl), no effect"
+                .into(),
+            params_text: "off-nominal parameters",
         },
         Fixture {
             name: "relaxed2".into(),
             config: SynthConfig::new(Protocol::Relaxed { cycles: 2 }, SEED_RELAXED2),
             description: "relaxed+2 protocol, nominal parameters, no effect".into(),
+            params_text: "nominal parameters",
         },
     ];
     for (i, e) in EFFECTS.iter().enumerate() {
@@ -138,6 +189,7 @@ fn fixtures() -> Result<Vec<Fixture>> {
                 e.kind.name(),
                 e.why
             ),
+            params_text: "nominal parameters",
         });
     }
     Ok(out)
@@ -156,8 +208,8 @@ fn render(f: &Fixture) -> Result<Vec<(String, String)>> {
     let mut trial = syn.trial;
     let effects = serde_json::to_string(&sorted_json(&f.config.effects.to_json_value()))?;
     trial.comments = vec![format!(
-        " surae synthetic trial `{}` made by `{GENERATOR}`: protocol {}, seed {}, nominal parameters, effects {effects}; truth in truth.json",
-        f.name, f.config.protocol, f.config.seed
+        " surae synthetic trial `{}` made by `{GENERATOR}`: protocol {}, seed {}, {}, effects {effects}; truth in truth.json",
+        f.name, f.config.protocol, f.config.seed, f.params_text
     )];
     let mut unloaded = syn.unloaded;
     unloaded.comments = vec![format!(

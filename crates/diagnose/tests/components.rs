@@ -225,12 +225,21 @@ fn levenberg_marquardt_solves_a_bounded_curve_fit() {
     assert!(bounded.cost > free.cost);
 }
 
-/// The scenario generator and the model the diagnosis fits agree: on a hidden trial of every
-/// catalogued effect (TA channel on), simulating the model inputs read back from the trial with
-/// the true parameters and effects reproduces the generator's noise-free torque. (A mismatch
-/// here would bias every recovered magnitude.)
+/// The fitting's integration settings reproduce the generator's reference integration with
+/// every catalogued effect present.
+///
+/// Both sides are `muscle_model::simulate` on the same model inputs (the generator reads its
+/// own trial back through `experiment::model_inputs`) with the same true parameters and
+/// effects; they differ only in the settings: the generator's noise-free torque uses
+/// `SimSettings::tight()` (reduced formulation, rtol 1e-10), the fits use
+/// `SimSettings::default()` (fast formulation with precomputed activation, rtol 1e-6, the
+/// settings of every `Problem`). So this checks the integration error of the default
+/// settings and the agreement of the two formulations, per effect (TA channel on, random
+/// parameters); it is not an independent check of the model's equations (that is
+/// `tests/tests/independent_model.rs`). Measured RMS 0.8e-3 (electromechanical_delay) to
+/// 2.8e-3 N·m (torque_offset); the tolerance, 0.01 N·m, is about 3.5 times the largest.
 #[test]
-fn hidden_trials_are_reproduced_by_the_fitted_model() {
+fn default_settings_reproduce_the_generators_tight_integration_on_every_effect() {
     use muscle_model::{simulate, SimSettings};
     for (i, &kind) in EffectKind::ALL.iter().enumerate() {
         let t = diagnose::scenarios::hidden_trial(&[kind], true, 4242 + i as u64).unwrap();
