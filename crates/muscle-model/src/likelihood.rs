@@ -14,7 +14,7 @@
 //!
 //! The AR(1)-plus-white-noise model and its whitening are in [`crate::noise`]. A residual
 //! with a 0/1 mask is scored as independent runs of the included samples
-//! ([`masked_log_likelihood`]).
+//! (`masked_log_likelihood`).
 
 use crate::error::ModelError;
 use serde::{Deserialize, Serialize};

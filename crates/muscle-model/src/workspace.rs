@@ -19,7 +19,7 @@ use crate::stats::SimStats;
 use crate::unit::MuscleUnit;
 use std::sync::Arc;
 
-/// Reusable scratch memory for [`simulate_into`] (one per thread).
+/// Reusable scratch memory for [`crate::simulate_into`] (one per thread).
 #[derive(Clone, Debug, Default)]
 pub struct Workspace {
     torque_muscle: [Vec<f64>; 3],
@@ -66,12 +66,12 @@ impl Workspace {
         Workspace::default()
     }
 
-    /// Per-muscle torques of the last [`simulate_into`] call.
+    /// Per-muscle torques of the last [`crate::simulate_into`] call.
     pub fn torque_muscle(&self) -> &[Vec<f64>; 3] {
         &self.torque_muscle
     }
 
-    /// `(reused, integrated)`: how many per-muscle results [`simulate_into`] took from this
+    /// `(reused, integrated)`: how many per-muscle results [`crate::simulate_into`] took from this
     /// workspace's cache and how many it integrated, since the workspace was made.
     ///
     /// With [`Formulation::Fast`] each muscle's result (its torque per newton of `F0`) is kept
