@@ -67,7 +67,7 @@ pub struct Trial {
     pub ignored_columns: Vec<String>,
 }
 
-/// An unloaded run: the dynamometer moving with nothing attached (SPEC §1, §4).
+/// An unloaded run: the dynamometer moving with nothing attached (`docs/formats.md`).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Unloaded {
     /// Time in seconds, strictly increasing and uniform.
