@@ -7,23 +7,27 @@
 
 use crate::error::ModelError;
 use crate::params::Muscle;
+use std::any::Any;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, OnceLock};
 
-/// Per-trial precomputed inputs of the fast formulation, shared by clones and threads: the
-/// activation tables and the per-muscle channels built from them.
+/// Results derived from one trial's inputs and kept with them, shared by their clones and by
+/// every thread (the fast simulation keeps its activation tables and channels here). The
+/// inputs hold the value without knowing its type, so its owner defines it.
 #[derive(Default)]
-pub(crate) struct ChannelCache {
-    pub(crate) tables: Mutex<Vec<Arc<crate::fast::ActTable>>>,
-    /// Tables without a delay, kept apart: a delayed table is one of them shifted in time, and
-    /// a delay fit makes new delayed tables at every step.
-    pub(crate) undelayed: Mutex<Vec<Arc<crate::fast::ActTable>>>,
-    pub(crate) channels: Mutex<Vec<Arc<crate::fast::Channel>>>,
+pub(crate) struct TrialMemo(OnceLock<Box<dyn Any + Send + Sync>>);
+
+impl TrialMemo {
+    /// The kept value of type `T`, made with `T::default()` on first use; `None` when a value
+    /// of another type was made first.
+    pub(crate) fn get_or_default<T: Any + Send + Sync + Default>(&self) -> Option<&T> {
+        self.0.get_or_init(|| Box::new(T::default())).downcast_ref()
+    }
 }
 
-impl std::fmt::Debug for ChannelCache {
+impl std::fmt::Debug for TrialMemo {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("ChannelCache")
+        f.write_str("TrialMemo")
     }
 }
 
@@ -46,7 +50,7 @@ pub struct TrialInputs {
     acceleration: Vec<f64>,
     env: [Vec<f64>; 3],
     env_ta: Option<Vec<f64>>,
-    channels: Arc<ChannelCache>,
+    memo: Arc<TrialMemo>,
 }
 
 impl TrialInputs {
@@ -125,7 +129,7 @@ impl TrialInputs {
             acceleration,
             env,
             env_ta,
-            channels: Arc::default(),
+            memo: Arc::default(),
         })
     }
 
@@ -136,11 +140,10 @@ impl TrialInputs {
         self.uid
     }
 
-    /// The fast formulation's activation tables and per-muscle channels kept for these
-    /// inputs.
+    /// What is kept with these inputs (shared by their clones).
     #[inline]
-    pub(crate) fn channel_cache(&self) -> &ChannelCache {
-        &self.channels
+    pub(crate) fn memo(&self) -> &TrialMemo {
+        &self.memo
     }
 
     /// Number of samples.

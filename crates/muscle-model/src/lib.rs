@@ -41,29 +41,35 @@ pub mod activation;
 pub mod curves;
 pub mod effects;
 pub mod error;
-mod fast;
+mod fast_simulation;
 pub mod geometry;
 pub mod inputs;
+mod joint_effects;
+pub mod likelihood;
+mod muscle_torque;
 pub mod noise;
 pub mod params;
 pub mod problem;
 pub mod sensitivity;
+pub mod settings;
 pub mod simulate;
+pub mod stats;
 pub mod synthetic;
 pub mod unit;
+pub mod workspace;
 
 pub use effects::{EffectKind, Effects, ParamSpec};
 pub use error::ModelError;
 pub use inputs::TrialInputs;
+pub use likelihood::{Ar1Gaussian, GaussianIid, NoiseModel};
 pub use noise::{Ar1White, MomentFit, WhitenPlan};
 pub use params::{ActivationParams, CurveParams, ModelParams, Muscle, MuscleParams};
-pub use problem::{
-    Ar1Gaussian, GaussianIid, MuscleField, NoiseModel, ParamId, Problem, ProblemWorkspace,
-};
+pub use problem::{MuscleField, ParamId, Problem, ProblemWorkspace};
 pub use sensitivity::{
     sensitivity, SensitivityRank, SensitivityRow, SensitivitySettings, SensitivityTable,
 };
-pub use simulate::{
-    simulate, simulate_into, Formulation, SimOutput, SimSettings, SimStats, Workspace,
-};
+pub use settings::{Formulation, SimSettings};
+pub use simulate::{simulate, simulate_into, SimOutput};
+pub use stats::SimStats;
 pub use unit::{MuscleUnit, STATE_DIM};
+pub use workspace::Workspace;

@@ -49,7 +49,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::{Ar1Gaussian, GaussianIid, ModelError, NoiseModel};
+use crate::error::ModelError;
+use crate::likelihood::{Ar1Gaussian, GaussianIid, NoiseModel};
 
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
 

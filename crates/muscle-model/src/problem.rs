@@ -1,11 +1,20 @@
-//! The identification problem: parameter vector ↔ model, bounds (SPEC §8), sum-of-squares cost
-//! (dissertation eq. 12) and a log-likelihood with pluggable noise models.
+//! The identification problem: parameter vector ↔ model, bounds, the weighted sum-of-squares
+//! cost (dissertation eq. 12)
+//!
+//! ```text
+//! SSE(x) = Σᵢ wᵢ (τᵢ − τ̂ᵢ(x))²
+//! ```
+//!
+//! and the log-likelihood of the residual under a [`NoiseModel`] of [`crate::likelihood`].
 
 use crate::effects::{EffectKind, Effects};
 use crate::error::ModelError;
 use crate::inputs::TrialInputs;
+use crate::likelihood::{masked_log_likelihood, NoiseModel};
 use crate::params::{ModelParams, Muscle};
-use crate::simulate::{predict_into, SimSettings, Target, Workspace};
+use crate::settings::SimSettings;
+use crate::simulate::{predict_into, Target};
+use crate::workspace::Workspace;
 use serde::{Deserialize, Serialize};
 use std::cell::RefCell;
 
@@ -249,122 +258,6 @@ impl<'de> Deserialize<'de> for ParamId {
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         let s = String::deserialize(d)?;
         ParamId::parse(&s).map_err(serde::de::Error::custom)
-    }
-}
-
-/// A noise model of the torque residual (measured − predicted).
-pub trait NoiseModel {
-    /// Log-likelihood of one contiguous run of residuals.
-    fn log_likelihood(&self, residual: &[f64]) -> f64;
-}
-
-/// Independent Gaussian errors with standard deviation `sigma` (dissertation eq. 17).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct GaussianIid {
-    /// Standard deviation (N·m).
-    pub sigma: f64,
-}
-
-impl GaussianIid {
-    /// Validated constructor (`sigma > 0`).
-    pub fn new(sigma: f64) -> Result<Self, ModelError> {
-        if sigma.is_finite() && sigma > 0.0 {
-            Ok(GaussianIid { sigma })
-        } else {
-            Err(ModelError::invalid(
-                "sigma",
-                format!("{sigma} must be positive"),
-            ))
-        }
-    }
-
-    /// Maximum-likelihood estimate `σ = sqrt(mean e²)` from a residual.
-    pub fn estimate(residual: &[f64]) -> Result<Self, ModelError> {
-        let n = residual.len().max(1) as f64;
-        GaussianIid::new((residual.iter().map(|e| e * e).sum::<f64>() / n).sqrt())
-    }
-}
-
-const LN_2PI: f64 = 1.837_877_066_409_345_5;
-
-impl NoiseModel for GaussianIid {
-    fn log_likelihood(&self, residual: &[f64]) -> f64 {
-        let s2 = self.sigma * self.sigma;
-        let ss: f64 = residual.iter().map(|e| e * e).sum();
-        -0.5 * residual.len() as f64 * (LN_2PI + s2.ln()) - 0.5 * ss / s2
-    }
-}
-
-/// Stationary Gaussian AR(1) errors `e_t = φ e_{t−1} + w_t`, `w_t ~ N(0, σw²)`; exact
-/// likelihood (first sample from the stationary law `N(0, σw²/(1 − φ²))`).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Ar1Gaussian {
-    /// Lag-one coefficient φ, `|φ| < 1`.
-    pub phi: f64,
-    /// Innovation standard deviation σw (N·m).
-    pub sigma_innov: f64,
-}
-
-impl Ar1Gaussian {
-    /// Validated constructor.
-    pub fn new(phi: f64, sigma_innov: f64) -> Result<Self, ModelError> {
-        if !(phi.is_finite() && phi.abs() < 1.0) {
-            return Err(ModelError::invalid(
-                "phi",
-                format!("{phi} must be in (-1, 1)"),
-            ));
-        }
-        if !(sigma_innov.is_finite() && sigma_innov > 0.0) {
-            return Err(ModelError::invalid(
-                "sigma_innov",
-                format!("{sigma_innov} must be positive"),
-            ));
-        }
-        Ok(Ar1Gaussian { phi, sigma_innov })
-    }
-
-    /// From the marginal (stationary) standard deviation: `σw = σ·sqrt(1 − φ²)`.
-    pub fn from_marginal(phi: f64, sigma: f64) -> Result<Self, ModelError> {
-        Ar1Gaussian::new(phi, sigma * (1.0 - phi * phi).max(0.0).sqrt())
-    }
-
-    /// Moment estimate from a residual: φ = lag-one autocorrelation (about zero), σw from
-    /// the innovations.
-    pub fn estimate(residual: &[f64]) -> Result<Self, ModelError> {
-        let n = residual.len();
-        if n < 3 {
-            return Err(ModelError::invalid("residual", "needs at least 3 samples"));
-        }
-        let c0: f64 = residual.iter().map(|e| e * e).sum();
-        let c1: f64 = residual.windows(2).map(|w| w[0] * w[1]).sum();
-        let phi = if c0 > 0.0 {
-            (c1 / c0).clamp(-0.999, 0.999)
-        } else {
-            0.0
-        };
-        let ss: f64 = residual
-            .windows(2)
-            .map(|w| (w[1] - phi * w[0]).powi(2))
-            .sum();
-        Ar1Gaussian::new(phi, (ss / (n - 1) as f64).sqrt())
-    }
-}
-
-impl NoiseModel for Ar1Gaussian {
-    fn log_likelihood(&self, residual: &[f64]) -> f64 {
-        let Some(&e0) = residual.first() else {
-            return 0.0;
-        };
-        let s2 = self.sigma_innov * self.sigma_innov;
-        let v0 = s2 / (1.0 - self.phi * self.phi);
-        let mut ll = -0.5 * (LN_2PI + v0.ln()) - 0.5 * e0 * e0 / v0;
-        let mut ss = 0.0;
-        for w in residual.windows(2) {
-            let d = w[1] - self.phi * w[0];
-            ss += d * d;
-        }
-        ll += -0.5 * (residual.len() - 1) as f64 * (LN_2PI + s2.ln()) - 0.5 * ss / s2;
-        ll
     }
 }
 
@@ -704,27 +597,7 @@ impl Problem {
         for (p, m) in ws.pred.iter_mut().zip(&self.measured) {
             *p = m - *p;
         }
-        let r = &ws.pred;
-        let ll = match &self.weights {
-            None => noise.log_likelihood(r),
-            Some(w) => {
-                let mut ll = 0.0;
-                let mut i = 0;
-                let n = r.len();
-                while i < n {
-                    if w[i] > 0.0 {
-                        let start = i;
-                        while i < n && w[i] > 0.0 {
-                            i += 1;
-                        }
-                        ll += noise.log_likelihood(&r[start..i]);
-                    } else {
-                        i += 1;
-                    }
-                }
-                ll
-            }
-        };
+        let ll = masked_log_likelihood(noise, &ws.pred, self.weights.as_deref());
         if ll.is_finite() {
             Ok(ll)
         } else {

@@ -5,7 +5,9 @@ use crate::error::ModelError;
 use crate::inputs::TrialInputs;
 use crate::params::ModelParams;
 use crate::problem::ParamId;
-use crate::simulate::{simulate_into, SimSettings, Workspace};
+use crate::settings::SimSettings;
+use crate::simulate::simulate_into;
+use crate::workspace::Workspace;
 use serde::Serialize;
 use std::fmt::Write as _;
 

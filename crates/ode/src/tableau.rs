@@ -1,6 +1,8 @@
 //! Fixed-step explicit Runge–Kutta methods given by their Butcher tableau.
 
-use crate::{OdeError, OdeSystem, Stats};
+use crate::error::OdeError;
+use crate::stats::Stats;
+use crate::system::OdeSystem;
 
 /// An explicit Butcher tableau with `S` stages: `c_i`, the strictly lower
 /// triangular `a_ij` and the weights `b_i`.

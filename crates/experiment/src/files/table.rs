@@ -1,0 +1,431 @@
+//! The delimited-text reader under both file kinds: UTF-8 decoding, comments, the header and
+//! its known columns, numeric cells, uniform sampling and duration, each failure an error
+//! naming the file, line and column.
+
+use std::path::Path;
+
+use super::number::format_f64;
+use super::records::ReadOptions;
+use crate::error::{ErrorKind, ExperimentError, Result};
+
+/// A parsed file: its known columns, comments and the columns it ignored.
+pub(super) struct Table {
+    /// Parsed columns, indexed like `known` (required then optional); `None` if absent.
+    pub(super) columns: Vec<Option<Vec<f64>>>,
+    /// 1-based field index of each known column in the header (0 if absent).
+    pub(super) field_of: Vec<usize>,
+    pub(super) comments: Vec<String>,
+    pub(super) ignored: Vec<String>,
+}
+
+fn normalise_name(s: &str) -> String {
+    s.trim()
+        .chars()
+        .filter(|c| !c.is_whitespace())
+        .map(|c| match c {
+            '-' | '.' => '_',
+            c => c.to_ascii_lowercase(),
+        })
+        .collect()
+}
+
+fn quote(cell: &str) -> String {
+    const MAX: usize = 40;
+    if cell.chars().count() > MAX {
+        let head: String = cell.chars().take(MAX).collect();
+        format!("'{head}…'")
+    } else {
+        format!("'{cell}'")
+    }
+}
+
+fn describe_control(c: char) -> String {
+    format!("U+{:04X}", c as u32)
+}
+
+/// Decodes bytes as UTF-8 (an optional BOM is skipped), naming the line of the first bad byte.
+pub(super) fn decode<'a>(bytes: &'a [u8], path: &str) -> Result<&'a str> {
+    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+    match std::str::from_utf8(bytes) {
+        Ok(s) => Ok(s),
+        Err(e) => {
+            let pos = e.valid_up_to();
+            let line = 1 + bytes[..pos].iter().filter(|&&b| b == b'\n').count();
+            Err(ExperimentError::Line {
+                path: path.to_string(),
+                line,
+                kind: ErrorKind::InvalidUtf8,
+                reason: format!("invalid UTF-8 at byte {pos}: not a text file (binary data?)"),
+            })
+        }
+    }
+}
+
+#[allow(clippy::too_many_lines)]
+pub(super) fn parse_table(
+    text: &str,
+    path: &str,
+    required: &[&str],
+    optional: &[&str],
+    opts: &ReadOptions,
+) -> Result<Table> {
+    let text = text.strip_prefix('\u{FEFF}').unwrap_or(text);
+    let known: Vec<&str> = required.iter().chain(optional.iter()).copied().collect();
+    let time_idx = known.iter().position(|&k| k == "time_s");
+    let p = || path.to_string();
+
+    let mut comments = Vec::new();
+    let mut header: Option<(usize, Vec<String>)> = None;
+    // For each header field: Some(known index) or None (ignored).
+    let mut field_map: Vec<Option<usize>> = Vec::new();
+    let mut field_of = vec![0usize; known.len()];
+    let mut values: Vec<Vec<f64>> = vec![Vec::new(); known.len()];
+    let mut row_lines: Vec<usize> = Vec::new();
+    let mut ignored = Vec::new();
+
+    let mut pieces = text.split('\n').peekable();
+    let mut lineno = 0usize;
+    while let Some(raw) = pieces.next() {
+        lineno += 1;
+        if raw.is_empty() && pieces.peek().is_none() {
+            break; // the empty piece after a final newline
+        }
+        let line = raw.strip_suffix('\r').unwrap_or(raw);
+        if let Some(c) = line.chars().find(|&c| c.is_control() && c != '\t') {
+            return Err(ExperimentError::Line {
+                path: p(),
+                line: lineno,
+                kind: ErrorKind::Binary,
+                reason: format!(
+                    "control character {} in the text: not a CSV file (binary data?)",
+                    describe_control(c)
+                ),
+            });
+        }
+        let trimmed = line.trim();
+        if trimmed.is_empty() {
+            continue;
+        }
+        if let Some(rest) = trimmed.strip_prefix('#') {
+            comments.push(rest.to_string());
+            continue;
+        }
+        match &header {
+            None => {
+                if !line.contains(',') {
+                    let delim = if line.contains(';') {
+                        Some("';'")
+                    } else if line.contains('\t') {
+                        Some("a tab")
+                    } else {
+                        None
+                    };
+                    if let Some(d) = delim {
+                        return Err(ExperimentError::Line {
+                            path: p(),
+                            line: lineno,
+                            kind: ErrorKind::WrongDelimiter,
+                            reason: format!(
+                                "wrong delimiter: the header is separated by {d}; fields must be separated by ','"
+                            ),
+                        });
+                    }
+                }
+                let names: Vec<String> = line.split(',').map(|s| s.trim().to_string()).collect();
+                for (j, name) in names.iter().enumerate() {
+                    let col = j + 1;
+                    if name.is_empty() {
+                        return Err(ExperimentError::Cell {
+                            path: p(),
+                            line: lineno,
+                            column: col,
+                            name: String::new(),
+                            kind: ErrorKind::EmptyColumnName,
+                            reason: "empty column name in the header".into(),
+                        });
+                    }
+                    if let Some(k) = known.iter().position(|&k| k == name) {
+                        if field_of[k] != 0 {
+                            return Err(ExperimentError::Cell {
+                                path: p(),
+                                line: lineno,
+                                column: col,
+                                name: name.clone(),
+                                kind: ErrorKind::DuplicateColumn,
+                                reason: format!(
+                                    "column '{name}' appears twice (also column {})",
+                                    field_of[k]
+                                ),
+                            });
+                        }
+                        field_of[k] = col;
+                        field_map.push(Some(k));
+                    } else if let Some(&k) = known
+                        .iter()
+                        .find(|&&k| normalise_name(name) == normalise_name(k))
+                    {
+                        return Err(ExperimentError::Cell {
+                            path: p(),
+                            line: lineno,
+                            column: col,
+                            name: name.clone(),
+                            kind: ErrorKind::MisspelledColumn,
+                            reason: format!(
+                                "column {} looks like '{k}'; column names are exact and lower case",
+                                quote(name)
+                            ),
+                        });
+                    } else {
+                        ignored.push(name.clone());
+                        field_map.push(None);
+                    }
+                }
+                let missing: Vec<&str> = required
+                    .iter()
+                    .enumerate()
+                    .filter(|(k, _)| field_of[*k] == 0)
+                    .map(|(_, &n)| n)
+                    .collect();
+                if !missing.is_empty() {
+                    let list = missing
+                        .iter()
+                        .map(|m| format!("'{m}'"))
+                        .collect::<Vec<_>>()
+                        .join(", ");
+                    let plural = if missing.len() > 1 { "s" } else { "" };
+                    return Err(ExperimentError::Line {
+                        path: p(),
+                        line: lineno,
+                        kind: ErrorKind::MissingColumn,
+                        reason: format!(
+                            "missing required column{plural} {list} (the header has: {})",
+                            names.join(", ")
+                        ),
+                    });
+                }
+                header = Some((lineno, names));
+            }
+            Some((_, names)) => {
+                let nfields = line.split(',').count();
+                if nfields != names.len() {
+                    let hint = if line.contains(';') {
+                        " (the line contains ';': fields must be separated by ',' and decimals written with '.')"
+                    } else if line.contains('\t') {
+                        " (the line contains a tab: fields must be separated by ',')"
+                    } else {
+                        ""
+                    };
+                    let what = if nfields < names.len() {
+                        "too few"
+                    } else {
+                        "too many"
+                    };
+                    return Err(ExperimentError::Line {
+                        path: p(),
+                        line: lineno,
+                        kind: ErrorKind::FieldCount,
+                        reason: format!(
+                            "{what} fields: expected {}, found {nfields}{hint}",
+                            names.len()
+                        ),
+                    });
+                }
+                for (j, cell) in line.split(',').enumerate() {
+                    let Some(k) = field_map[j] else { continue };
+                    let cell = cell.trim();
+                    let cell_err = |kind, reason| ExperimentError::Cell {
+                        path: p(),
+                        line: lineno,
+                        column: j + 1,
+                        name: known[k].to_string(),
+                        kind,
+                        reason,
+                    };
+                    if cell.is_empty() {
+                        return Err(cell_err(ErrorKind::EmptyCell, "empty cell".into()));
+                    }
+                    let v: f64 = cell.parse().map_err(|_| {
+                        cell_err(
+                            ErrorKind::NotANumber,
+                            format!("{} is not a number", quote(cell)),
+                        )
+                    })?;
+                    if !v.is_finite() {
+                        return Err(cell_err(
+                            ErrorKind::NotFinite,
+                            format!("{} is not a finite number", quote(cell)),
+                        ));
+                    }
+                    if let Some((lo, hi)) = plausible_range(known[k]) {
+                        if !(lo..=hi).contains(&v) {
+                            return Err(cell_err(
+                                ErrorKind::OutOfRange,
+                                format!(
+                                    "{} degrees is outside the joint's range [{lo}, {hi}]",
+                                    quote(cell)
+                                ),
+                            ));
+                        }
+                    }
+                    values[k].push(v);
+                }
+                row_lines.push(lineno);
+            }
+        }
+    }
+
+    let Some((header_line, _)) = header else {
+        let reason = if comments.is_empty() {
+            "empty file: no header and no data"
+        } else {
+            "empty file: only comment lines, no header and no data"
+        };
+        return Err(ExperimentError::File {
+            path: p(),
+            kind: ErrorKind::Empty,
+            reason: reason.into(),
+        });
+    };
+    if row_lines.is_empty() {
+        return Err(ExperimentError::Line {
+            path: p(),
+            line: header_line,
+            kind: ErrorKind::HeaderOnly,
+            reason: "header only: the file has no data rows".into(),
+        });
+    }
+
+    // Time: strictly increasing, uniform, long enough.
+    if let Some(ti) = time_idx {
+        let t = &values[ti];
+        let tcol = field_of[ti];
+        let terr = |row: usize, kind, reason| ExperimentError::Cell {
+            path: p(),
+            line: row_lines[row],
+            column: tcol,
+            name: "time_s".into(),
+            kind,
+            reason,
+        };
+        for i in 1..t.len() {
+            if t[i] <= t[i - 1] {
+                let reason = if t[i] == t[i - 1] {
+                    format!(
+                        "time does not increase: {} repeats the previous sample (line {})",
+                        human(t[i]),
+                        row_lines[i - 1]
+                    )
+                } else {
+                    format!(
+                        "time goes backwards: {} after {} (line {})",
+                        human(t[i]),
+                        human(t[i - 1]),
+                        row_lines[i - 1]
+                    )
+                };
+                return Err(terr(i, ErrorKind::TimeNotIncreasing, reason));
+            }
+        }
+        if t.len() >= 2 {
+            let mut d: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+            let mid = d.len() / 2;
+            let (_, med, _) = d.select_nth_unstable_by(mid, f64::total_cmp);
+            let med = *med;
+            for i in 1..t.len() {
+                let dt = t[i] - t[i - 1];
+                let rel = (dt - med).abs() / med;
+                if rel > opts.time_tolerance {
+                    let reason = if dt > 1.5 * med {
+                        format!(
+                            "gap in time: {} s since the previous sample (line {}), expected {} s ({} missing)",
+                            human(dt),
+                            row_lines[i - 1],
+                            human(med),
+                            missing_samples(dt, med)
+                        )
+                    } else {
+                        format!(
+                            "non-uniform sampling: step {} s differs from the median step {} s by {:.3e} (relative), more than {:e}",
+                            human(dt),
+                            human(med),
+                            rel,
+                            opts.time_tolerance
+                        )
+                    };
+                    let kind = if dt > 1.5 * med {
+                        ErrorKind::TimeGap
+                    } else {
+                        ErrorKind::NonUniformTime
+                    };
+                    return Err(terr(i, kind, reason));
+                }
+            }
+        }
+        let dur = t[t.len() - 1] - t[0];
+        if t.len() < 2 || dur < opts.min_duration_s * (1.0 - 1e-9) {
+            return Err(ExperimentError::File {
+                path: p(),
+                kind: ErrorKind::TooShort,
+                reason: format!(
+                    "too short: {} s of data ({} samples); at least {} s is required",
+                    human(if t.len() < 2 { 0.0 } else { dur }),
+                    t.len(),
+                    human(opts.min_duration_s)
+                ),
+            });
+        }
+    }
+
+    let columns = values
+        .into_iter()
+        .enumerate()
+        .map(|(k, v)| if field_of[k] == 0 { None } else { Some(v) })
+        .collect();
+    Ok(Table {
+        columns,
+        field_of,
+        comments,
+        ignored,
+    })
+}
+
+/// Physically possible range of an angle column (degrees), if it has one.
+fn plausible_range(column: &str) -> Option<(f64, f64)> {
+    match column {
+        "ankle_angle_deg" => Some((-90.0, 90.0)),
+        "knee_angle_deg" => Some((-30.0, 180.0)),
+        _ => None,
+    }
+}
+
+/// A short human-readable number for messages (10 significant digits at most).
+fn human(x: f64) -> String {
+    let s = format!("{x:.9e}");
+    let back: f64 = s.parse().unwrap_or(x);
+    format_f64(back)
+}
+
+fn missing_samples(dt: f64, med: f64) -> String {
+    let k = ((dt / med).round() - 1.0).max(1.0);
+    if k == 1.0 {
+        "about 1 sample".into()
+    } else {
+        format!("about {k} samples")
+    }
+}
+
+/// The bytes of the file at `path` (a missing file, a folder or a read failure is an error).
+pub(super) fn read_bytes(path: &Path) -> Result<Vec<u8>> {
+    std::fs::read(path).map_err(|e| {
+        let (kind, reason) = match e.kind() {
+            std::io::ErrorKind::NotFound => (ErrorKind::NotFound, "no such file".to_string()),
+            _ if path.is_dir() => (ErrorKind::Io, "is a folder, not a file".to_string()),
+            _ => (ErrorKind::Io, format!("cannot read: {e}")),
+        };
+        ExperimentError::File {
+            path: path.display().to_string(),
+            kind,
+            reason,
+        }
+    })
+}
