@@ -1,4 +1,5 @@
-//! The EMG envelope pipeline of SPEC §2: band-pass, rectify, low-pass, normalise.
+//! The EMG envelope pipeline: band-pass, rectify, low-pass, normalise (`docs/model.md`,
+//! "EMG to envelope").
 
 use crate::design::{butter, Band, Sos};
 use crate::error::{check_finite, SignalError};
@@ -11,7 +12,7 @@ pub fn rectify(x: &mut [f64]) {
     }
 }
 
-/// Filter settings of the envelope pipeline (SPEC §2 defaults via [`Default`]).
+/// Filter settings of the envelope pipeline ([`Default`]: band-pass 10–350 Hz, low-pass 2 Hz).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct EnvelopeSettings {
     /// Order passed to `butter` for the band-pass (2 → a 4th-order band-pass).

@@ -1,4 +1,4 @@
-//! EMG signal chain (SPEC §2): Butterworth filters as second-order sections, causal and
+//! EMG signal chain (EMG to envelope, `docs/model.md` section 1): Butterworth filters as second-order sections, causal and
 //! zero-phase filtering, rectification and normalised envelopes — all reproducing
 //! `scipy.signal` (1.17) to rounding error.
 //!
