@@ -35,16 +35,16 @@ fn main() {
     }
     let candidates = [
         (
-            "reduced, rtol 1e-5, atol 1e-7",
+            "fast, rtol 1e-5, atol 1e-7",
             SimSettings {
                 rtol: 1e-5,
                 atol: 1e-7,
                 ..SimSettings::default()
             },
         ),
-        ("reduced, default (rtol 1e-6)", SimSettings::default()),
+        ("fast, default (rtol 1e-6)", SimSettings::default()),
         (
-            "reduced, rtol 1e-8, atol 1e-10",
+            "fast, rtol 1e-8, atol 1e-10",
             SimSettings {
                 rtol: 1e-8,
                 atol: 1e-10,

@@ -1,4 +1,5 @@
-//! The SPEC §6 model extensions: typed parameters, null values, bounds and the Effects JSON.
+//! The model's optional effects (`docs/model.md` section 5, `docs/formats.md` "Effects JSON"):
+//! typed parameters, null values, bounds and the Effects JSON.
 //!
 //! Every effect is absent by default; an effect present at its null value changes nothing
 //! (bit-for-bit). Effects compose freely.
@@ -31,7 +32,7 @@ const fn spec(name: &'static str, null: f64, lower: f64, upper: f64) -> ParamSpe
     }
 }
 
-/// The catalogue of SPEC §6.
+/// The catalogue of effects a diagnosis can name.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum EffectKind {
@@ -91,9 +92,10 @@ impl EffectKind {
 
     /// The parameters of this effect with null values and bounds.
     ///
-    /// Bounds are the SPEC §6 constraints where it gives them (`stiffness_per_rad ∈ [3, 20]`,
-    /// `delay_ms ∈ [0, 150]`, `flen ∈ [1, 2]`, non-negative scale, rate and gain), otherwise a
-    /// generous physiological range documented in `docs/model.md`.
+    /// Bounds are the effects' physical constraints where there are any
+    /// (`stiffness_per_rad ∈ [3, 20]`, `delay_ms ∈ [0, 150]`, `flen ∈ [1, 2]`, non-negative
+    /// scale, rate and gain), otherwise a generous physiological range (`docs/model.md`
+    /// section 5).
     pub fn params(self) -> &'static [ParamSpec] {
         const OFFSET: [ParamSpec; 1] = [spec("offset_nm", 0.0, -50.0, 50.0)];
         const PASSIVE: [ParamSpec; 2] = [

@@ -1,5 +1,5 @@
-//! The EMG-driven Hill-type triceps-surae model of SPEC §3, its SPEC §6 extensions, trial
-//! simulation, the identification problem of SPEC §8 and the sensitivity sweep.
+//! The EMG-driven Hill-type triceps-surae model, its optional effects, trial simulation, the
+//! identification problem and the sensitivity sweep (all described in `docs/model.md`).
 //!
 //! Per muscle `j ∈ {sol, gm, gl}` the state is `[a, F̃T, LM, LMT]` (plus `∫â dt`, used only by
 //! the `fatigue` effect):
@@ -22,7 +22,7 @@
 //! each muscle's result for its two latest parameter sets, so a move of one muscle's
 //! parameters integrates one muscle and a move of `F0` alone integrates none.
 //! [`Formulation::Reduced`] integrates `a` and `LM` (used by [`SimSettings::tight`]);
-//! [`Formulation::FourState`] integrates the four SPEC states literally. The initial state is
+//! [`Formulation::FourState`] integrates the four states above as written. The initial state is
 //! the static equilibrium (`ṽ = 0`) at `a = u(0)`.
 //!
 //! ```

@@ -1,4 +1,5 @@
-//! Model parameters (SPEC §5 JSON), nominal values (SPEC §3), strict merge and validation.
+//! Model parameters (the parameters JSON of `docs/formats.md`), nominal values (`docs/model.md`
+//! section 3), strict merge and validation.
 
 use crate::error::ModelError;
 use serde::{Deserialize, Serialize};
@@ -118,7 +119,7 @@ impl Default for CurveParams {
 }
 
 impl MuscleParams {
-    /// Nominal values of SPEC §3 for `m`.
+    /// Nominal values for `m` (gait2392; `docs/model.md` section 3).
     pub fn nominal(m: Muscle) -> Self {
         let (fom_n, lom_m, lst_m, alpha_deg, lmt_poly_m) = match m {
             Muscle::Sol => (
@@ -253,7 +254,7 @@ fn positive(key: &str, v: f64) -> Result<(), ModelError> {
 
 /// All parameters of the triceps-surae model.
 ///
-/// Serialises to the SPEC §5 JSON. Deserialising accepts any subset of that JSON and merges it
+/// Serialises to the parameters JSON (`docs/formats.md`). Deserialising accepts any subset of that JSON and merges it
 /// over the nominal values (same as [`ModelParams::from_json_str`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ModelParams {
@@ -283,7 +284,7 @@ const ACTIVATION_KEYS: [&str; 3] = ["tau_act_s", "tau_deact_s", "shape_a"];
 const CURVE_KEYS: [&str; 7] = ["af", "flen", "gamma", "kpe", "e0m", "e0t", "damping"];
 
 impl ModelParams {
-    /// The nominal parameters of SPEC §3.
+    /// The nominal parameters (`docs/model.md` section 3).
     pub fn nominal() -> Self {
         ModelParams {
             muscles: Muscle::ALL.map(MuscleParams::nominal),
@@ -456,7 +457,7 @@ impl ModelParams {
         Ok(())
     }
 
-    /// The SPEC §5 JSON value of these parameters (all keys).
+    /// The parameters JSON value of these parameters (all keys).
     pub fn to_json_value(&self) -> Value {
         serde_json::to_value(self).unwrap_or(Value::Null)
     }

@@ -74,7 +74,7 @@ pub enum ParamId {
 }
 
 impl ParamId {
-    /// The 9 identified parameters of SPEC §8, in the order `sol.lst_m, sol.fom_n,
+    /// The 9 identified parameters (LST, F0 and α0 of each muscle), in the order `sol.lst_m, sol.fom_n,
     /// sol.alpha_deg, gm.lst_m, …, gl.alpha_deg`.
     pub fn identified() -> [ParamId; 9] {
         let mut out = [ParamId::Muscle(Muscle::Sol, MuscleField::LstM); 9];
@@ -221,9 +221,9 @@ impl ParamId {
         }
     }
 
-    /// Default search bounds around the values in `base` (SPEC §8: LST ±5 %, F0 ±20 %,
-    /// α0 ±20 %; other model parameters ±20 %, `shape_a` capped at 0.12 and `flen` at ≥ 1;
-    /// effect parameters: their documented bounds).
+    /// Default search bounds around the values in `base` (`docs/model.md` section 5): LST
+    /// ±5 %, F0 ±20 %, α0 ±20 %; other model parameters ±20 %, `shape_a` capped at 0.12 and
+    /// `flen` at ≥ 1; effect parameters: their documented bounds.
     pub fn default_bounds(&self, base: &ModelParams, base_effects: &Effects) -> (f64, f64) {
         let v = self.get(base, base_effects);
         let rel = |f: f64| (v * (1.0 - f), v * (1.0 + f));
@@ -356,7 +356,7 @@ impl Problem {
         })
     }
 
-    /// The SPEC §8 problem: nominal parameters, no effects, the 9 identified parameters.
+    /// The standard problem: nominal parameters, no effects, the 9 identified parameters.
     pub fn standard(inputs: TrialInputs, measured: Vec<f64>) -> Result<Self, ModelError> {
         Problem::new(
             inputs,

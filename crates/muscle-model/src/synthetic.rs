@@ -56,7 +56,7 @@ pub struct SeedTimes {
     pub end: f64,
 }
 
-/// Phase times of the SPEC §1 `seed` protocol: 0.5 s hold, 35° sweeps at 30 °/s with 50 ms
+/// Phase times of the `seed` protocol (`docs/formats.md`, "Synthetic trials"): 0.5 s hold, 35° sweeps at 30 °/s with 50 ms
 /// ramps, 0.4 s final hold.
 pub fn seed_times() -> SeedTimes {
     let sweep = sweep_duration(35.0, 30.0, 0.05);
@@ -89,7 +89,7 @@ pub fn seed_drive_at(t: f64) -> f64 {
 /// Rest level of the synthetic envelopes.
 pub const REST_LEVEL: f64 = 0.02;
 
-/// The seed-like trial sampled at `fs`: SPEC §1 `seed` angle, envelopes `0.02 → level → 0.02`
+/// The seed-like trial sampled at `fs`: the `seed` protocol's angle, envelopes `0.02 → level → 0.02`
 /// with levels 1.0 (sol), 0.9 (gm), 0.85 (gl); the TA envelope is 0.05 plus 0.1 during the
 /// sweeps.
 pub fn seed_like_trial(fs: f64) -> Result<TrialInputs, ModelError> {

@@ -1,5 +1,5 @@
-//! One musculotendon unit: state derivative (SPEC §3 contraction dynamics) and the
-//! static-equilibrium initial state.
+//! One musculotendon unit: state derivative (contraction dynamics, `docs/model.md` section 2)
+//! and the static-equilibrium initial state.
 
 use crate::activation::Activation;
 use crate::curves::Curves;
@@ -110,8 +110,8 @@ impl MuscleUnit {
         (lt - self.lst) / self.lst
     }
 
-    /// Fibre velocity `vM` (m/s) for state `y` (the unique solution of the SPEC §3 equation,
-    /// with the fibre-length floor applied).
+    /// Fibre velocity `vM` (m/s) for state `y`: the unique solution of
+    /// `F̃T/cos α = â·fl·fv(ṽ) + fpe + β·ṽ`, with the fibre-length floor applied.
     #[inline]
     pub fn fibre_velocity(&self, y: &[f64; STATE_DIM]) -> f64 {
         let lm = y[IX_LM];
@@ -135,7 +135,7 @@ impl MuscleUnit {
     }
 
     /// State derivative for excitation `u`, angle `q` and angular velocity `qd`
-    /// ([`crate::Formulation::FourState`], SPEC §3 literally).
+    /// ([`crate::Formulation::FourState`]: the four states integrated as written).
     #[inline]
     pub fn derivative(
         &self,

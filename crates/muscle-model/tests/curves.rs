@@ -1,4 +1,5 @@
-//! Curve values at known points and continuity where SPEC §3 makes pieces join smoothly.
+//! Curve values at known points and continuity where the model's curves
+//! (`docs/model.md` section 2) make pieces join smoothly.
 
 use muscle_model::activation::{Activation, ManalBuchanan};
 use muscle_model::curves::{

@@ -1,4 +1,4 @@
-//! SPEC §6 effects: exactly zero at the null value, expected sign and size, composable.
+//! The model's effects (`docs/model.md` section 5): exactly zero at the null value, expected sign and size, composable.
 
 #![allow(clippy::needless_range_loop)] // index-parallel arrays read clearer in tests
 

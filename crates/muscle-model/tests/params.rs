@@ -1,4 +1,4 @@
-//! Parameters JSON (SPEC §5) and Effects JSON (SPEC §6): merge, round trip, strict errors.
+//! Parameters JSON and Effects JSON (`docs/formats.md`): merge, round trip, strict errors.
 
 use muscle_model::{EffectKind, Effects, ModelError, ModelParams, Muscle, ParamId};
 
@@ -222,7 +222,7 @@ fn param_ids_parse_get_set() {
     // eccentric_enhancement.flen defaults to the model's Flen
     let id = ParamId::parse("eccentric_enhancement.flen").unwrap();
     assert_eq!(id.get(&ModelParams::nominal(), &Effects::none()), 1.4);
-    // SPEC §8 bounds
+    // identification bounds: LST ±5 %, F0 and α0 ±20 %
     let n = ModelParams::nominal();
     let b = ParamId::parse("sol.lst_m")
         .unwrap()

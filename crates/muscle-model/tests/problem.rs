@@ -1,4 +1,4 @@
-//! Identification problem (SPEC §8), noise models and the sensitivity sweep (Fig. 6).
+//! Identification problem (`docs/model.md` section 5), noise models and the sensitivity sweep (Fig. 6).
 
 #![allow(clippy::needless_range_loop)] // index-parallel arrays read clearer in tests
 

@@ -1,4 +1,4 @@
-//! 1000 random parameter vectors from twice the SPEC §8 bounds box (seeded) all simulate the
+//! 1000 random parameter vectors from twice the identification bounds box (seeded) all simulate the
 //! full seed-like trial (2048 Hz, 3.33 s) to finite torque.
 
 mod common;

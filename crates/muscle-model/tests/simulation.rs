@@ -102,7 +102,7 @@ fn concentric_below_isometric_below_eccentric() {
     }
 }
 
-/// The SPEC §3 four-state integration (where the invariants are not built in).
+/// The four-state integration (where the invariants are not built in).
 fn four_state(s: SimSettings) -> SimSettings {
     SimSettings {
         formulation: Formulation::FourState,
@@ -268,7 +268,7 @@ fn outputs_have_one_value_per_sample() {
         assert_eq!(out.torque[i], s);
     }
     assert!((out.time[1] - 1.0 / 512.0).abs() < 1e-15);
-    // identified parameter names of SPEC §5
+    // identified parameter names, as every output spells them
     let names: Vec<String> = ParamId::identified().iter().map(|p| p.name()).collect();
     assert_eq!(names[0], "sol.lst_m");
     assert_eq!(names[4], "gm.fom_n");

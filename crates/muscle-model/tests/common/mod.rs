@@ -18,8 +18,9 @@ pub fn max_diff(a: &[f64], b: &[f64]) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// Random values of the 9 identified parameters, uniform in the SPEC §8 box scaled by `scale`
-/// (1 = the bounds, 2 = twice the bounds box) around nominal.
+/// Random values of the 9 identified parameters, uniform in the identification bounds box
+/// (LST ±5 %, F0 and α0 ±20 %) scaled by `scale` (1 = the bounds, 2 = twice the bounds box)
+/// around nominal.
 pub fn random_identified(rng: &mut impl Rng, scale: f64) -> muscle_model::ModelParams {
     let mut p = muscle_model::ModelParams::nominal();
     let mut e = muscle_model::Effects::none();
