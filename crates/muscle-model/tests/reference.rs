@@ -1,7 +1,11 @@
-//! Independent reference: SPEC §3 written out again here (no crate curve, activation, geometry
-//! or unit code), integrated with fixed-step classic RK4 at h = 1/(2048·16) s, with the fibre
-//! velocity found by bisection and piecewise-linear angle interpolation. The crate's `simulate`
-//! must agree within the acceptance limits (0.5 N·m RMS, 2 N·m max).
+//! Independent reference: the model's equations (`docs/model.md` section 2) written out again
+//! here (no crate curve, activation, geometry or unit code), integrated with fixed-step classic
+//! RK4 at h = 1/(2048·16) s, with the fibre velocity found by bisection and piecewise-linear
+//! angle interpolation. The crate at `SimSettings::tight` agrees with it to about 7e-5 N·m RMS
+//! (4e-4 N·m max) on these cases, so the difference at the default settings is the crate's
+//! own integration error. Each case's tolerance is about four times the agreement measured on
+//! it: a change of the equations, or one that makes the default integration several times
+//! less accurate, fails.
 
 #![allow(clippy::needless_range_loop)] // index-parallel arrays read clearer in tests
 
@@ -12,7 +16,7 @@ use muscle_model::{simulate, synthetic, Effects, ModelParams, Muscle, SimSetting
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-/// SPEC §3 constants.
+/// The model's constants (`docs/model.md` section 3).
 const GAMMA: f64 = 0.45;
 const KPE: f64 = 5.0;
 const E0M: f64 = 0.6;
@@ -242,32 +246,37 @@ fn reference_torque(tr: &TrialInputs, p: &ModelParams, substeps: usize) -> Vec<f
     tau
 }
 
-fn compare(tr: &TrialInputs, p: &ModelParams, label: &str) -> (f64, f64) {
+/// Asserts that the crate's torque at the default settings agrees with the reference within
+/// `limit` = (RMS, max) in N·m.
+fn compare(tr: &TrialInputs, p: &ModelParams, limit: (f64, f64), label: &str) {
     let ours = simulate(tr, p, &Effects::none(), &SimSettings::default()).unwrap();
     let reference = reference_torque(tr, p, 16);
     let rms = rms_diff(&ours.torque, &reference);
     let mx = max_diff(&ours.torque, &reference);
     println!("{label}: RMS {rms:.2e} N·m, max {mx:.2e} N·m");
-    assert!(rms <= 0.5, "{label}: RMS {rms}");
-    assert!(mx <= 2.0, "{label}: max {mx}");
-    (rms, mx)
+    assert!(rms <= limit.0, "{label}: RMS {rms} > {}", limit.0);
+    assert!(mx <= limit.1, "{label}: max {mx} > {}", limit.1);
 }
+
+/// Measured: RMS 6.6e-4 N·m, max 6.0e-3 N·m.
+const NOMINAL_LIMIT: (f64, f64) = (2.5e-3, 2.5e-2);
 
 #[test]
 fn agrees_with_independent_rk4_at_nominal_parameters() {
     let tr = synthetic::seed_like_trial(2048.0).unwrap();
-    let (rms, mx) = compare(&tr, &ModelParams::nominal(), "nominal");
-    // in fact the two agree far better than the acceptance limits
-    assert!(rms < 0.01 && mx < 0.05, "RMS {rms}, max {mx}");
+    compare(&tr, &ModelParams::nominal(), NOMINAL_LIMIT, "nominal");
 }
+
+/// One limit per draw of seed 2016, measured (RMS, max in N·m): #0 2.2e-3, 1.6e-2;
+/// #1 1.7e-3, 1.7e-2; #2 9.2e-4, 7.3e-3; #3 2.1e-3, 1.4e-2.
+const RANDOM_LIMITS: [(f64, f64); 4] = [(8e-3, 6e-2), (7e-3, 6e-2), (3.5e-3, 3e-2), (8e-3, 5.5e-2)];
 
 #[test]
 fn agrees_with_independent_rk4_at_random_parameters() {
     let tr = synthetic::seed_like_trial(2048.0).unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(2016);
-    for k in 0..4 {
+    for (k, limit) in RANDOM_LIMITS.into_iter().enumerate() {
         let p = random_identified(&mut rng, 1.0);
-        let (rms, mx) = compare(&tr, &p, &format!("random #{k}"));
-        assert!(rms < 0.01 && mx < 0.05, "RMS {rms}, max {mx}");
+        compare(&tr, &p, limit, &format!("random #{k}"));
     }
 }
