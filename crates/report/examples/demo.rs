@@ -263,7 +263,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     ));
 
     page.heading("Diagnosis");
-    let story = DiagnosisSummary {
+    let summary = DiagnosisSummary {
         adequate: false,
         causes: &["eccentric_enhancement"],
         unexplained_structure: false,
@@ -275,7 +275,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         effect_values: &[("Flen", 1.68)],
         near_ties: &[],
     };
-    for p in report::diagnosis_story(&story) {
+    for p in report::diagnosis_in_words(&summary) {
         page.paragraph(p);
     }
     page.heading("Parameters");

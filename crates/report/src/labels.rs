@@ -79,7 +79,8 @@ pub fn format_sig(x: f64, sig: usize) -> String {
     format!("{x:.dec$}")
 }
 
-/// A plain-words description of a SPEC §6 effect (the name itself for unknown ones).
+/// A plain-words description of an effect of the catalogue (`docs/model.md` section 5; the
+/// name itself for unknown ones).
 pub fn effect_description(effect: &str) -> &str {
     match effect {
         "torque_offset" => "a constant torque offset (a zeroing or gravity-compensation error)",

@@ -6,6 +6,7 @@
 //!   candidate-effect ranking, MCMC traces, R̂ history, marginal histograms, corner plot and
 //!   sensitivity curves. Colours are the Okabe–Ito palette ([`palette`]); text is ≥ 14 px.
 //! * [`html`] — a self-contained `report.html` builder ([`Report`]).
+//! * [`plain_summary`] — the diagnosis told in plain words ([`diagnosis_in_words`]).
 //! * [`check_svg`] / [`check_xml`] — a small well-formedness checker (used on every figure
 //!   before it is inlined, and handy in callers' tests).
 //!
@@ -36,11 +37,11 @@ pub mod figures;
 pub mod html;
 pub mod labels;
 pub mod palette;
-pub mod story;
+pub mod plain_summary;
 pub mod svgcheck;
 
 pub use error::{ReportError, Result};
 pub use html::{write_figure, Report};
 pub use labels::{effect_description, format_sig, param_label};
-pub use story::{diagnosis_story, DiagnosisSummary};
+pub use plain_summary::{diagnosis_in_words, DiagnosisSummary};
 pub use svgcheck::{check_svg, check_xml, XmlSummary};

@@ -161,7 +161,7 @@ fn write_figures(
         .iter()
         .map(|t| (t.cause.as_str(), t.alternative.as_str()))
         .collect();
-    let story = report::diagnosis_story(&report::DiagnosisSummary {
+    let story = report::diagnosis_in_words(&report::DiagnosisSummary {
         adequate: d.causes.is_empty() && !d.unexplained_structure,
         causes: &causes,
         unexplained_structure: d.unexplained_structure,

@@ -2,7 +2,7 @@
 
 use crate::labels::{effect_description, format_sig};
 
-/// What a diagnosis found (mirror of the fields of `diagnosis.json`, SPEC §7).
+/// What a diagnosis found (mirror of the fields of `diagnosis.json`, `docs/diagnosis.md`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct DiagnosisSummary<'a> {
     /// `true` for the verdict `adequate`.
@@ -11,7 +11,7 @@ pub struct DiagnosisSummary<'a> {
     pub causes: &'a [&'a str],
     /// Whether the residual keeps structure that no catalogued effect explains.
     pub unexplained_structure: bool,
-    /// Baseline fit: RMS error on the fitted data and on held-out data (N·m).
+    /// Baseline RMS error on the fitted data (N·m).
     pub baseline_rms_nm: f64,
     /// Baseline held-out RMS error (N·m).
     pub baseline_heldout_rms_nm: f64,
@@ -37,10 +37,10 @@ pub struct DiagnosisSummary<'a> {
 ///     heldout_rms_reduction_pct: 53.8, delta_bic: 410.0, effect_values: &[("fatigue: rate (1/s)", 0.031)],
 ///     near_ties: &[],
 /// };
-/// let text = report::diagnosis_story(&s).join(" ");
+/// let text = report::diagnosis_in_words(&s).join(" ");
 /// assert!(text.contains("loss of force"));
 /// ```
-pub fn diagnosis_story(s: &DiagnosisSummary<'_>) -> Vec<String> {
+pub fn diagnosis_in_words(s: &DiagnosisSummary<'_>) -> Vec<String> {
     let mut out = Vec::new();
     if s.adequate {
         out.push(format!(
@@ -128,14 +128,14 @@ mod tests {
     }
 
     #[test]
-    fn adequate_story() {
-        let t = diagnosis_story(&base()).join(" ");
+    fn adequate_diagnosis_in_words() {
+        let t = diagnosis_in_words(&base()).join(" ");
         assert!(t.contains("adequate") && t.contains("2.04 N·m") && t.contains("2.31 N·m"));
         assert!(t.contains("noise"));
     }
 
     #[test]
-    fn deficient_story_names_every_cause() {
+    fn deficient_diagnosis_names_every_cause() {
         let s = DiagnosisSummary {
             adequate: false,
             causes: &["electromechanical_delay", "gravity"],
@@ -147,7 +147,7 @@ mod tests {
             near_ties: &[("gravity", "torque_offset")],
             ..base()
         };
-        let t = diagnosis_story(&s).join(" ");
+        let t = diagnosis_in_words(&s).join(" ");
         assert!(t.contains("deficient"));
         assert!(t.contains("(electromechanical_delay) and the uncompensated weight"));
         assert!(t.contains("from 2.31 N·m to 1.50 N·m (35.1 % less)"), "{t}");
