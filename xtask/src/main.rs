@@ -1,5 +1,6 @@
 //! Project automation. `cargo xtask gen-fixtures [--check] [--out DIR]` writes the synthetic
-//! fixtures of SPEC §4 deterministically from fixed seeds.
+//! fixtures (the experiment of `docs/formats.md`, "Synthetic trials") deterministically from
+//! fixed seeds.
 //!
 //! Folders (under `fixtures/` by default), each with `trial.csv`, `unloaded.csv` (3 cycles)
 //! and `truth.json`:
@@ -9,10 +10,10 @@
 //! | `seed` | `seed` | nominal parameters, no effect | 2016 |
 //! | `offnominal` | `seed` | the 9 identified parameters off nominal ([`OFF_NOMINAL`]), no effect | 2018 |
 //! | `relaxed2` | `relaxed+2` | nominal parameters, no effect | 2017 |
-//! | `<effect>` (9 folders, SPEC §6 names) | `relaxed+2` | nominal parameters + that effect | 3001…3009 |
+//! | `<effect>` (9 folders, named as the effects) | `relaxed+2` | nominal parameters + that effect | 3001…3009 |
 //!
 //! The effect magnitudes ([`EFFECTS`]) are moderate, physiologically plausible values, each
-//! with its reason. `truth.json` holds the full SPEC §5 parameters, the effects JSON, the
+//! with its reason. `truth.json` holds the full parameters JSON, the effects JSON, the
 //! protocol, the dynamometer and EMG settings, the rounding, the simulation settings and the
 //! seed, with keys sorted and a trailing newline. `--check` regenerates into a temporary folder
 //! and fails (exit 1) on any byte difference and on missing or extra files.
@@ -79,7 +80,7 @@ fn off_nominal_params() -> Result<ModelParams> {
 /// Seed of the effect folders: this + 1-based catalogue index (3001 … 3009).
 const SEED_EFFECTS_BASE: u64 = 3000;
 
-/// One effect fixture: the SPEC §6 effect, its parameter values (in
+/// One effect fixture: the effect, its parameter values (in
 /// `EffectKind::params` order) and why that magnitude.
 struct EffectFixture {
     kind: EffectKind,
