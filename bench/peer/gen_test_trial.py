@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Synthetic SPEC §1 `seed`-protocol trial for testing surae_peer.py (not the project's fixtures).
+"""Synthetic `seed`-protocol trial for testing surae_peer.py (not the project's fixtures; the
+protocol is described in docs/formats.md, "Synthetic trials").
 
 0.5 s hold at +15°, trapezoidal 30 °/s sweep to −20° (50 ms constant-acceleration ramps),
 sweep back to +15°, 0.4 s hold; 2048 Hz.  Raw EMG = band-limited (20-450 Hz) Gaussian noise

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Independent plain-Python implementation of the surae triceps-surae model (SPEC §2-§3, §5, §6).
+"""Independent plain-Python implementation of the surae triceps-surae model.
 
 Two uses:
 
@@ -7,7 +7,9 @@ Two uses:
 2. the *benchmark peer*: the same model integrated by ``scipy.integrate.solve_ivp``
    (``method='RK45'``) with a plain-Python right-hand side, timed on the same trial.
 
-Written from the SPEC only.  Per muscle j in (sol, gm, gl) the state is
+Written from the project's specification of the model only, without reading the Rust code:
+the equations and constants documented in docs/model.md and the file formats and effects in
+docs/formats.md.  Per muscle j in (sol, gm, gl) the state is
 ``[a, FT~, LM, LMT]``; the fibre velocity is found with ``scipy.optimize.brentq`` on a
 bracket that always contains the unique root (no closed form on purpose).
 
@@ -52,7 +54,7 @@ NOMINAL = {
                "e0t": 0.04, "damping": 0.1},
 }
 
-# SPEC §6: effect name -> {parameter: null value}
+# Effects (docs/formats.md, "Effects JSON"): effect name -> {parameter: null value}
 EFFECTS = {
     "torque_offset": {"offset_nm": 0.0},
     "passive_joint_torque": {"scale_nm": 0.0, "stiffness_per_rad": 10.0},
@@ -69,7 +71,7 @@ ALPHA_CAP = math.radians(84.0)
 SIN_CAP = math.sin(ALPHA_CAP)
 COS_CAP = math.cos(ALPHA_CAP)
 
-# Tendon curve constants that do not depend on e0t (SPEC §3)
+# Tendon curve constants that do not depend on e0t (docs/model.md, section 3)
 FTOE = 0.33
 KTOE = 3.0
 
@@ -85,7 +87,7 @@ OPTIONAL = ("emg_ta", "knee_angle_deg")
 
 
 def read_trial(path):
-    """Read a trial CSV (SPEC §5). Returns dict column -> np.ndarray (float64)."""
+    """Read a trial CSV (docs/formats.md). Returns dict column -> np.ndarray (float64)."""
     try:
         with open(path, "r", encoding="utf-8") as fh:
             lines = fh.read().splitlines()
@@ -141,7 +143,8 @@ def _merge(base, over, where):
 
 
 def load_params(path=None, obj=None):
-    """Nominal parameters (SPEC §3) with a partial SPEC §5 JSON merged over them.
+    """Nominal parameters (docs/model.md, section 3) with a partial parameters JSON
+    (docs/formats.md) merged over them.
 
     Also accepts flat identified names (``{"sol.lst_m": 0.26}``, at top level or under
     ``"params"`` as in identify.json).
@@ -172,7 +175,7 @@ def load_params(path=None, obj=None):
 
 
 def load_effects(path=None, obj=None):
-    """Effects JSON (SPEC §6) -> dict name -> {param: value} for the named effects."""
+    """Effects JSON (docs/formats.md) -> dict name -> {param: value} for the named effects."""
     if path is not None:
         try:
             with open(path, "r", encoding="utf-8") as fh:
@@ -193,10 +196,10 @@ def load_effects(path=None, obj=None):
     return effects
 
 
-# --------------------------------------------------------------------------- §2 signal
+# --------------------------------------------------------------------------- EMG signal
 
 def envelope(x, fs, mvc=None):
-    """SPEC §2: band-pass 10-350 Hz (butter 2 -> 4th-order), rectify, low-pass 2 Hz
+    """EMG to envelope: band-pass 10-350 Hz (butter 2 -> 4th-order), rectify, low-pass 2 Hz
     (4th order), both with scipy's default sosfiltfilt; divide by max (or mvc); clip [0, 1]."""
     bp = butter(2, [10.0, 350.0], btype="bandpass", fs=fs, output="sos")
     lp = butter(4, 2.0, btype="low", fs=fs, output="sos")
@@ -207,10 +210,10 @@ def envelope(x, fs, mvc=None):
     return np.clip(env / ref, 0.0, 1.0)
 
 
-# --------------------------------------------------------------------------- §3 curves
+# --------------------------------------------------------------------------- curves
 
 def manal_buchanan(shape_a):
-    """Return f_A as a Python closure (SPEC §3, Manal & Buchanan 2003 A-model)."""
+    """Return f_A as a Python closure (Manal & Buchanan 2003 A-model)."""
     if shape_a == 0.0:
         return lambda a: a
     if not 0.0 < shape_a <= 0.12:
@@ -578,9 +581,9 @@ def write_csv(path, model, res, states=False):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--trial", required=True, help="trial CSV (SPEC §5)")
-    ap.add_argument("--params", help="parameters JSON (SPEC §5), merged over nominal")
-    ap.add_argument("--effects", help="effects JSON (SPEC §6)")
+    ap.add_argument("--trial", required=True, help="trial CSV (docs/formats.md)")
+    ap.add_argument("--params", help="parameters JSON (docs/formats.md), merged over nominal")
+    ap.add_argument("--effects", help="effects JSON (docs/formats.md)")
     ap.add_argument("--out", help="output CSV (time_s, torque_nm, torque_sol_nm, ...)")
     ap.add_argument("--rtol", type=float, default=1e-6)
     ap.add_argument("--atol", type=float, default=1e-6, help="solve_ivp atol (scipy default 1e-6)")

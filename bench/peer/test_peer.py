@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """Self-checks of surae_peer.py on a synthetic seed-protocol trial.  Run: python3 test_peer.py
 
-Optionally checks the envelope against ../../../shared/reference/signal/scipy_reference.json
-when that file exists (skipped with a printed note otherwise).
+Also checks the envelope against scipy's outputs in
+crates/signal/tests/data/scipy_reference.json (the reference the Rust signal crate is tested
+against).
 """
 
 import json
@@ -111,17 +112,14 @@ def main():
     r = p.prepare(trial, params=pa).simulate(rtol=1e-8, atol=1e-10)
     check("+1% soleus LST lowers the torque", r["torque_nm"].max() < base.max())
 
-    # 7. Envelope against scipy reference vectors, if present.
-    ref_path = os.path.join(HERE, "..", "..", "..", "shared", "reference", "signal", "scipy_reference.json")
-    if os.path.exists(ref_path):
-        with open(ref_path, encoding="utf-8") as fh:
-            e = json.load(fh)["envelope"]
-        got = p.envelope(np.asarray(e["raw"]), e["fs"])
-        want = np.asarray(e["normalized"])
-        check("envelope = scipy reference", np.max(np.abs(got - want)) < 1e-10,
-              f"max diff {np.max(np.abs(got - want)):.1e}")
-    else:
-        print("note: scipy reference JSON not found; envelope comparison not run")
+    # 7. Envelope against scipy reference vectors.
+    ref_path = os.path.join(HERE, "..", "..", "crates", "signal", "tests", "data", "scipy_reference.json")
+    with open(ref_path, encoding="utf-8") as fh:
+        e = json.load(fh)["envelope"]
+    got = p.envelope(np.asarray(e["raw"]), e["fs"])
+    want = np.asarray(e["normalized"])
+    check("envelope = scipy reference", np.max(np.abs(got - want)) < 1e-10,
+          f"max diff {np.max(np.abs(got - want)):.1e}")
 
     print(f"{len(FAILS)} failure(s)")
     return 1 if FAILS else 0
