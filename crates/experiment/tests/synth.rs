@@ -163,14 +163,42 @@ fn seed_fixture_unloaded_run_statistics() {
     assert!((m - mean(&systematic)).abs() < 0.6, "mean {m}");
 }
 
+/// Asserts that `params` moves every one of the 9 identified parameters off its nominal value
+/// and keeps it strictly inside the identification bounds around nominal (LST ±5 %, F0 and
+/// α0 ±20 %), and leaves every other parameter nominal.
+fn assert_identified_off_nominal_inside_bounds(params: &ModelParams, folder: &str) {
+    let nominal = ModelParams::nominal();
+    let none = Effects::none();
+    let mut rest = *params;
+    let mut scratch = Effects::none();
+    for id in ParamId::identified() {
+        let v = id.get(params, &none);
+        let v0 = id.get(&nominal, &none);
+        let (lo, hi) = id.default_bounds(&nominal, &none);
+        assert!(v != v0, "{folder}: {id} = {v} is the nominal value");
+        assert!(
+            lo < v && v < hi,
+            "{folder}: {id} = {v} not inside ({lo}, {hi})"
+        );
+        id.set(&mut rest, &mut scratch, v0);
+    }
+    assert_eq!(
+        rest, nominal,
+        "{folder}: a parameter other than the 9 is off nominal"
+    );
+}
+
 /// Every committed fixture reads back and writes again to exactly the committed bytes, its
-/// truth names the right protocol and effect, and `emg_ta` is present exactly when needed.
+/// truth names the right protocol, parameters and effect, and `emg_ta` is present exactly
+/// when needed.
 #[test]
 fn committed_fixtures_are_canonical_and_consistent() {
     let mut folders = vec![("seed".to_string(), None), ("relaxed2".to_string(), None)];
     for k in EffectKind::ALL {
         folders.push((k.name().to_string(), Some(k)));
     }
+    // the only fixture whose truth is not the nominal parameters
+    folders.push(("offnominal".to_string(), None));
     for (folder, kind) in folders {
         let dir = fixtures_dir().join(&folder);
         let text = std::fs::read_to_string(dir.join("trial.csv")).unwrap();
@@ -186,8 +214,18 @@ fn committed_fixtures_are_canonical_and_consistent() {
             "{folder}/unloaded.csv"
         );
 
-        let truth = parse_truth(&read_truth(&folder));
-        assert_eq!(truth.params, ModelParams::nominal(), "{folder}");
+        let truth_json = read_truth(&folder);
+        assert_eq!(
+            truth_json["generator"], "cargo xtask gen-fixtures",
+            "{folder}"
+        );
+        let truth = parse_truth(&truth_json);
+        if folder == "offnominal" {
+            assert_eq!(truth.protocol, Protocol::Seed, "{folder}");
+            assert_identified_off_nominal_inside_bounds(&truth.params, &folder);
+        } else {
+            assert_eq!(truth.params, ModelParams::nominal(), "{folder}");
+        }
         match kind {
             None => assert_eq!(truth.effects, Effects::none(), "{folder}"),
             Some(k) => {
