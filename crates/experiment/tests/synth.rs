@@ -1,5 +1,6 @@
-//! The synthetic experiment and the committed fixtures: SPEC §4 residual statistics of
-//! `fixtures/seed`, determinism of `synthesize`, the `model_inputs` bridge, file round trips.
+//! The synthetic experiment and the committed fixtures: the dynamometer-error statistics
+//! (`docs/formats.md`, "Synthetic trials") of the residual of `fixtures/seed`, determinism
+//! of `synthesize`, the `model_inputs` bridge, file round trips.
 
 use std::path::PathBuf;
 
@@ -68,7 +69,7 @@ fn quantisation_var(d: &DynamometerSettings) -> f64 {
     d.quantisation_step_nm().powi(2) / 12.0
 }
 
-/// SPEC §4 on the committed seed fixture. The residual `measured − simulate(truth)` is the
+/// The dynamometer error of the committed seed fixture. The residual `measured − simulate(truth)` is the
 /// dynamometer error `ε` plus the ADC rounding, so:
 /// * its mean is the offset (−1.5 N·m) plus the mean of the transients;
 /// * its variance is the variance of the deterministic systematic part over the trial
@@ -80,7 +81,7 @@ fn quantisation_var(d: &DynamometerSettings) -> f64 {
 ///   `σ_AR²·φ/(σ_AR² + σ_w² + step²/12)`; the sampling error of that estimate with an effective
 ///   ~50 independent AR(1) blocks in 3.3 s is about 0.02, so we allow ±0.05.
 #[test]
-fn seed_fixture_residual_has_spec_statistics() {
+fn seed_fixture_residual_has_the_dynamometer_error_statistics() {
     let truth_json = read_truth("seed");
     assert_eq!(truth_json["generator"], "cargo xtask gen-fixtures");
     let truth = parse_truth(&truth_json);
@@ -426,7 +427,7 @@ fn model_inputs_envelopes_angle_and_mvc() {
 }
 
 #[test]
-fn random_params_stay_inside_the_spec_bounds() {
+fn random_params_stay_inside_the_identification_bounds() {
     let nominal = ModelParams::nominal();
     let mut rng = ChaCha8Rng::seed_from_u64(9);
     let draws: Vec<ModelParams> = (0..200)
