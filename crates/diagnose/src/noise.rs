@@ -203,7 +203,7 @@ mod tests {
     #[test]
     fn level_dof_of_an_unloaded_run_matches_the_scatter_of_full_noise_fits() {
         // `noise_scatter -- 200 1` (full fits of 200 simulated 8 s unloaded runs, systematic
-        // part included) measured a 19.7 % SD of the level, i.e. ν = 2/0.197² ≈ 52
+        // part included) measured a 17.2 % SD of the level, i.e. ν = 2/0.172² ≈ 68
         let nu = level_dof(&spec(), 8 * 2048, LEVEL_DOF_REPLICATES, LEVEL_DOF_SEED);
         assert!((30.0..90.0).contains(&nu), "ν = {nu}");
         // a record four times longer pins the level about four times better
