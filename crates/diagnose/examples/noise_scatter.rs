@@ -1,13 +1,13 @@
-//! How well one unloaded run pins down the noise model: the SPEC §4 unloaded run (3 cycles,
-//! about 8 s) of `N` seeds, each fitted like a diagnosis fits it ([`diagnose::NoiseModel::fit`]),
+//! How well one unloaded run pins down the noise model: the default unloaded run (3 cycles,
+//! about 8 s) of `N` seeds, each fitted like a diagnosis fits it ([`experiment::DynamometerCorrection::from_unloaded`]),
 //! and the scatter of the estimated low-frequency level `σ_a²(1+φ)/(1−φ) + σ_w²` (the noise
 //! power per sample at frequency 0, which sets the evidence of every slow term) against the
 //! true one.
 //!
 //! `cargo run --release -p diagnose --example noise_scatter -- [N] [BASE_SEED]`
 use diagnose::power::{low_frequency_level, true_noise};
-use diagnose::{NoiseModel, NoiseSource, Segmentation};
-use experiment::{unloaded_run, DynamometerSettings};
+use diagnose::{NoiseModel, NoiseSource};
+use experiment::{unloaded_run, DynamometerCorrection, DynamometerSettings};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
@@ -20,8 +20,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let u = unloaded_run(&s, seed)?;
         let fs = u.sample_rate_hz();
         truth = low_frequency_level(&true_noise(&s, fs)?);
-        let seg = Segmentation::new(&u.ankle_angle_deg, fs, None)?;
-        let m = NoiseModel::fit(&u.torque_nm, fs, &seg.events, true, NoiseSource::Unloaded);
+        let c = DynamometerCorrection::from_unloaded(&u)?;
+        let m = NoiseModel::from_correction(&c, NoiseSource::Unloaded, u.len());
         ratios.push(low_frequency_level(&m.random_part()) / truth);
     }
     let k = ratios.len() as f64;

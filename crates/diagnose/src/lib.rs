@@ -389,13 +389,13 @@ pub fn run(
                     reason: format!("sampled at {fu} Hz but the trial at {fs} Hz"),
                 });
             }
-            let su = Segmentation::new(&u.ankle_angle_deg, fu, None).map_err(|reason| {
-                DiagnoseError::Segmentation {
-                    recording: "unloaded run",
-                    reason,
+            let correction = experiment::DynamometerCorrection::from_unloaded(u).map_err(|e| {
+                DiagnoseError::Unloaded {
+                    reason: e.to_string(),
                 }
             })?;
-            let noise = NoiseModel::fit(&u.torque_nm, fu, &su.events, true, NoiseSource::Unloaded);
+            let noise =
+                NoiseModel::from_correction(&correction, NoiseSource::Unloaded, u.torque_nm.len());
             let sys = noise.systematic(&times, &seg.events);
             let y: Vec<f64> = trial
                 .torque_nm
@@ -426,8 +426,9 @@ pub fn run(
                 .zip(&f0.pred)
                 .map(|(a, b)| a - b)
                 .collect();
+            let correction = experiment::DynamometerCorrection::fit(&res, fs, &seg.events, false)?;
             let mut noise =
-                NoiseModel::fit(&res, fs, &seg.events, false, NoiseSource::TrialResidual);
+                NoiseModel::from_correction(&correction, NoiseSource::TrialResidual, res.len());
             noise.offset_nm = 0.0;
             let sys = noise.systematic(&times, &seg.events);
             let y: Vec<f64> = trial

@@ -3,9 +3,10 @@
 //! The velocity `v` (central differences of the angle) gives the moving samples
 //! (`|v| > 2 %` of the cruise speed, the median `|v|` while moving); runs of equal sign are
 //! sweeps (negative = concentric for the plantarflexors, positive = eccentric); stationary runs
-//! shorter than 40 ms inside the motion (the reversals) are merged into the sweeps. An event
-//! time (start, reversal, stop) is where the velocity, extrapolated linearly from the ramp
-//! samples with `10 % < |v|/v_cruise < 90 %`, reaches zero.
+//! shorter than 40 ms inside the motion (the reversals) are merged into the sweeps. The low
+//! threshold labels every sample that moves at all. The event times (starts, reversals,
+//! stops) are `experiment::detect_events`'s, the same the dynamometer correction is placed at
+//! (`docs/dynamometer.md`).
 
 use serde::Serialize;
 
@@ -75,7 +76,7 @@ impl Segmentation {
     /// and optionally the mean plantarflexor envelope per sample (to tell relaxed cycles).
     ///
     /// # Errors
-    /// No motion found, or fewer than 8 samples (`reason` says which).
+    /// No motion found, or fewer than 16 samples (`reason` says which).
     pub fn new(angle: &[f64], fs: f64, envelope: Option<&[f64]>) -> Result<Self, String> {
         let n = angle.len();
         if n < 8 {
@@ -187,7 +188,10 @@ impl Segmentation {
                 }
             }
         }
-        let events = event_times(&v, &sign, fs, cruise);
+        let times: Vec<f64> = (0..n).map(|i| i as f64 / fs).collect();
+        let events = experiment::detect_events(&times, angle)
+            .map_err(|e| e.to_string())?
+            .all();
         Ok(Segmentation {
             phase,
             cycle,
@@ -203,81 +207,4 @@ impl Segmentation {
             .filter(|&k| !self.cycles[k].relaxed)
             .collect()
     }
-}
-
-/// Linear fit of `|v|` (or signed `v`) against time over the given samples → time where it is 0.
-fn zero_time(samples: &[(f64, f64)]) -> Option<f64> {
-    let n = samples.len() as f64;
-    if samples.len() < 2 {
-        return None;
-    }
-    let mt = samples.iter().map(|s| s.0).sum::<f64>() / n;
-    let mv = samples.iter().map(|s| s.1).sum::<f64>() / n;
-    let sxy: f64 = samples.iter().map(|s| (s.0 - mt) * (s.1 - mv)).sum();
-    let sxx: f64 = samples.iter().map(|s| (s.0 - mt) * (s.0 - mt)).sum();
-    if sxx <= 0.0 || sxy == 0.0 {
-        return None;
-    }
-    let slope = sxy / sxx;
-    Some(mt - mv / slope)
-}
-
-fn event_times(v: &[f64], sign: &[i8], fs: f64, cruise: f64) -> Vec<f64> {
-    let n = v.len();
-    let win = (0.2 * fs) as usize;
-    let mut events = Vec::new();
-    let ramp = |i: usize| {
-        let r = v[i].abs() / cruise;
-        r > 0.1 && r < 0.9
-    };
-    for i in 1..n {
-        if sign[i] == sign[i - 1] {
-            continue;
-        }
-        let (a, b) = (sign[i - 1], sign[i]);
-        let t_naive = i as f64 / fs;
-        let lo = i.saturating_sub(win);
-        let hi = (i + win).min(n);
-        let est = if a == 0 {
-            // start: ramp up after i
-            let s: Vec<(f64, f64)> = (i..hi)
-                .take_while(|&k| v[k].abs() < 0.9 * cruise || k < i + 2)
-                .filter(|&k| ramp(k))
-                .map(|k| (k as f64 / fs, v[k].abs()))
-                .collect();
-            zero_time(&s)
-        } else if b == 0 {
-            // stop: ramp down before i
-            let s: Vec<(f64, f64)> = (lo..i)
-                .rev()
-                .take_while(|&k| v[k].abs() < 0.9 * cruise || k + 2 > i)
-                .filter(|&k| ramp(k))
-                .map(|k| (k as f64 / fs, v[k].abs()))
-                .collect();
-            zero_time(&s)
-        } else {
-            // reversal: signed v through zero
-            let mut s: Vec<(f64, f64)> = Vec::new();
-            let mut k = i;
-            while k > lo && v[k - 1].abs() < 0.9 * cruise {
-                k -= 1;
-            }
-            let mut e = i;
-            while e < hi && v[e].abs() < 0.9 * cruise {
-                e += 1;
-            }
-            for j in k..e {
-                if v[j].abs() > 0.1 * cruise {
-                    s.push((j as f64 / fs, v[j]));
-                }
-            }
-            zero_time(&s)
-        };
-        let t = match est {
-            Some(t) if (t - t_naive).abs() < 0.1 => t,
-            _ => t_naive,
-        };
-        events.push(t);
-    }
-    events
 }

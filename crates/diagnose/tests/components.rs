@@ -2,7 +2,9 @@
 
 use diagnose::noise::{NoiseModel, NoiseSource, Transient};
 use diagnose::{lm, CvFolds, PhaseLabel, Segmentation};
-use experiment::{unloaded_run, DynamometerSettings, Protocol, ProtocolTrace};
+use experiment::{
+    unloaded_run, DynamometerCorrection, DynamometerSettings, Protocol, ProtocolTrace, Unloaded,
+};
 use muscle_model::EffectKind;
 
 /// The protocol's trace and its segmentation with an envelope at rest in the relaxed parts
@@ -36,13 +38,19 @@ fn segments_relaxed_plus_two() {
     assert!((n_relaxed as f64 / tr.sample_rate_hz - 2.0 * 1.2167).abs() < 0.01);
 }
 
+/// The noise model of an unloaded run, as a diagnosis makes it.
+fn unloaded_model(u: &Unloaded) -> NoiseModel {
+    let c = DynamometerCorrection::from_unloaded(u).unwrap();
+    NoiseModel::from_correction(&c, NoiseSource::Unloaded, u.len())
+}
+
 #[test]
 fn noise_model_recovers_the_dynamometer_error() {
     let s = DynamometerSettings::default();
     let u = unloaded_run(&s, 5).unwrap();
     let fs = u.sample_rate_hz();
     let seg = Segmentation::new(&u.ankle_angle_deg, fs, None).unwrap();
-    let m = NoiseModel::fit(&u.torque_nm, fs, &seg.events, true, NoiseSource::Unloaded);
+    let m = unloaded_model(&u);
     assert!((m.offset_nm - s.offset_nm).abs() < 0.3, "{m:?}");
     let amp = m.transient.b_nm.hypot(m.transient.c_nm);
     assert!((amp - s.transient_amplitude_nm).abs() < 1.5, "{m:?}");
@@ -120,9 +128,7 @@ fn transient_is_fitted_by_generalised_least_squares() {
     let mut errs = Vec::new();
     for seed in 1..=16 {
         let u = unloaded_run(&s, seed).unwrap();
-        let fs = u.sample_rate_hz();
-        let seg = Segmentation::new(&u.ankle_angle_deg, fs, None).unwrap();
-        let m = NoiseModel::fit(&u.torque_nm, fs, &seg.events, true, NoiseSource::Unloaded);
+        let m = unloaded_model(&u);
         errs.push((seed, transient_error(&m, &s), m.transient.freq_hz));
     }
     eprintln!("seed, relative template error, f: {errs:?}");
@@ -142,9 +148,7 @@ fn a_least_squares_start_in_the_wrong_basin_is_searched_again() {
     let s = DynamometerSettings::default();
     for seed in [1_100_712, 500_711] {
         let u = unloaded_run(&s, seed).unwrap();
-        let fs = u.sample_rate_hz();
-        let seg = Segmentation::new(&u.ankle_angle_deg, fs, None).unwrap();
-        let m = NoiseModel::fit(&u.torque_nm, fs, &seg.events, true, NoiseSource::Unloaded);
+        let m = unloaded_model(&u);
         let e = transient_error(&m, &s);
         assert!(e < 0.3, "seed {seed}: template error {e:.3}: {m:?}");
         assert!(
@@ -156,7 +160,7 @@ fn a_least_squares_start_in_the_wrong_basin_is_searched_again() {
 
 #[test]
 fn a_recording_without_a_transient_gets_none() {
-    // Without the test of `noise::TRANSIENT_MIN_EVIDENCE` the grid search fitted the AR(1)
+    // Without the test of `experiment::TRANSIENT_MIN_EVIDENCE` the grid search fitted the AR(1)
     // wander of such a run (τ near 1 s, B and C up to 300 N·m and nearly cancelling), and
     // that shape was subtracted after every event of the trial.
     let s = DynamometerSettings {
@@ -165,9 +169,7 @@ fn a_recording_without_a_transient_gets_none() {
     };
     for seed in 5000..5004 {
         let u = unloaded_run(&s, seed).unwrap();
-        let fs = u.sample_rate_hz();
-        let seg = Segmentation::new(&u.ankle_angle_deg, fs, None).unwrap();
-        let m = NoiseModel::fit(&u.torque_nm, fs, &seg.events, true, NoiseSource::Unloaded);
+        let m = unloaded_model(&u);
         assert_eq!(m.transient, Transient::none(), "seed {seed}: {m:?}");
         assert!(
             (m.offset_nm - s.offset_nm).abs() < 0.5,
@@ -178,9 +180,7 @@ fn a_recording_without_a_transient_gets_none() {
     let s = DynamometerSettings::default();
     for seed in 5000..5004 {
         let u = unloaded_run(&s, seed).unwrap();
-        let fs = u.sample_rate_hz();
-        let seg = Segmentation::new(&u.ankle_angle_deg, fs, None).unwrap();
-        let m = NoiseModel::fit(&u.torque_nm, fs, &seg.events, true, NoiseSource::Unloaded);
+        let m = unloaded_model(&u);
         let amp = m.transient.b_nm.hypot(m.transient.c_nm);
         assert!(
             (amp - 4.0).abs() < 1.5,

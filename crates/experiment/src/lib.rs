@@ -12,6 +12,10 @@
 //!   motion start, reversal and stop `e ≤ t`, `x_t = φx_{t−1} + σ√(1−φ²)ξ_t` with
 //!   `φ = e^{−dt/τc}` (stationary start), `w_t ~ N(0, σ_w²)`; then the 12-bit ADC
 //!   `step·round(x/step)`, `step = 1356/4096 N·m`, clamped to the codes −2048…2047.
+//! * [`events`]: motion starts, reversals and stops detected from a measured angle.
+//! * [`transient`] and [`correction`]: the dynamometer correction estimated from an unloaded
+//!   run (offset, damped-sinusoid transient, AR(1)+white random part) and subtracted from a
+//!   trial at its own events (`docs/dynamometer.md`).
 //! * [`emg`]: raw EMG `x_c(t) = g_c·d_c(t)·c_c(t)`, `c_c` unit-RMS Gaussian noise
 //!   band-limited to 20–450 Hz, `d_c ∈ [rest, 1]` the drive.
 //! * [`seeds`]: every random part is a `ChaCha8Rng` on its own stream of one seed.
@@ -40,31 +44,35 @@
 //! # Ok::<(), experiment::ExperimentError>(())
 //! ```
 
+pub mod correction;
 pub mod dynamometer;
 pub mod emg;
 pub mod error;
+pub mod events;
 pub mod files;
 pub mod model_inputs;
-pub mod noise;
 pub mod protocol;
 pub mod seeds;
 pub mod synth;
+pub mod transient;
 
+pub use correction::{
+    fit_ar1_white, CorrectedTorque, DynamometerCorrection, DynamometerReport, TransientReport,
+};
 pub use dynamometer::{
     dynamometer_error, quantise, quantise_in_place, random_error, random_error_with,
     systematic_error, systematic_error_at, unloaded_run, DynamometerSettings, Recording,
 };
 pub use emg::{synthetic_emg, EmgChannel, EmgMuscle, EmgSettings, SyntheticEmg};
 pub use error::{ErrorKind, ExperimentError, Result};
+pub use events::{detect_events, detect_events_with, EventSettings};
 pub use files::{
     format_f64, format_trial, format_unloaded, parse_trial, parse_trial_bytes, parse_trial_with,
     parse_unloaded, parse_unloaded_bytes, parse_unloaded_with, read_trial, read_unloaded,
     write_f64, write_trial, write_unloaded, ReadOptions, Trial, Unloaded,
 };
 pub use model_inputs::{model_inputs, model_inputs_named, InputOptions};
-pub use noise::{
-    detect_events, detect_events_with, EventSettings, LagCheck, NoiseEstimate, NoiseSettings,
-};
 pub use protocol::{Events, MotionSettings, Phase, Protocol, ProtocolTrace, Segment};
 pub use seeds::{rng, Stream};
 pub use synth::{random_params, round_decimals, sorted_json, synthesize, SynthConfig, Synthetic};
+pub use transient::{Transient, TRANSIENT_MIN_EVIDENCE};

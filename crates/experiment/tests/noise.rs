@@ -1,8 +1,9 @@
-//! Event detection and the unloaded-run noise estimate against the synthetic truth.
+//! Event detection and the dynamometer correction estimated from an unloaded run against the
+//! synthetic truth.
 
 use experiment::{
-    detect_events, quantise, systematic_error, unloaded_run, DynamometerSettings, ErrorKind,
-    Events, NoiseEstimate, Protocol, Unloaded,
+    detect_events, quantise, systematic_error, unloaded_run, DynamometerCorrection,
+    DynamometerSettings, ErrorKind, Events, Protocol, Unloaded,
 };
 
 fn max_event_error(a: &Events, b: &Events) -> f64 {
@@ -91,6 +92,27 @@ fn theory(s: &DynamometerSettings) -> Theory {
     }
 }
 
+/// The remainder of an unloaded run after the correction's systematic part, at its own events.
+fn remainder(u: &Unloaded, c: &DynamometerCorrection) -> Vec<f64> {
+    let ev = detect_events(&u.time_s, &u.ankle_angle_deg).unwrap();
+    let sys = c.systematic_for(&u.time_s, &ev);
+    u.torque_nm.iter().zip(&sys).map(|(a, b)| a - b).collect()
+}
+
+/// Autocorrelation of `x` about its mean at lag `k` (biased autocovariances).
+fn autocorrelation(x: &[f64], k: usize) -> f64 {
+    let n = x.len() as f64;
+    let m = x.iter().sum::<f64>() / n;
+    let c = |k: usize| {
+        x.iter()
+            .zip(&x[k..])
+            .map(|(a, b)| (a - m) * (b - m))
+            .sum::<f64>()
+            / n
+    };
+    c(k) / c(0)
+}
+
 #[test]
 fn unloaded_estimate_recovers_the_systematic_part_and_the_noise() {
     let s = DynamometerSettings::default();
@@ -104,7 +126,7 @@ fn unloaded_estimate_recovers_the_systematic_part_and_the_noise() {
     let mut worst = (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64);
     for seed in seeds {
         let u = unloaded_run(&s, seed).unwrap();
-        let est = NoiseEstimate::from_unloaded(&u).unwrap();
+        let est = DynamometerCorrection::from_unloaded(&u).unwrap();
         // Placed at the seed trial's own (detected) events.
         let ev = detect_events(&seed_trace.time_s, &seed_trace.angle_deg).unwrap();
         let sys = est.systematic_for(&seed_trace.time_s, &ev);
@@ -113,28 +135,25 @@ fn unloaded_estimate_recovers_the_systematic_part_and_the_noise() {
         let trans_est: Vec<f64> = sys.iter().map(|v| v - est.offset_nm).collect();
         let trans_true: Vec<f64> = true_sys.iter().map(|v| v - s.offset_nm).collect();
         let e_trans = rms(&trans_est, &trans_true);
-        let e_sigma = (est.sigma_nm / th.sigma - 1.0).abs();
-        let e_lag1 = (est.lag1 - th.lag1).abs();
-        let e_phi = (est.ar1_phi - th.phi).abs();
+        let r = est.random;
+        let e_sigma = (r.marginal_sd() / th.sigma - 1.0).abs();
+        let e_lag1 = (r.autocorrelation(1) - th.lag1).abs();
+        let e_phi = (r.phi - th.phi).abs();
         println!(
             "seed {seed}: offset {:.3} sys rms err {e_sys:.3} transients {e_trans:.3} (none {e_none:.3}) \
-             sigma {:.3}/{:.3} lag1 {:.4}/{:.4} phi {:.4}/{:.4} ar1 {:.3} white {:.3} se {:.3}",
+             sigma {:.3}/{:.3} lag1 {:.4}/{:.4} phi {:.4}/{:.4} ar1 {:.3} white {:.3}",
             est.offset_nm,
-            est.sigma_nm,
+            r.marginal_sd(),
             th.sigma,
-            est.lag1,
+            r.autocorrelation(1),
             th.lag1,
-            est.ar1_phi,
+            r.phi,
             th.phi,
-            est.ar1_sd_nm,
-            est.white_sd_nm,
-            est.template_se_nm()
+            r.sigma_ar,
+            r.sigma_white,
         );
-        assert_eq!(
-            est.events.all().len(),
-            7,
-            "3 cycles: 1 start, 5 reversals, 1 stop"
-        );
+        let own = detect_events(&u.time_s, &u.ankle_angle_deg).unwrap();
+        assert_eq!(own.all().len(), 7, "3 cycles: 1 start, 5 reversals, 1 stop");
         worst = (
             worst.0.max(e_sys),
             worst.1.max(e_sigma),
@@ -142,7 +161,7 @@ fn unloaded_estimate_recovers_the_systematic_part_and_the_noise() {
             worst.3.max(e_phi),
             worst.4.max((est.offset_nm - s.offset_nm).abs()),
         );
-        // The template removes most of the transients (the rest is its averaging noise).
+        // The fitted transient removes most of the true one.
         assert!(
             e_trans < 0.75 * e_none,
             "seed {seed}: {e_trans} vs {e_none}"
@@ -172,52 +191,100 @@ fn unloaded_estimate_recovers_the_systematic_part_and_the_noise() {
 fn autocorrelation_follows_ar1_plus_white() {
     let s = DynamometerSettings::default();
     let u = unloaded_run(&s, 11).unwrap();
-    let est = NoiseEstimate::from_unloaded(&u).unwrap();
-    let checks = est.autocorrelation_check(&[1, 5, 20, 60]);
-    assert_eq!(checks.len(), 4);
-    for c in &checks {
-        println!(
-            "lag {}: measured {:.3} ar1+white {:.3} ar1 {:.3}",
-            c.lag, c.measured, c.ar1_white, c.ar1
+    let est = DynamometerCorrection::from_unloaded(&u).unwrap();
+    let rem = remainder(&u, &est);
+    for lag in [1usize, 5, 20, 60] {
+        let measured = autocorrelation(&rem, lag);
+        let model = est.random.autocorrelation(lag as u32);
+        let ar1 = autocorrelation(&rem, 1).powi(lag as i32);
+        println!("lag {lag}: measured {measured:.3} ar1+white {model:.3} ar1 {ar1:.3}");
+        assert!(
+            (measured - model).abs() < 0.06,
+            "lag {lag}: {measured} vs {model}"
         );
-        assert!((c.measured - c.ar1_white).abs() < 0.06, "{c:?}");
     }
-    // The AR(1) handed to a likelihood has the measured lag-one correlation and marginal σ.
-    let ar = est.ar1().unwrap();
-    assert!((ar.phi - est.lag1).abs() < 1e-12);
-    let marginal = ar.sigma_innov / (1.0 - ar.phi * ar.phi).sqrt();
-    assert!((marginal - est.sigma_nm).abs() < 1e-9);
+    // The fit reproduces the remainder's lag-one correlation and marginal σ exactly.
+    let n = rem.len() as f64;
+    let mean = rem.iter().sum::<f64>() / n;
+    let sd = (rem.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt();
+    assert!((est.random.autocorrelation(1) - autocorrelation(&rem, 1)).abs() < 1e-9);
+    assert!((est.random.marginal_sd() - sd).abs() < 1e-9);
 }
 
 #[test]
 fn estimate_of_a_pure_systematic_run_is_exact_up_to_quantisation() {
-    // No random part: the template is the transient itself, the remainder is quantisation.
+    // No random part: the fitted transient is the transient itself, the remainder is
+    // quantisation.
     let s = DynamometerSettings {
         ar1_sd_nm: 0.0,
         white_sd_nm: 0.0,
         ..DynamometerSettings::default()
     };
     let u = unloaded_run(&s, 1).unwrap();
-    let est = NoiseEstimate::from_unloaded(&u).unwrap();
-    let truth = systematic_error(
-        &u.time_s,
-        &Protocol::unloaded().trace().unwrap().events.all(),
-        &s,
-    );
-    let sys = est.systematic_for(&u.time_s, &est.events);
+    let est = DynamometerCorrection::from_unloaded(&u).unwrap();
+    let events = Protocol::unloaded().trace().unwrap().events;
+    let truth = systematic_error(&u.time_s, &events.all(), &s);
+    let ev = detect_events(&u.time_s, &u.ankle_angle_deg).unwrap();
+    let sys = est.systematic_for(&u.time_s, &ev);
     // The ADC turns the constant offset into a constant (−1.5 → −1.655 N·m): compare the
     // transients and the offset separately.
     let transient_truth: Vec<f64> = truth.iter().map(|v| v - s.offset_nm).collect();
     let transient_est: Vec<f64> = sys.iter().map(|v| v - est.offset_nm).collect();
     let e = rms(&transient_est, &transient_truth);
-    println!(
-        "noise-free: systematic RMS error {e:.4} N·m, sigma {:.4}",
-        est.sigma_nm
-    );
+    let sigma = est.random.marginal_sd();
+    println!("noise-free: systematic RMS error {e:.4} N·m, sigma {sigma:.4}");
     // The quantisation step is 0.33 N·m (its RMS 0.096 N·m); the estimate is within that.
     assert!(e < 0.1, "{e}");
-    assert!(est.sigma_nm < 0.15);
+    assert!(sigma < 0.15, "{sigma}");
     assert!((est.offset_nm - quantise(s.offset_nm, &s)).abs() < 0.2);
+}
+
+#[test]
+fn the_report_states_what_is_subtracted() {
+    let s = DynamometerSettings::default();
+    let u = unloaded_run(&s, 4).unwrap();
+    let est = DynamometerCorrection::from_unloaded(&u).unwrap();
+    let r = est.report();
+    assert_eq!(r.offset_nm, est.offset_nm);
+    let t = r.transient.expect("the default run has a transient");
+    assert_eq!(t.amplitude_nm, est.transient.b_nm.hypot(est.transient.c_nm));
+    assert!((t.freq_hz - s.transient_freq_hz).abs() < 1.0, "{r:?}");
+    assert!((t.tau_s / s.transient_tau_s - 1.0).abs() < 0.3, "{r:?}");
+    assert!(
+        (r.ar1_corr_time_s / s.ar1_corr_time_s - 1.0).abs() < 0.3,
+        "{r:?}"
+    );
+    assert!((r.ar1_sd_nm / s.ar1_sd_nm - 1.0).abs() < 0.2, "{r:?}");
+    // the AR(1) coefficient per sample back from the correlation time
+    let phi = (-est.dt_s / r.ar1_corr_time_s).exp();
+    assert!((phi - est.random.phi).abs() < 1e-12);
+    // a trial corrected at its own events: measured − systematic
+    let trace = Protocol::Seed.trace().unwrap();
+    let trial = experiment::synthesize(&experiment::SynthConfig::new(Protocol::Seed, 4))
+        .unwrap()
+        .trial;
+    let corrected = est.correct(&trial).unwrap();
+    assert_eq!(corrected.events.all().len(), trace.events.all().len());
+    for ((m, c), s) in trial
+        .torque_nm
+        .iter()
+        .zip(&corrected.torque_nm)
+        .zip(&corrected.systematic_nm)
+    {
+        assert_eq!(*c, m - s);
+    }
+}
+
+#[test]
+fn a_run_without_a_transient_reports_none() {
+    let s = DynamometerSettings {
+        transient_amplitude_nm: 0.0,
+        ..DynamometerSettings::default()
+    };
+    let u = unloaded_run(&s, 5001).unwrap();
+    let est = DynamometerCorrection::from_unloaded(&u).unwrap();
+    assert!(est.transient.is_none(), "{est:?}");
+    assert_eq!(est.report().transient, None);
 }
 
 #[test]
@@ -230,5 +297,9 @@ fn estimate_rejects_a_run_without_motion() {
         comments: Vec::new(),
         ignored_columns: Vec::new(),
     };
-    assert!(NoiseEstimate::from_unloaded(&u).is_err());
+    assert!(DynamometerCorrection::from_unloaded(&u).is_err());
+    // too short, and non-finite values, are errors too, not panics
+    assert!(DynamometerCorrection::fit(&[0.0; 8], 2048.0, &[], true).is_err());
+    assert!(DynamometerCorrection::fit(&[f64::NAN; 64], 2048.0, &[], true).is_err());
+    assert!(DynamometerCorrection::fit(&[0.0; 64], f64::NAN, &[], true).is_err());
 }

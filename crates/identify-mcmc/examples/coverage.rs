@@ -44,8 +44,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let problem = Problem::standard(syn.inputs.clone(), syn.trial.torque_nm.clone())?;
         let mut noise = NoiseSpec::from_unloaded(&syn.trial, &syn.unloaded, kind)?;
         if exact {
-            let events =
-                experiment::noise::detect_events(&syn.trial.time_s, &syn.trial.ankle_angle_deg)?;
+            let events = experiment::detect_events(&syn.trial.time_s, &syn.trial.ankle_angle_deg)?;
             noise.systematic = Some(experiment::dynamometer::systematic_error(
                 &syn.trial.time_s,
                 &events.all(),

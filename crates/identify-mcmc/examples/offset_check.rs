@@ -2,7 +2,7 @@
 //!
 //! `cargo run --release -p identify-mcmc --example offset_check -- [N=12]` synthesises N
 //! seed-protocol trials (seeds 1…N, random truths), estimates the systematic error from each
-//! unloaded run ([`experiment::noise::NoiseEstimate`]) and prints the error of the estimated
+//! unloaded run ([`experiment::DynamometerCorrection`]) and prints the error of the estimated
 //! offset and the mean of what is left of the trial's error after the correction
 //! (`measured − model(truth) − systematic`), then their mean ± sd over the trials. These are the
 //! numbers behind `identify_mcmc::UNLOADED_OFFSET_SD_NM`.
@@ -33,10 +33,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let cfg = SynthConfig::new("seed".parse()?, seed).with_params(truth);
         let true_offset = cfg.dynamometer.offset_nm;
         let syn = synthesize(&cfg)?;
-        let est = experiment::noise::NoiseEstimate::from_unloaded(&syn.unloaded)?;
-        let events =
-            experiment::noise::detect_events(&syn.trial.time_s, &syn.trial.ankle_angle_deg)?;
-        let sys = est.systematic_for(&syn.trial.time_s, &events);
+        let est = experiment::DynamometerCorrection::from_unloaded(&syn.unloaded)?;
+        let sys = est.correct(&syn.trial)?.systematic_nm;
         let rem: Vec<f64> = syn
             .trial
             .torque_nm
@@ -48,13 +46,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mean = rem.iter().sum::<f64>() / rem.len() as f64;
         // The remainder whitened by the noise model fitted on the unloaded run: i.i.d. N(0, 1)
         // if the noise model is right (variance 1, no autocorrelation left).
-        let spec = identify_mcmc::NoiseSpec::from_unloaded(
+        let spec = identify_mcmc::NoiseSpec::from_correction(
             &syn.trial,
-            &syn.unloaded,
+            &est,
             identify_mcmc::NoiseKind::Ar1White,
         )?;
         let identify_mcmc::NoiseSource::Fixed(params) = spec.source else {
-            unreachable!("from_unloaded fixes the noise model")
+            unreachable!("from_correction fixes the noise model")
         };
         let centred: Vec<f64> = rem.iter().map(|v| v - mean).collect();
         let mut w = Vec::new();

@@ -99,11 +99,8 @@ impl NoiseSpec {
         }
     }
 
-    /// The SPEC's pipeline with an unloaded run: [`experiment::noise::NoiseEstimate`] of the
-    /// unloaded run (offset, cycle-locked transient template, remainder σ, lag-one ρ₁ and the
-    /// AR(1)+white split), the trial corrected by the systematic part at its own detected
-    /// events, and the random part of `kind`: `Iid {σ}`, `Ar1 {φ = ρ₁, σ_innov = σ√(1−ρ₁²)}`
-    /// or `Ar1White {φ, σ_a, σ_w}` as estimated.
+    /// The pipeline with an unloaded run: [`experiment::DynamometerCorrection`] of the
+    /// unloaded run, then [`NoiseSpec::from_correction`].
     ///
     /// # Errors
     /// The unloaded run or the trial's angle cannot be analysed, or invalid noise values.
@@ -112,21 +109,38 @@ impl NoiseSpec {
         unloaded: &experiment::Unloaded,
         kind: NoiseKind,
     ) -> Result<Self, McmcError> {
-        let est = experiment::noise::NoiseEstimate::from_unloaded(unloaded)?;
-        let events = experiment::noise::detect_events(&trial.time_s, &trial.ankle_angle_deg)?;
-        let systematic = est.systematic_for(&trial.time_s, &events);
+        let correction = experiment::DynamometerCorrection::from_unloaded(unloaded)?;
+        Self::from_correction(trial, &correction, kind)
+    }
+
+    /// A dynamometer correction (offset, damped-sinusoid transient and AR(1)+white random
+    /// part, `docs/dynamometer.md`) applied to a trial: the trial is corrected by the
+    /// systematic part at its own detected events, and the random part of `kind` is taken
+    /// from the correction's `(φ, σ_ar, σ_w)`: `Iid {σ}` with the marginal
+    /// `σ = √(σ_ar² + σ_w²)`, `Ar1 {φ = ρ₁, σ_innov = σ√(1−ρ₁²)}` with its lag-one
+    /// correlation `ρ₁ = φ·σ_ar²/σ²`, or `Ar1White {φ, σ_ar, σ_w}` itself.
+    ///
+    /// # Errors
+    /// The trial's angle cannot be analysed, or invalid noise values.
+    pub fn from_correction(
+        trial: &experiment::Trial,
+        correction: &experiment::DynamometerCorrection,
+        kind: NoiseKind,
+    ) -> Result<Self, McmcError> {
+        let systematic = correction.correct(trial)?.systematic_nm;
+        let r = correction.random;
+        let sigma = r.marginal_sd();
+        let lag1 = r.autocorrelation(1);
         let noise = match kind {
-            NoiseKind::Iid => NoiseParams::Iid {
-                sigma: est.sigma_nm,
-            },
+            NoiseKind::Iid => NoiseParams::Iid { sigma },
             NoiseKind::Ar1 => NoiseParams::Ar1 {
-                phi: est.lag1,
-                sigma_innov: est.sigma_nm * (1.0 - est.lag1 * est.lag1).max(0.0).sqrt(),
+                phi: lag1,
+                sigma_innov: sigma * (1.0 - lag1 * lag1).max(0.0).sqrt(),
             },
             NoiseKind::Ar1White => NoiseParams::Ar1White {
-                phi: est.ar1_phi,
-                sigma_ar: est.ar1_sd_nm,
-                sigma_white: est.white_sd_nm,
+                phi: r.phi,
+                sigma_ar: r.sigma_ar,
+                sigma_white: r.sigma_white,
             },
         };
         noise.model()?;

@@ -689,8 +689,8 @@ pub struct PreparedTrial {
     /// What was subtracted from `raw_torque` (offset + transients at the trial's own events),
     /// when an unloaded run was given.
     pub subtracted: Option<Vec<f64>>,
-    /// The noise estimate from the unloaded run, when given.
-    pub noise: Option<experiment::NoiseEstimate>,
+    /// The dynamometer correction estimated from the unloaded run, when given.
+    pub correction: Option<experiment::DynamometerCorrection>,
     /// The trial's motion events (detected from its angle), when an unloaded run was given.
     pub events: Option<experiment::Events>,
 }
@@ -725,12 +725,11 @@ impl PreparedTrial {
 /// optionally, its unloaded run.
 ///
 /// With an unloaded run, the dynamometer's cycle-locked error is removed from the measured
-/// torque before fitting: [`experiment::NoiseEstimate::from_unloaded`] estimates the offset
-/// and the mean transient after a motion event from the unloaded run,
-/// [`experiment::detect_events`] finds the trial's own starts, reversals and stops from its
-/// angle, and [`experiment::NoiseEstimate::systematic_for`] (offset + transient at each of
-/// those events) is subtracted. Without one, the raw torque is fitted (a left-in offset then
-/// biases the forces).
+/// torque before fitting: [`experiment::DynamometerCorrection::from_unloaded`] estimates the
+/// offset and the damped-sinusoid transient after a motion event from the unloaded run, and
+/// [`experiment::DynamometerCorrection::correct`] subtracts them at the trial's own starts,
+/// reversals and stops ([`experiment::detect_events`] on its angle). Without one, the raw
+/// torque is fitted (a left-in offset then biases the forces).
 ///
 /// # Errors
 /// Invalid trial or unloaded run (e.g. no motion in it), or a problem the model rejects.
@@ -741,13 +740,16 @@ pub fn prepare_trial(
 ) -> Result<PreparedTrial, Error> {
     let inputs = experiment::model_inputs(trial, opts)?;
     let raw = trial.torque_nm.clone();
-    let (measured, subtracted, noise, events) = match unloaded {
+    let (measured, subtracted, correction, events) = match unloaded {
         Some(u) => {
-            let est = experiment::NoiseEstimate::from_unloaded(u)?;
-            let ev = experiment::detect_events(&trial.time_s, &trial.ankle_angle_deg)?;
-            let sys = est.systematic_for(&trial.time_s, &ev);
-            let corrected = raw.iter().zip(&sys).map(|(m, s)| m - s).collect();
-            (corrected, Some(sys), Some(est), Some(ev))
+            let c = experiment::DynamometerCorrection::from_unloaded(u)?;
+            let corrected = c.correct(trial)?;
+            (
+                corrected.torque_nm,
+                Some(corrected.systematic_nm),
+                Some(c),
+                Some(corrected.events),
+            )
         }
         None => (raw.clone(), None, None, None),
     };
@@ -756,7 +758,7 @@ pub fn prepare_trial(
         problem,
         raw_torque: raw,
         subtracted,
-        noise,
+        correction,
         events,
     })
 }

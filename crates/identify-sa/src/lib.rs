@@ -10,9 +10,9 @@
 //! # Identification ([`identify()`], [`prepare_trial`])
 //!
 //! * [`prepare_trial`] builds the standard problem from a trial; with an unloaded run it
-//!   subtracts the dynamometer's cycle-locked error (offset + mean transient after each
-//!   motion event, `experiment::NoiseEstimate`, placed at the trial's own events detected
-//!   from its angle) from the measured torque and returns what it subtracted.
+//!   subtracts the dynamometer's cycle-locked error (offset + damped-sinusoid transient after
+//!   each motion event, `experiment::DynamometerCorrection`, placed at the trial's own events
+//!   detected from its angle) from the measured torque and returns what it subtracted.
 //! * [`identify()`] runs `chains` = 4 independent annealing chains in parallel (rayon; chain
 //!   0 from the nominal values, the others from random points; chain `k` seeded with
 //!   [`chain_seed`]), each with [`IdentifySettings::default_annealer`] (6 000 evaluations,

@@ -96,6 +96,16 @@ pub fn run(args: Args) -> CmdResult {
             "unloaded".into(),
             serde_json::json!(unloaded.as_ref().map(|(_, n)| n.clone())),
         );
+        // the correction subtracted, in the same form `identify` reports it; its AR(1)
+        // correlation time is per sample of the recording the noise was fitted on
+        let fitted_on = match &unloaded {
+            Some((u, _)) => u.sample_rate_hz(),
+            None => loaded.trial.sample_rate_hz(),
+        };
+        obj.insert(
+            "dynamometer".into(),
+            serde_json::json!(d.noise.dynamometer(1.0 / fitted_on)),
+        );
     }
     let text = serde_json::to_string_pretty(&doc).map_err(Failure::internal)? + "\n";
     let path = out.write("diagnosis.json", text.as_bytes())?;

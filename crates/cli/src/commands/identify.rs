@@ -106,10 +106,14 @@ pub struct Prepared {
     pub measured_raw: Vec<f64>,
     /// How the unloaded run was used, for the JSON.
     pub noise: Value,
+    /// The dynamometer correction subtracted (`"dynamometer"` in the JSON; `null` without an
+    /// unloaded run, when nothing is subtracted).
+    pub dynamometer: Value,
     /// True parameters, if known.
     pub truth: Option<ModelParams>,
-    /// The unloaded run, if any (MCMC estimates its noise model from it).
-    pub unloaded: Option<experiment::Unloaded>,
+    /// The dynamometer correction estimated from the unloaded run, if any (MCMC takes its
+    /// noise model from it).
+    pub correction: Option<experiment::DynamometerCorrection>,
     /// Files read (never overwritten).
     pub inputs: Vec<PathBuf>,
 }
@@ -157,17 +161,18 @@ pub fn prepare(
             Some(n) => Failure::bad(format!("{} / {n}: {e}", loaded.name)),
             None => Failure::bad(format!("{}: {e}", loaded.name)),
         })?;
-    let noise = match &prep.noise {
-        Some(n) => json!({
+    let noise = match &prep.correction {
+        Some(c) => json!({
             "unloaded": unloaded_name,
-            "offset_nm": n.offset_nm,
-            "sigma_nm": n.sigma_nm,
-            "lag1_autocorrelation": n.lag1,
-            "ar1_phi": n.ar1_phi,
+            "offset_nm": c.offset_nm,
+            "sigma_nm": c.random.marginal_sd(),
+            "lag1_autocorrelation": c.random.autocorrelation(1),
+            "ar1_phi": c.random.phi,
             "subtracted_rms_nm": prep.subtracted_rms_nm(),
         }),
         None => json!({"unloaded": Value::Null}),
     };
+    let dynamometer = json!(prep.correction.as_ref().map(|c| c.report()));
     let measured_raw = prep.raw_torque.clone();
     let problem = Problem::new(
         prep.problem.inputs().clone(),
@@ -182,8 +187,9 @@ pub fn prepare(
         problem,
         measured_raw,
         noise,
+        dynamometer,
         truth,
-        unloaded: unloaded.map(|(u, _)| u),
+        correction: prep.correction,
         inputs: inputs_read,
     })
 }
@@ -247,6 +253,7 @@ pub fn run(args: Args) -> CmdResult {
     obj.insert("trial".into(), json!(prep.loaded.name));
     obj.insert("seed".into(), json!(args.seed));
     obj.insert("noise".into(), prep.noise.clone());
+    obj.insert("dynamometer".into(), prep.dynamometer.clone());
     if let Some(truth) = &prep.truth {
         let e = errors_pct(&params, truth);
         obj.insert("errors_pct".into(), json!(e));
@@ -611,8 +618,8 @@ fn run_mcmc(
         ParamId::identified().to_vec(),
     )
     .map_err(|e| Failure::internal(e.to_string()))?;
-    let noise = match &prep.unloaded {
-        Some(u) => NoiseSpec::from_unloaded(&prep.loaded.trial, u, NoiseKind::Ar1White)
+    let noise = match &prep.correction {
+        Some(c) => NoiseSpec::from_correction(&prep.loaded.trial, c, NoiseKind::Ar1White)
             .map_err(|e| Failure::bad(format!("{}: {e}", prep.loaded.name)))?,
         None => NoiseSpec::from_residual(NoiseKind::Ar1White),
     };
