@@ -3,8 +3,8 @@
 /// Everything that can go wrong in this crate's routines.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum NumericsError {
-    /// The problem has no parameters.
-    #[error("the problem has no parameters (dimension 0)")]
+    /// The problem has no parameters (or no residuals).
+    #[error("the objective has no parameters (dimension 0)")]
     EmptyProblem,
     /// A vector or matrix has the wrong length.
     #[error("dimension mismatch: expected {expected} values, found {found}")]
@@ -47,7 +47,7 @@ pub enum NumericsError {
         upper: f64,
     },
     /// The function failed (or gave a non-finite value) at the start point.
-    #[error("the function failed at the start point")]
+    #[error("the objective failed at the supplied start point")]
     StartEvaluationFailed,
     /// A Cholesky factorisation met a pivot that is not positive and finite.
     #[error("the matrix is not positive definite (pivot {pivot})")]
