@@ -81,7 +81,9 @@ impl From<numerics::NumericsError> for Error {
         use numerics::NumericsError as N;
         match e {
             N::EmptyProblem => Error::EmptyProblem,
-            N::DimensionMismatch { expected, found } => Error::DimensionMismatch { expected, found },
+            N::DimensionMismatch { expected, found } => {
+                Error::DimensionMismatch { expected, found }
+            }
             N::InvalidBounds {
                 index,
                 lower,
