@@ -56,3 +56,18 @@ pub enum NumericsError {
         pivot: usize,
     },
 }
+
+impl NumericsError {
+    /// The `Err` of a failed settings check.
+    pub(crate) fn setting<T>(
+        name: &'static str,
+        value: f64,
+        reason: &'static str,
+    ) -> Result<T, Self> {
+        Err(Self::InvalidSetting {
+            name,
+            value,
+            reason,
+        })
+    }
+}

@@ -107,13 +107,7 @@ impl LevenbergMarquardtSettings {
     /// # Errors
     /// [`NumericsError::InvalidSetting`] naming the first invalid field.
     pub fn validate(self) -> Result<Self, NumericsError> {
-        let bad = |name, value, reason| {
-            Err(NumericsError::InvalidSetting {
-                name,
-                value,
-                reason,
-            })
-        };
+        let bad = NumericsError::setting;
         if !(self.fd_step > 0.0 && self.fd_step < 0.5) {
             return bad("fd_step", self.fd_step, "must be in (0, 0.5)");
         }

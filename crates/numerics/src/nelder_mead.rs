@@ -95,19 +95,22 @@ impl NelderMeadSettings {
     /// # Errors
     /// [`NumericsError::InvalidSetting`] naming the first invalid field.
     pub fn validate(self) -> Result<Self, NumericsError> {
+        let bad = NumericsError::setting;
         if self.max_evaluations == 0 {
-            return Err(invalid("max_evaluations", 0.0, "must be at least 1"));
+            return bad("max_evaluations", 0.0, "must be at least 1");
         }
-        check_range(
-            "initial_step",
-            self.initial_step,
-            0.0,
-            1.0,
-            "must be in (0, 1]",
-        )?;
-        check_nonneg("ftol_abs", self.ftol_abs)?;
-        check_nonneg("ftol_rel", self.ftol_rel)?;
-        check_nonneg("xtol", self.xtol)?;
+        if !(self.initial_step > 0.0 && self.initial_step <= 1.0) {
+            return bad("initial_step", self.initial_step, "must be in (0, 1]");
+        }
+        for (name, v) in [
+            ("ftol_abs", self.ftol_abs),
+            ("ftol_rel", self.ftol_rel),
+            ("xtol", self.xtol),
+        ] {
+            if !(v >= 0.0 && v.is_finite()) {
+                return bad(name, v, "must be finite and non-negative");
+            }
+        }
         Ok(self)
     }
 }
@@ -423,35 +426,4 @@ pub fn nelder_mead_unit<O: Objective + ?Sized>(
 fn replace(simplex: &mut [f64], fs: &mut [f64], j: usize, v: &[f64], f: f64, n: usize) {
     simplex[j * n..(j + 1) * n].copy_from_slice(v);
     fs[j] = f;
-}
-
-fn invalid(name: &'static str, value: f64, reason: &'static str) -> NumericsError {
-    NumericsError::InvalidSetting {
-        name,
-        value,
-        reason,
-    }
-}
-
-fn check_range(
-    name: &'static str,
-    v: f64,
-    lo: f64,
-    hi: f64,
-    reason: &'static str,
-) -> Result<(), NumericsError> {
-    // (lo, hi]
-    if v > lo && v <= hi {
-        Ok(())
-    } else {
-        Err(invalid(name, v, reason))
-    }
-}
-
-fn check_nonneg(name: &'static str, v: f64) -> Result<(), NumericsError> {
-    if v >= 0.0 && v.is_finite() {
-        Ok(())
-    } else {
-        Err(invalid(name, v, "must be finite and non-negative"))
-    }
 }
