@@ -450,12 +450,13 @@ impl GravitySlots {
     }
 }
 
-/// `k` Latin-hypercube points in the box `bounds` (`numerics::latin_hypercube`) from a
-/// ChaCha8 stream seeded with `seed`.
+/// `k` Latin-hypercube points in the box `bounds` (`numerics::latin_hypercube`, strata shuffled
+/// by `rand`) from a ChaCha8 stream seeded with `seed`.
 pub(crate) fn latin_hypercube(bounds: &[(f64, f64)], k: usize, seed: u64) -> Vec<Vec<f64>> {
+    use numerics::latin_hypercube::{latin_hypercube_in_box, StrataShuffle};
     use rand::SeedableRng;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-    numerics::latin_hypercube::latin_hypercube_in_box(&mut rng, bounds, k)
+    latin_hypercube_in_box(&mut rng, bounds, k, StrataShuffle::Rand)
 }
 
 /// `deg` wrapped into `[−180°, 180°)`.

@@ -15,7 +15,7 @@
 
 use muscle_model::Problem;
 use numerics::cholesky::solve_lower_in_place;
-use numerics::latin_hypercube::latin_hypercube;
+use numerics::latin_hypercube::{latin_hypercube, StrataShuffle};
 use numerics::{nelder_mead, FnObjective, NelderMeadSettings};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -83,9 +83,14 @@ pub(crate) fn find_modes(
     let mut points = vec![vec![0.0; m]];
     // Latin-hypercube points of the cube scaled to [−0.9, 0.9]^m
     points.extend(
-        latin_hypercube(&mut rng, starts.saturating_sub(1), m)
-            .into_iter()
-            .map(|p| p.into_iter().map(|u| 0.9 * (2.0 * u - 1.0)).collect()),
+        latin_hypercube(
+            &mut rng,
+            starts.saturating_sub(1),
+            m,
+            StrataShuffle::Descending,
+        )
+        .into_iter()
+        .map(|p| p.into_iter().map(|u| 0.9 * (2.0 * u - 1.0)).collect()),
     );
     let eval = |zt: &[f64], x: &mut [f64]| -> Option<f64> {
         let mut v = vec![0.0; d];
