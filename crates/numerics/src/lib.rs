@@ -2,7 +2,7 @@
 //!
 //! * [`lm`]: a bounded Levenberg–Marquardt for nonlinear least squares with a parallel
 //!   finite-difference Jacobian (the polish of the annealing fits, the diagnosis's fits);
-//! * [`nelder_mead`]: a bounded Nelder–Mead with restarts, on any [`Objective`];
+//! * [`mod@nelder_mead`]: a bounded Nelder–Mead with restarts, on any [`Objective`];
 //! * [`cholesky`]: the dense Cholesky factorisation and its triangular solves;
 //! * [`latin_hypercube`]: Latin-hypercube designs from a caller's random stream;
 //! * [`special`]: the normal distribution, the gamma function and the χ², F and incomplete
