@@ -93,7 +93,7 @@
 //! ([`StopReason::MaxEvaluations`]).
 //!
 //! **Polish**: the share `polish_fraction` = 10 % of `max_evaluations` is kept
-//! for [`nelder_mead`] from the best point (initial simplex edge 0.05 of each
+//! for [`nelder_mead()`] from the best point (initial simplex edge 0.05 of each
 //! range, adaptive coefficients, vertices clamped into the box, restarts).
 //!
 //! Everything random comes from one `ChaCha8Rng` seeded with
