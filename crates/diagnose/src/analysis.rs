@@ -23,6 +23,9 @@ use serde::Serialize;
 use crate::fit::{Context, Fit};
 use crate::segment::PhaseLabel;
 
+/// The χ², F and incomplete beta tails of the structure tests (in `numerics::special`).
+pub use numerics::special::{beta_regularized, chi2_survival, f_survival};
+
 /// Mean and RMS of the residual over one bin of one variable.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Bin {
@@ -297,140 +300,6 @@ fn time_basis(ctx: &Context) -> Vec<Vec<f64>> {
         .collect()
 }
 
-/// Natural log of the gamma function (Lanczos approximation, g = 7, 9 terms; x > 0).
-pub(crate) fn ln_gamma(x: f64) -> f64 {
-    const C: [f64; 9] = [
-        0.999_999_999_999_809_9,
-        676.520_368_121_885_1,
-        -1_259.139_216_722_402_8,
-        771.323_428_777_653_1,
-        -176.615_029_162_140_6,
-        12.507_343_278_686_905,
-        -0.138_571_095_265_720_12,
-        9.984_369_578_019_572e-6,
-        1.505_632_735_149_311_6e-7,
-    ];
-    if x < 0.5 {
-        let pi = std::f64::consts::PI;
-        return (pi / (pi * x).sin()).ln() - ln_gamma(1.0 - x);
-    }
-    let x = x - 1.0;
-    let mut a = C[0];
-    let t = x + 7.5;
-    for (i, c) in C.iter().enumerate().skip(1) {
-        a += c / (x + i as f64);
-    }
-    0.5 * (2.0 * std::f64::consts::PI).ln() + (x + 0.5) * t.ln() - t + a.ln()
-}
-
-/// Upper tail `P(χ²_df > x)`: the regularised upper incomplete gamma `Q(df/2, x/2)`
-/// (series below `a + 1`, Lentz continued fraction above).
-pub fn chi2_survival(x: f64, df: usize) -> f64 {
-    if df == 0 || x <= 0.0 {
-        return 1.0;
-    }
-    let a = df as f64 / 2.0;
-    let z = x / 2.0;
-    let lead = a * z.ln() - z - ln_gamma(a);
-    if z < a + 1.0 {
-        let (mut term, mut sum, mut ap) = (1.0 / a, 1.0 / a, a);
-        for _ in 0..1000 {
-            ap += 1.0;
-            term *= z / ap;
-            sum += term;
-            if term.abs() < sum.abs() * 1e-15 {
-                break;
-            }
-        }
-        (1.0 - sum * lead.exp()).clamp(0.0, 1.0)
-    } else {
-        let tiny = 1e-300;
-        let mut b = z + 1.0 - a;
-        let mut c = 1.0 / tiny;
-        let mut d = 1.0 / b;
-        let mut h = d;
-        for i in 1..1000 {
-            let an = -(i as f64) * (i as f64 - a);
-            b += 2.0;
-            d = an * d + b;
-            if d.abs() < tiny {
-                d = tiny;
-            }
-            c = b + an / c;
-            if c.abs() < tiny {
-                c = tiny;
-            }
-            d = 1.0 / d;
-            let del = d * c;
-            h *= del;
-            if (del - 1.0).abs() < 1e-15 {
-                break;
-            }
-        }
-        (lead.exp() * h).clamp(0.0, 1.0)
-    }
-}
-
-/// Regularised incomplete beta function `I_x(a, b)` (`a, b > 0`, `0 ≤ x ≤ 1`): the continued
-/// fraction of the beta integral, evaluated by the modified Lentz method on the side of
-/// `(a + 1)/(a + b + 2)` where it converges fast (the other side by `I_x(a, b) = 1 − I_{1−x}(b, a)`).
-pub fn beta_regularized(a: f64, b: f64, x: f64) -> f64 {
-    if !(a > 0.0 && b > 0.0) || x.is_nan() {
-        return f64::NAN;
-    }
-    if x <= 0.0 {
-        return 0.0;
-    }
-    if x >= 1.0 {
-        return 1.0;
-    }
-    let ln_front = a * x.ln() + b * (-x).ln_1p() + ln_gamma(a + b) - ln_gamma(a) - ln_gamma(b);
-    if x < (a + 1.0) / (a + b + 2.0) {
-        (ln_front.exp() * beta_fraction(a, b, x) / a).clamp(0.0, 1.0)
-    } else {
-        (1.0 - ln_front.exp() * beta_fraction(b, a, 1.0 - x) / b).clamp(0.0, 1.0)
-    }
-}
-
-/// The continued fraction `1/(1 + d₁/(1 + d₂/(1 + …)))` of the incomplete beta integral, with
-/// `d₂ₘ = m(b−m)x/((a+2m−1)(a+2m))` and `d₂ₘ₊₁ = −(a+m)(a+b+m)x/((a+2m)(a+2m+1))`.
-fn beta_fraction(a: f64, b: f64, x: f64) -> f64 {
-    let tiny = 1e-300;
-    let guard = |v: f64| if v.abs() < tiny { tiny } else { v };
-    let mut c = 1.0;
-    let mut d = 1.0 / guard(1.0 - (a + b) * x / (a + 1.0));
-    let mut h = d;
-    for m in 1..10_000 {
-        let m = m as f64;
-        let even = m * (b - m) * x / ((a + 2.0 * m - 1.0) * (a + 2.0 * m));
-        d = 1.0 / guard(1.0 + even * d);
-        c = guard(1.0 + even / c);
-        h *= d * c;
-        let odd = -(a + m) * (a + b + m) * x / ((a + 2.0 * m) * (a + 2.0 * m + 1.0));
-        d = 1.0 / guard(1.0 + odd * d);
-        c = guard(1.0 + odd / c);
-        let step = d * c;
-        h *= step;
-        if (step - 1.0).abs() < 1e-15 {
-            break;
-        }
-    }
-    h
-}
-
-/// Upper tail `P(F(d1, d2) > x)` of Fisher's F distribution,
-/// `I_{d2/(d2 + d1·x)}(d2/2, d1/2)`; `d2 = ∞` gives the χ² tail `P(χ²_{d1} > d1·x)`.
-pub fn f_survival(x: f64, d1: usize, d2: f64) -> f64 {
-    if d1 == 0 || x <= 0.0 {
-        return 1.0;
-    }
-    if d2.is_infinite() {
-        return chi2_survival(d1 as f64 * x, d1);
-    }
-    let d1f = d1 as f64;
-    beta_regularized(d2 / 2.0, d1f / 2.0, d2 / (d2 + d1f * x))
-}
-
 /// `LM_struct` of a fit against the motion basis (see the module docs) and its degrees of
 /// freedom.
 pub(crate) fn structure_lm(ctx: &Context, fit: &Fit) -> (f64, usize) {
@@ -584,72 +453,5 @@ pub(crate) fn analyse(
             activation_rate_per_s: rate,
             emg_ta: inp.envelope_ta().map(|t| t.to_vec()),
         },
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Reference values from scipy 1.17.1: `scipy.stats.f.sf(x, d1, d2)`.
-    const F_SF: [(f64, usize, f64, f64); 12] = [
-        (1.0, 9, 52.0, 0.451_909_574_602_852_97),
-        (4.2, 9, 52.0, 0.000_405_063_960_844_332_37),
-        (1.64, 48, 52.0, 0.040_962_502_956_152_35),
-        (0.5, 3, 10.0, 0.690_622_245_533_557_7),
-        (12.0, 9, 52.0, 5.636_040_131_653_68e-10),
-        (30.0, 9, 52.0, 1.469_033_171_811_926e-17),
-        (2.0, 1, 1.0, 0.391_826_552_030_607_23),
-        (1.2, 48, 1000.0, 0.168_739_204_603_158_92),
-        (7.0, 2, 7.0, 0.021_383_343_303_319_47),
-        (0.05, 5, 60.0, 0.998_394_913_696_317_7),
-        (2.5, 9, 51.3, 0.018_737_129_090_322_49),
-        (3.3, 48, 17.5, 0.004_189_574_563_696_223),
-    ];
-
-    #[test]
-    fn f_survival_matches_scipy() {
-        for (x, d1, d2, want) in F_SF {
-            let got = f_survival(x, d1, d2);
-            assert!(
-                ((got - want) / want).abs() < 1e-9,
-                "F({d1}, {d2}) > {x}: {got} vs scipy {want}"
-            );
-        }
-        assert_eq!(f_survival(0.0, 9, 52.0), 1.0);
-        assert_eq!(f_survival(3.0, 0, 52.0), 1.0);
-    }
-
-    #[test]
-    fn beta_regularized_matches_scipy_and_its_limits() {
-        // scipy 1.17.1: stats.beta.cdf(0.3, 2.5, 4.0), stats.beta.cdf(0.2, 1.5, 30.0)
-        for (a, b, x, want) in [
-            (2.5, 4.0, 0.3, 0.352_197_585_906_767_2),
-            (1.5, 30.0, 0.2, 0.996_324_305_908_658_3),
-        ] {
-            let got = beta_regularized(a, b, x);
-            assert!(
-                (got - want).abs() < 1e-12,
-                "I_{x}({a}, {b}) = {got} vs {want}"
-            );
-        }
-        assert_eq!(beta_regularized(2.0, 3.0, 0.0), 0.0);
-        assert_eq!(beta_regularized(2.0, 3.0, 1.0), 1.0);
-        assert!(beta_regularized(-1.0, 3.0, 0.5).is_nan());
-        // symmetry I_x(a, b) = 1 − I_{1−x}(b, a)
-        let (a, b, x) = (3.7, 0.8, 0.42);
-        assert!((beta_regularized(a, b, x) + beta_regularized(b, a, 1.0 - x) - 1.0).abs() < 1e-13);
-    }
-
-    #[test]
-    fn f_tail_tends_to_the_chi2_tail() {
-        for (x, d1) in [(1.3, 9), (2.2, 48), (4.0, 3)] {
-            let chi2 = chi2_survival(d1 as f64 * x, d1);
-            assert_eq!(f_survival(x, d1, f64::INFINITY), chi2);
-            let far = f_survival(x, d1, 1e7);
-            assert!(((far - chi2) / chi2).abs() < 1e-4, "{far} vs {chi2}");
-            // an estimated noise level makes large statistics less surprising
-            assert!(f_survival(x, d1, 50.0) > chi2);
-        }
     }
 }

@@ -450,23 +450,13 @@ impl GravitySlots {
     }
 }
 
-/// `k` Latin-hypercube points in the box `bounds` (each coordinate's range cut into `k` equal
-/// strata, one point per stratum at a uniform position inside it, strata paired across the
-/// coordinates by independent random permutations), from a ChaCha8 stream seeded with `seed`.
+/// `k` Latin-hypercube points in the box `bounds` (`numerics::latin_hypercube`, strata shuffled
+/// by `rand`) from a ChaCha8 stream seeded with `seed`.
 pub(crate) fn latin_hypercube(bounds: &[(f64, f64)], k: usize, seed: u64) -> Vec<Vec<f64>> {
-    use rand::seq::SliceRandom;
-    use rand::{Rng, SeedableRng};
+    use numerics::latin_hypercube::{latin_hypercube_in_box, StrataShuffle};
+    use rand::SeedableRng;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-    let mut pts = vec![vec![0.0; bounds.len()]; k];
-    for (j, (lo, hi)) in bounds.iter().enumerate() {
-        let mut strata: Vec<usize> = (0..k).collect();
-        strata.shuffle(&mut rng);
-        for (p, s) in pts.iter_mut().zip(strata) {
-            let u: f64 = rng.random();
-            p[j] = lo + (hi - lo) * (s as f64 + u) / k as f64;
-        }
-    }
-    pts
+    latin_hypercube_in_box(&mut rng, bounds, k, StrataShuffle::Rand)
 }
 
 /// `deg` wrapped into `[−180°, 180°)`.

@@ -48,7 +48,6 @@
 use experiment::{DynamometerSettings, Trial};
 use muscle_model::{Ar1White, EffectKind};
 
-use crate::analysis::{chi2_survival, ln_gamma};
 use crate::fit::{latin_hypercube, Context};
 use crate::lm::LmSettings;
 use crate::noise::{NoiseModel, NoiseSource, Transient};
@@ -164,53 +163,9 @@ pub fn true_noise(s: &DynamometerSettings, fs: f64) -> Result<Ar1White, Diagnose
 
 pub use crate::noise::low_frequency_level;
 
-/// `P(χ²_df(λ) > x)`, the upper tail of the noncentral χ² with noncentrality `lambda`, as the
-/// Poisson(λ/2) mixture of central tails, summed until the remaining Poisson mass is below
-/// `10⁻¹²`. `lambda ≤ 0` gives the central tail.
-pub fn noncentral_chi2_survival(x: f64, df: usize, lambda: f64) -> f64 {
-    if lambda <= 0.0 || !lambda.is_finite() {
-        return chi2_survival(x, df);
-    }
-    let mu = lambda / 2.0;
-    let mut sum = 0.0;
-    let mut mass = 0.0;
-    // start at the Poisson mode and walk both ways, so that a large λ does not underflow
-    let mode = mu.floor() as usize;
-    let weight = |j: usize| (j as f64 * mu.ln() - mu - ln_gamma(j as f64 + 1.0)).exp();
-    for j in (0..=mode).rev() {
-        let w = weight(j);
-        sum += w * chi2_survival(x, df + 2 * j);
-        mass += w;
-        if w < 1e-16 {
-            break;
-        }
-    }
-    let mut j = mode + 1;
-    while 1.0 - mass > 1e-12 && j < mode + 100_000 {
-        let w = weight(j);
-        sum += w * chi2_survival(x, df + 2 * j);
-        mass += w;
-        j += 1;
-    }
-    sum.clamp(0.0, 1.0)
-}
-
-/// The `x` with `P(χ²_df > x) = alpha` (bisection to `10⁻¹⁰` relative), for `0 < alpha < 1`.
-pub fn chi2_upper_quantile(alpha: f64, df: usize) -> f64 {
-    let (mut lo, mut hi) = (0.0f64, 1.0f64);
-    while chi2_survival(hi, df) > alpha {
-        hi *= 2.0;
-    }
-    while hi - lo > 1e-10 * hi {
-        let mid = 0.5 * (lo + hi);
-        if chi2_survival(mid, df) > alpha {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    0.5 * (lo + hi)
-}
+/// The noncentral χ² tail and the central χ² quantile the power rules use (in
+/// `numerics::special`).
+pub use numerics::special::{chi2_upper_quantile, noncentral_chi2_survival};
 
 /// The most often a ΔBIC rule with margin `max_delta_bic` can name an effect of `k`
 /// parameters with noncentrality `lambda` on `n_obs` samples: `P(χ²_k(λ) > k ln n − β)`.
@@ -229,35 +184,6 @@ mod tests {
     use super::*;
 
     #[test]
-    fn noncentral_tail_matches_the_normal_for_one_degree_of_freedom() {
-        // χ²_1(λ) is (Z + √λ)²: P(|Z + 3| > 1.959964) = Φ(−4.959964) + Φ(−1.040036)
-        let p = noncentral_chi2_survival(3.841_459, 1, 9.0);
-        assert!((p - 0.850_838).abs() < 1e-5, "{p}");
-        // λ = 0 is the central tail; a huge λ puts everything above x
-        assert!((noncentral_chi2_survival(3.841_459, 1, 0.0) - 0.05).abs() < 1e-6);
-        assert!(noncentral_chi2_survival(20.0, 2, 2000.0) > 1.0 - 1e-12);
-        // two degrees of freedom, λ = 10, x = 10: 0.65 (Poisson mixture evaluated by hand
-        // to 30 terms with the closed-form even-df tails)
-        let p2 = noncentral_chi2_survival(10.0, 2, 10.0);
-        let mut by_hand = 0.0;
-        let mut w = (-5.0f64).exp();
-        for j in 0..60 {
-            // P(χ²_{2+2j} > 10) = e^{−5} Σ_{i ≤ j} 5^i / i!
-            let mut tail = 0.0;
-            let mut t = (-5.0f64).exp();
-            for i in 0..=j {
-                if i > 0 {
-                    t *= 5.0 / i as f64;
-                }
-                tail += t;
-            }
-            by_hand += w * tail;
-            w *= 5.0 / (j + 1) as f64;
-        }
-        assert!((p2 - by_hand).abs() < 1e-10, "{p2} vs {by_hand}");
-    }
-
-    #[test]
     fn the_spec_noise_has_its_low_frequency_level() {
         let m = true_noise(&DynamometerSettings::default(), 2048.0).expect("valid");
         assert!((m.phi - (-1.0 / (2048.0 * 0.03f64)).exp()).abs() < 1e-12);
@@ -273,7 +199,8 @@ mod tests {
         // the rule's power rises with λ and is the central tail at λ = 0
         let n = 17_000;
         let p0 = rule_power(0.0, 1, n, -10.0);
-        assert!((p0 - chi2_survival((n as f64).ln() + 10.0, 1)).abs() < 1e-12);
+        let central = numerics::special::chi2_survival((n as f64).ln() + 10.0, 1);
+        assert!((p0 - central).abs() < 1e-12);
         let ps: Vec<f64> = [5.0, 20.0, 40.0]
             .iter()
             .map(|l| rule_power(*l, 1, n, -10.0))

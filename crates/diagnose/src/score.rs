@@ -159,17 +159,18 @@ impl Projector {
     fn test(&self, cols: &[DVector<f64>], one_sided: bool) -> Option<(f64, Vec<f64>, f64)> {
         let p = cols.len();
         let pc: Vec<DVector<f64>> = cols.iter().map(|c| self.perp(c)).collect();
-        let mut a = DMatrix::zeros(p, p);
+        let mut a = vec![0.0; p * p];
         let mut b = DVector::zeros(p);
         for i in 0..p {
             b[i] = pc[i].dot(&self.r);
             for j in 0..p {
-                a[(i, j)] = pc[i].dot(&pc[j]);
+                a[i * p + j] = pc[i].dot(&pc[j]);
             }
         }
-        let beta = a.clone().cholesky()?.solve(&b);
+        let mut beta_v: Vec<f64> = b.iter().copied().collect();
+        numerics::cholesky::cholesky_solve_in_place(&mut a, &mut beta_v).ok()?;
+        let beta = DVector::from_column_slice(&beta_v);
         let mut lm = b.dot(&beta) / self.s2;
-        let mut beta_v: Vec<f64> = beta.iter().copied().collect();
         let dir: DVector<f64> = if p == 1 && one_sided && beta[0] < 0.0 {
             lm = 0.0;
             beta_v[0] = 0.0;

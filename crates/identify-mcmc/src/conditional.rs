@@ -33,6 +33,11 @@ use std::cell::RefCell;
 
 use muscle_model::{simulate_into, MuscleField, ParamId, Problem, Workspace};
 
+use numerics::cholesky::{
+    cholesky, solve_lower_in_place, solve_lower_transpose_in_place, spd_inverse,
+};
+use numerics::special::{normal_cdf, normal_quantile};
+
 use crate::noise::{Noise, Whitener};
 use crate::LogDensity;
 
@@ -301,7 +306,7 @@ impl<'a> Conditional<'a> {
             }
             h[i * d + i] += 12.0 / (widths[i] * widths[i]);
         }
-        let Some(cov) = spd_inverse(&h, d) else {
+        let Ok(cov) = spd_inverse(&h, d) else {
             return (prior_diag(), sims);
         };
         let mut block = vec![0.0; m * m];
@@ -310,7 +315,7 @@ impl<'a> Conditional<'a> {
                 block[a * m + b] = cov[i * d + j];
             }
         }
-        (cholesky(&block, m).unwrap_or_else(prior_diag), sims)
+        (cholesky(&block, m).unwrap_or_else(|_| prior_diag()), sims)
     }
 
     /// Evaluate at `v`, writing the model parameters into `x`. `None`: failed simulation;
@@ -420,7 +425,7 @@ impl<'a> Conditional<'a> {
                 yy -= kappa * oy * oy;
                 log_offset = -0.5 * (s2 * oo).ln_1p();
             }
-            let r = cholesky(&a[..p * p], p)?;
+            let r = cholesky(&a[..p * p], p).ok()?;
             // f̂ = A⁻¹b via R w = b, Rᵀ f̂ = w; RSS = yy − |w|².
             let mut w = [0.0; 3];
             for k in 0..p {
@@ -434,7 +439,8 @@ impl<'a> Conditional<'a> {
             // f̂ from Rᵀ f̂ = w. The conditional f | θ is N(f̂, Σ), Σ = A⁻¹ = L Lᵀ, truncated to
             // the box; f = f̂ + L ω with ω from the GHK map of u (module documentation).
             let mut fh = [0.0; 3];
-            solve_upper(&r, p, &w, &mut fh);
+            fh[..p].copy_from_slice(&w[..p]);
+            solve_lower_transpose_in_place(&r, &mut fh[..p]);
             let sigma_l = conditional_factor(&r, p)?;
             let mut omega = [0.0; 3];
             let mut log_mass = 0.0;
@@ -446,7 +452,7 @@ impl<'a> Conditional<'a> {
                 let (wl, wh) = ((lo - shift) / lkk, (hi - shift) / lkk);
                 let u = v[i];
                 uu += u * u;
-                let (om, lm) = ghk_step(wl, wh, crate::normal::cdf(u))?;
+                let (om, lm) = ghk_step(wl, wh, normal_cdf(u))?;
                 omega[k] = om;
                 log_mass += lm;
                 x[i] = (shift + lkk * om).clamp(lo, hi);
@@ -521,7 +527,7 @@ fn conditional_factor(r: &[f64], p: usize) -> Option<[f64; 9]> {
             sigma[i * p + j] = (0..p).map(|k| ri[k * p + i] * ri[k * p + j]).sum();
         }
     }
-    let l = cholesky(&sigma[..p * p], p)?;
+    let l = cholesky(&sigma[..p * p], p).ok()?;
     let mut out = [0.0; 9];
     out[..p * p].copy_from_slice(&l);
     Some(out)
@@ -532,7 +538,7 @@ fn conditional_factor(r: &[f64], p: usize) -> Option<[f64; 9]> {
 /// which never underflows.
 fn ln_upper_tail(x: f64) -> f64 {
     if x < 30.0 {
-        crate::normal::cdf(-x).ln()
+        normal_cdf(-x).ln()
     } else {
         let r = 1.0 / (x * x);
         let series = 1.0 - r * (1.0 - r * (3.0 - r * (15.0 - 105.0 * r)));
@@ -544,7 +550,7 @@ fn ln_upper_tail(x: f64) -> f64 {
 /// `−φ(w)/Q(w)`), started from `w₀ = max(start, √(−2·target) − 1)`.
 fn upper_tail_quantile(target: f64, start: f64) -> f64 {
     if target > (1e-300f64).ln() + 10.0 {
-        return -crate::normal::quantile(target.exp());
+        return -normal_quantile(target.exp());
     }
     let mut w = start.max((-2.0 * target).sqrt() - 1.0);
     for _ in 0..50 {
@@ -566,7 +572,6 @@ fn upper_tail_quantile(target: f64, start: f64) -> f64 {
 /// a finite (very negative) log mass instead of underflowing. `None` only for an empty or
 /// non-finite interval.
 fn ghk_step(lo: f64, hi: f64, q: f64) -> Option<(f64, f64)> {
-    use crate::normal::{cdf, quantile};
     if lo.is_nan() || hi.is_nan() || lo >= hi {
         return None;
     }
@@ -590,84 +595,10 @@ fn ghk_step(lo: f64, hi: f64, q: f64) -> Option<(f64, f64)> {
         return (log_mass.is_finite() && w.is_finite())
             .then_some(((sign * w).clamp(lo, hi), log_mass));
     }
-    let (pl, ph) = (cdf(lo), cdf(hi));
+    let (pl, ph) = (normal_cdf(lo), normal_cdf(hi));
     let mass = ph - pl;
-    let w = quantile(pl + q * mass);
+    let w = normal_quantile(pl + q * mass);
     (mass > 0.0 && w.is_finite()).then_some((w.clamp(lo, hi), mass.ln()))
-}
-
-/// Solve `Rᵀ x = b` for the lower-triangular `R` (row-major p×p).
-fn solve_upper(r: &[f64], p: usize, b: &[f64], x: &mut [f64]) {
-    for k in (0..p).rev() {
-        let mut acc = b[k];
-        for l in k + 1..p {
-            acc -= r[l * p + k] * x[l];
-        }
-        x[k] = acc / r[k * p + k];
-    }
-}
-
-/// Cholesky factor (lower, row-major) of the SPD matrix `a`; `None` if not positive definite.
-/// Solve `L x = b` in place for the lower-triangular `L` (row-major `n×n`, `n = b.len()`) by
-/// forward substitution.
-#[allow(clippy::needless_range_loop)] // triangular solve
-pub(crate) fn solve_lower_in_place(l: &[f64], b: &mut [f64]) {
-    let n = b.len();
-    for a in 0..n {
-        let mut acc = b[a];
-        for c in 0..a {
-            acc -= l[a * n + c] * b[c];
-        }
-        b[a] = acc / l[a * n + a];
-    }
-}
-
-pub(crate) fn cholesky(a: &[f64], d: usize) -> Option<Vec<f64>> {
-    let mut l = vec![0.0; d * d];
-    for i in 0..d {
-        for j in 0..=i {
-            let mut v = a[i * d + j];
-            for k in 0..j {
-                v -= l[i * d + k] * l[j * d + k];
-            }
-            if i == j {
-                if !(v > 0.0 && v.is_finite()) {
-                    return None;
-                }
-                l[i * d + i] = v.sqrt();
-            } else {
-                l[i * d + j] = v / l[j * d + j];
-            }
-        }
-    }
-    Some(l)
-}
-
-/// Inverse of the SPD matrix `a` through its Cholesky factor.
-pub(crate) fn spd_inverse(a: &[f64], d: usize) -> Option<Vec<f64>> {
-    let l = cholesky(a, d)?;
-    let mut inv = vec![0.0; d * d];
-    let mut col = vec![0.0; d];
-    for c in 0..d {
-        for i in 0..d {
-            let mut v = if i == c { 1.0 } else { 0.0 };
-            for k in 0..i {
-                v -= l[i * d + k] * col[k];
-            }
-            col[i] = v / l[i * d + i];
-        }
-        for i in (0..d).rev() {
-            let mut v = col[i];
-            for k in i + 1..d {
-                v -= l[k * d + i] * col[k];
-            }
-            col[i] = v / l[i * d + i];
-        }
-        for i in 0..d {
-            inv[i * d + c] = col[i];
-        }
-    }
-    Some(inv)
 }
 
 #[cfg(test)]
@@ -675,21 +606,10 @@ mod tests {
     use super::*;
 
     #[test]
-    fn inverse_of_known_matrix() {
-        let a = [4.0, 2.0, 2.0, 3.0];
-        let inv = spd_inverse(&a, 2).unwrap();
-        let want = [3.0 / 8.0, -2.0 / 8.0, -2.0 / 8.0, 4.0 / 8.0];
-        for (g, w) in inv.iter().zip(want) {
-            assert!((g - w).abs() < 1e-14);
-        }
-        assert!(cholesky(&[1.0, 2.0, 2.0, 1.0], 2).is_none());
-    }
-
-    #[test]
     fn upper_tail_series_joins_erfc() {
         // Both forms at x = 29.9 (erfc is still accurate there).
         let x = 29.9f64;
-        let direct = crate::normal::cdf(-x).ln();
+        let direct = normal_cdf(-x).ln();
         let r = 1.0 / (x * x);
         let series = 1.0 - r * (1.0 - r * (3.0 - r * (15.0 - 105.0 * r)));
         let asym = -0.5 * x * x - x.ln() - 0.5 * (2.0 * std::f64::consts::PI).ln() + series.ln();
@@ -702,15 +622,14 @@ mod tests {
 
     #[test]
     fn ghk_step_matches_the_truncated_normal() {
-        use crate::normal::cdf;
         // Central interval: w is the q-quantile of N(0, 1) truncated to [lo, hi].
         for &(lo, hi) in &[(-1.0, 2.0), (-0.5, 0.5), (3.0, 4.5), (-4.9, -2.0)] {
             for &q in &[0.01, 0.3, 0.5, 0.9] {
                 let (w, lm) = ghk_step(lo, hi, q).unwrap();
-                let mass = cdf(hi) - cdf(lo);
+                let mass = normal_cdf(hi) - normal_cdf(lo);
                 assert!((lm - mass.ln()).abs() < 1e-12);
                 assert!(
-                    ((cdf(w) - cdf(lo)) / mass - q).abs() < 1e-9,
+                    ((normal_cdf(w) - normal_cdf(lo)) / mass - q).abs() < 1e-9,
                     "{lo} {hi} {q}"
                 );
             }
@@ -718,9 +637,12 @@ mod tests {
         // The tail form (|x| > 5) against upper-tail probabilities Q(x) = Φ(−x).
         for &q in &[0.05, 0.5, 0.95] {
             let (w, lm) = ghk_step(5.5, 6.0, q).unwrap();
-            let mass = cdf(-5.5) - cdf(-6.0);
+            let mass = normal_cdf(-5.5) - normal_cdf(-6.0);
             assert!((lm - mass.ln()).abs() < 1e-10);
-            assert!(((cdf(-5.5) - cdf(-w)) / mass - q).abs() < 1e-9, "{q}");
+            assert!(
+                ((normal_cdf(-5.5) - normal_cdf(-w)) / mass - q).abs() < 1e-9,
+                "{q}"
+            );
         }
         // Far tails: finite log mass, w inside, monotone in q; mirrored intervals agree.
         let mut last = f64::NEG_INFINITY;

@@ -19,7 +19,7 @@
 //! * chains of unequal length, no chains, or empty chains → NaN;
 //! * ESS with fewer than 3 draws per (split) chain → NaN.
 
-use crate::normal;
+use numerics::special::normal_quantile;
 
 /// `chains` as owned columns if they form a valid m × n matrix.
 fn matrix(chains: &[&[f64]]) -> Option<Vec<Vec<f64>>> {
@@ -105,7 +105,7 @@ fn z_scale(m: &[Vec<f64>]) -> Vec<Vec<f64>> {
     r.chunks(n)
         .map(|c| {
             c.iter()
-                .map(|&ri| normal::quantile((ri - 0.375) / (s + 0.25)))
+                .map(|&ri| normal_quantile((ri - 0.375) / (s + 0.25)))
                 .collect()
         })
         .collect()

@@ -5,7 +5,7 @@
 //! 1. the measured torque is corrected by the dynamometer's systematic error
 //!    ([`NoiseSpec::systematic`], e.g. the cycle-locked part estimated from the unloaded run);
 //! 2. the noise model is the one given, or (no unloaded run) fitted to the residual of a
-//!    Nelder–Mead fit of the sum of squares (identify-sa's [`nelder_mead`]);
+//!    Nelder–Mead fit of the sum of squares (`numerics`' [`nelder_mead()`]);
 //! 3. a multi-start search (module `modes`) finds the modes of the posterior of LST and α0 with
 //!    F0 integrated out; the best one centres the wall-free sampling coordinates (module
 //!    `conditional`) and all of them make the jump mixture ([`crate::MixtureProposal`]);
@@ -21,14 +21,15 @@ use std::io::Write;
 use std::ops::ControlFlow;
 use std::time::Instant;
 
-use identify_sa::{nelder_mead, FnObjective, NelderMeadSettings};
 use muscle_model::Problem;
+use numerics::cholesky::solve_lower_in_place;
+use numerics::{nelder_mead, FnObjective, NelderMeadSettings};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
-use crate::conditional::{solve_lower_in_place, Conditional};
+use crate::conditional::Conditional;
 use crate::mixture::{ComponentSpec, MixtureProposal};
 use crate::modes::{find_modes, Mode};
 use crate::noise::{NoiseKind, NoiseParams};

@@ -109,7 +109,6 @@ pub mod identify;
 pub mod mixture;
 mod modes;
 pub mod noise;
-pub mod normal;
 mod sampler;
 mod settings;
 mod summary;

@@ -20,6 +20,8 @@
 use rand::Rng;
 use rand_distr::{ChiSquared, Distribution, StandardNormal};
 
+use numerics::cholesky::{cholesky, solve_lower_in_place};
+
 use crate::McmcError;
 
 #[derive(Clone, Debug, PartialEq)]
@@ -108,7 +110,7 @@ impl MixtureProposal {
                     "mean needs k finite values and cov k×k",
                 );
             }
-            let Some(chol) = crate::conditional::cholesky(&c.cov, k) else {
+            let Ok(chol) = cholesky(&c.cov, k) else {
                 return bad(
                     "mixture.cov",
                     "not positive definite".into(),
@@ -264,7 +266,7 @@ impl MixtureProposal {
             for i in 0..k {
                 cov[i * k + i] += 1e-9 * diag;
             }
-            let Some(chol) = crate::conditional::cholesky(&cov, k) else {
+            let Ok(chol) = cholesky(&cov, k) else {
                 continue;
             };
             let log_det = (0..k).map(|i| chol[i * k + i].ln()).sum();
@@ -380,7 +382,7 @@ impl MixtureProposal {
             for ((wa, &i), mu) in w.iter_mut().zip(&self.coords).zip(&c.mean) {
                 *wa = x[i] - mu;
             }
-            crate::conditional::solve_lower_in_place(&c.chol, w);
+            solve_lower_in_place(&c.chol, w);
             let q: f64 = w.iter().map(|v| v * v).sum();
             *t = c.log_weight - c.log_det - 0.5 * (self.nu + k as f64) * (q / self.nu).ln_1p();
             best = best.max(*t);

@@ -13,13 +13,15 @@
 //! (the gastrocnemii trade LST against α0 and against each other); a random walk started at one
 //! optimum never finds the other, and its 90 % intervals then miss the truth.
 
-use identify_sa::{nelder_mead, FnObjective, NelderMeadSettings};
 use muscle_model::Problem;
-use rand::{Rng, SeedableRng};
+use numerics::cholesky::solve_lower_in_place;
+use numerics::latin_hypercube::{latin_hypercube, StrataShuffle};
+use numerics::{nelder_mead, FnObjective, NelderMeadSettings};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
-use crate::conditional::{solve_lower_in_place, Conditional};
+use crate::conditional::Conditional;
 use crate::noise::Noise;
 use crate::LogDensity;
 
@@ -53,23 +55,6 @@ pub(crate) struct ModeSearch {
     pub failed: u64,
 }
 
-/// Latin-hypercube points in `[−a, a]^m`: stratum `σ_j(i)` of `n` per coordinate, uniform inside.
-fn latin_hypercube(rng: &mut ChaCha8Rng, n: usize, m: usize, a: f64) -> Vec<Vec<f64>> {
-    let mut pts = vec![vec![0.0; m]; n];
-    for j in 0..m {
-        let mut perm: Vec<usize> = (0..n).collect();
-        for i in (1..n).rev() {
-            let k = rng.random_range(0..=i);
-            perm.swap(i, k);
-        }
-        for (i, p) in pts.iter_mut().enumerate() {
-            let u = (perm[i] as f64 + rng.random::<f64>()) / n as f64;
-            p[j] = a * (2.0 * u - 1.0);
-        }
-    }
-    pts
-}
-
 /// `|L⁻¹ d|²` for the lower-triangular `L` (row-major m×m).
 fn whitened_norm2(chol: &[f64], d: &[f64]) -> f64 {
     let mut w = d.to_vec();
@@ -96,7 +81,17 @@ pub(crate) fn find_modes(
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     rng.set_stream(STREAM);
     let mut points = vec![vec![0.0; m]];
-    points.extend(latin_hypercube(&mut rng, starts.saturating_sub(1), m, 0.9));
+    // Latin-hypercube points of the cube scaled to [−0.9, 0.9]^m
+    points.extend(
+        latin_hypercube(
+            &mut rng,
+            starts.saturating_sub(1),
+            m,
+            StrataShuffle::Descending,
+        )
+        .into_iter()
+        .map(|p| p.into_iter().map(|u| 0.9 * (2.0 * u - 1.0)).collect()),
+    );
     let eval = |zt: &[f64], x: &mut [f64]| -> Option<f64> {
         let mut v = vec![0.0; d];
         for (a, &i) in nl.iter().enumerate() {
@@ -192,21 +187,6 @@ pub(crate) fn find_modes(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn latin_hypercube_puts_one_point_in_every_stratum() {
-        let mut rng = ChaCha8Rng::seed_from_u64(3);
-        let pts = latin_hypercube(&mut rng, 10, 4, 1.0);
-        for j in 0..4 {
-            let mut seen = [false; 10];
-            for p in &pts {
-                assert!(p[j] >= -1.0 && p[j] <= 1.0);
-                let s = (((p[j] + 1.0) / 2.0) * 10.0).floor() as usize;
-                seen[s.min(9)] = true;
-            }
-            assert!(seen.iter().all(|&b| b), "coordinate {j}: {seen:?}");
-        }
-    }
 
     #[test]
     fn whitened_norm_solves_the_triangular_system() {

@@ -8,6 +8,8 @@ use rand_distr::StandardNormal;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use numerics::cholesky::cholesky_in_place;
+
 use crate::mixture::MixtureProposal;
 use crate::summary::{correlation_matrix, strongest_correlations, CorrelationPair, Summary};
 use crate::{diagnostics, LogDensity, McmcError, Proposal, Settings};
@@ -193,7 +195,7 @@ impl Adaptation {
                     self.cov[i * d + j] = c;
                 }
             }
-            if cholesky_in_place(&mut self.cov, d) {
+            if cholesky_in_place(&mut self.cov, d).is_ok() {
                 self.chol.copy_from_slice(&self.cov);
                 self.log_lambda = default_log_lambda(d);
             }
@@ -209,33 +211,6 @@ impl Adaptation {
 
 fn default_log_lambda(d: usize) -> f64 {
     (2.38f64 * 2.38 / d as f64).ln()
-}
-
-/// Cholesky factorisation of the lower triangle of `a` (row-major d×d), in
-/// place; the strict upper triangle is zeroed. False if not positive definite.
-fn cholesky_in_place(a: &mut [f64], d: usize) -> bool {
-    for j in 0..d {
-        let mut s = a[j * d + j];
-        for k in 0..j {
-            s -= a[j * d + k] * a[j * d + k];
-        }
-        if !(s > 0.0 && s.is_finite()) {
-            return false;
-        }
-        let ljj = s.sqrt();
-        a[j * d + j] = ljj;
-        for i in j + 1..d {
-            let mut s = a[i * d + j];
-            for k in 0..j {
-                s -= a[i * d + k] * a[j * d + k];
-            }
-            a[i * d + j] = s / ljj;
-        }
-        for k in j + 1..d {
-            a[j * d + k] = 0.0;
-        }
-    }
-    true
 }
 
 /// Read-only context shared by all chains.
@@ -876,22 +851,4 @@ where
         correlation,
         strongest_correlations: strongest,
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn cholesky_of_known_matrix() {
-        // [[4, 2], [2, 3]] = L Lᵀ with L = [[2, 0], [1, √2]].
-        let mut a = vec![4.0, 99.0, 2.0, 3.0];
-        assert!(cholesky_in_place(&mut a, 2));
-        let want = [2.0, 0.0, 1.0, 2f64.sqrt()];
-        for (g, w) in a.iter().zip(want) {
-            assert!((g - w).abs() < 1e-15);
-        }
-        let mut not_pd = vec![1.0, 0.0, 2.0, 1.0];
-        assert!(!cholesky_in_place(&mut not_pd, 2));
-    }
 }

@@ -4,7 +4,8 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use crate::objective::{reflect_into_unit, UnitBox};
+use numerics::UnitBox;
+
 use crate::{Error, Objective, Settings};
 
 /// Why an optimisation stopped.
@@ -481,4 +482,26 @@ impl Annealer {
         self.evaluations += evaluations;
         self.failed += failed;
     }
+}
+
+/// Fold any real `y` into `[0, 1]` by reflection at both walls (period 2).
+///
+/// This is how the annealer keeps moves inside the box: a proposal that
+/// overshoots a bound by `d` lands `d` inside it, so the proposal density
+/// stays symmetric and no probability mass piles up on the bounds.
+///
+/// ```
+/// use identify_sa::reflect_into_unit;
+/// assert_eq!(reflect_into_unit(0.25), 0.25);
+/// assert!((reflect_into_unit(1.25) - 0.75).abs() < 1e-15);
+/// assert!((reflect_into_unit(-0.25) - 0.25).abs() < 1e-15);
+/// assert!((reflect_into_unit(2.5) - 0.5).abs() < 1e-15);
+/// ```
+pub fn reflect_into_unit(y: f64) -> f64 {
+    if !y.is_finite() {
+        return 0.5;
+    }
+    let m = y.rem_euclid(2.0);
+    let r = if m > 1.0 { 2.0 - m } else { m };
+    r.clamp(0.0, 1.0)
 }

@@ -61,6 +61,9 @@ pub enum Error {
     /// A trial or unloaded run could not be turned into a problem (identification only).
     #[error("{0}")]
     Experiment(#[from] experiment::ExperimentError),
+    /// Any other failure of a `numerics` routine.
+    #[error("{0}")]
+    Numerics(numerics::NumericsError),
     /// The evaluation budget is too small to evaluate even the start point.
     #[error("evaluation budget {budget} is too small (need at least {needed})")]
     BudgetTooSmall {
@@ -69,4 +72,49 @@ pub enum Error {
         /// Minimum needed.
         needed: u64,
     },
+}
+
+/// The shared optimisers report their errors as [`numerics::NumericsError`]; here each keeps
+/// the variant this crate has always used for it, so callers matching on them see no change.
+impl From<numerics::NumericsError> for Error {
+    fn from(e: numerics::NumericsError) -> Self {
+        use numerics::NumericsError as N;
+        match e {
+            N::EmptyProblem => Error::EmptyProblem,
+            N::DimensionMismatch { expected, found } => {
+                Error::DimensionMismatch { expected, found }
+            }
+            N::InvalidBounds {
+                index,
+                lower,
+                upper,
+            } => Error::InvalidBounds {
+                index,
+                lower,
+                upper,
+            },
+            N::InvalidSetting {
+                name,
+                value,
+                reason,
+            } => Error::InvalidSetting {
+                name,
+                value,
+                reason,
+            },
+            N::StartOutOfBounds {
+                index,
+                value,
+                lower,
+                upper,
+            } => Error::StartOutOfBounds {
+                index,
+                value,
+                lower,
+                upper,
+            },
+            N::StartEvaluationFailed => Error::StartEvaluationFailed,
+            other => Error::Numerics(other),
+        }
+    }
 }

@@ -4,7 +4,8 @@ use std::ops::ControlFlow;
 
 use serde::{Deserialize, Serialize};
 
-use crate::nelder_mead::minimise_unit;
+use numerics::nelder_mead_unit;
+
 use crate::{Annealer, Error, Objective, Settings, StageRecord, StopReason};
 
 /// What the driver is doing when it calls the observer.
@@ -156,7 +157,7 @@ pub fn run<O: Objective + ?Sized, B: Observer + ?Sized>(
         let n = annealer.best_unit().len();
         let u0 = annealer.best_unit().to_vec();
         let steps = vec![settings.polish.initial_step; n];
-        let r = minimise_unit(
+        let r = nelder_mead_unit(
             objective,
             annealer.unit_box_mut(),
             &u0,

@@ -9,6 +9,8 @@ use muscle_model::{ModelParams, ParamId, Problem, ProblemWorkspace};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use numerics::{levenberg_marquardt, FiniteDifferences, LevenbergMarquardtSettings, Residuals};
+
 use crate::{
     run, Error, NelderMeadSettings, Objective, Progress, Settings, StageRecord, StopReason,
 };
@@ -45,32 +47,6 @@ impl Objective for ProblemObjective<'_> {
     }
 }
 
-/// Settings of the bounded Levenberg–Marquardt polish (see [`identify`]).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct LmSettings {
-    /// Maximum Jacobian evaluations (iterations). Default 40; 0 disables the polish.
-    pub max_iterations: u32,
-    /// Central-difference step, unit-box coordinates (share of each range). Default 1e-3
-    /// (large enough that the adaptive integrator's error, ~0.01 N·m, does not dominate).
-    pub fd_step: f64,
-    /// Initial damping `λ` (relative to the diagonal of `JᵀJ`). Default 1e-3.
-    pub lambda0: f64,
-    /// Stop when an accepted step lowers the cost by less than this fraction. Default 1e-10.
-    pub ftol_rel: f64,
-}
-
-impl Default for LmSettings {
-    fn default() -> Self {
-        Self {
-            max_iterations: 40,
-            fd_step: 1e-3,
-            lambda0: 1e-3,
-            ftol_rel: 1e-10,
-        }
-    }
-}
-
 /// Settings of [`identify`]. Plain data; `Default` are the values documented in the crate doc
 /// (chosen so that a seed-protocol fit takes well under 30 s on two cores).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -85,8 +61,9 @@ pub struct IdentifySettings {
     /// Annealer settings of every chain (its `seed` is replaced per chain). Defaults:
     /// [`IdentifySettings::default_annealer`].
     pub annealer: Settings,
-    /// The Levenberg–Marquardt polish applied to every chain's best point.
-    pub polish: LmSettings,
+    /// The Levenberg–Marquardt polish applied to every chain's best point. Defaults:
+    /// [`IdentifySettings::default_polish`]; `max_iterations` 0 disables it.
+    pub polish: LevenbergMarquardtSettings,
 }
 
 impl Default for IdentifySettings {
@@ -95,7 +72,7 @@ impl Default for IdentifySettings {
             seed: 42,
             chains: 4,
             annealer: Self::default_annealer(),
-            polish: LmSettings::default(),
+            polish: Self::default_polish(),
         }
     }
 }
@@ -118,6 +95,24 @@ impl IdentifySettings {
             polish_fraction: 0.05,
             polish: NelderMeadSettings::default(),
             ..Settings::default()
+        }
+    }
+
+    /// The polish used by default: up to 40 Jacobians of central differences with a step of
+    /// 10⁻³ of each range (large enough that the adaptive integrator's error, ~0.01 N·m, does
+    /// not dominate), initial damping 10⁻³ (floor 10⁻¹², no ceiling), at most 10 rejected
+    /// steps per Jacobian, and a stop when a step gains less than 10⁻¹⁰ of the cost.
+    #[must_use]
+    pub fn default_polish() -> LevenbergMarquardtSettings {
+        LevenbergMarquardtSettings {
+            max_iterations: 40,
+            differences: FiniteDifferences::Central,
+            fd_step: 1e-3,
+            lambda0: 1e-3,
+            lambda_min: 1e-12,
+            lambda_max: f64::INFINITY,
+            max_rejections: 10,
+            ftol_rel: 1e-10,
         }
     }
 
@@ -155,28 +150,7 @@ impl IdentifySettings {
             });
         }
         self.annealer.validate()?;
-        let p = &self.polish;
-        if !(p.fd_step > 0.0 && p.fd_step <= 0.1) {
-            return Err(Error::InvalidSetting {
-                name: "polish.fd_step",
-                value: p.fd_step,
-                reason: "must be in (0, 0.1]",
-            });
-        }
-        if !(p.lambda0 > 0.0 && p.lambda0.is_finite()) {
-            return Err(Error::InvalidSetting {
-                name: "polish.lambda0",
-                value: p.lambda0,
-                reason: "must be positive and finite",
-            });
-        }
-        if !(p.ftol_rel >= 0.0 && p.ftol_rel.is_finite()) {
-            return Err(Error::InvalidSetting {
-                name: "polish.ftol_rel",
-                value: p.ftol_rel,
-                reason: "must be finite and non-negative",
-            });
-        }
+        self.polish.validate()?;
         Ok(self)
     }
 }
@@ -427,7 +401,7 @@ fn run_chain<B: IdentifyObserver + ?Sized>(
             progress: *p,
         })
     })?;
-    let lm = levenberg_marquardt(
+    let lm = levenberg_marquardt_polish(
         problem,
         &out.x,
         out.cost,
@@ -468,40 +442,43 @@ struct LmResult {
     iterations: u32,
 }
 
-/// Bounded Levenberg–Marquardt on the residual `measured − predicted`, in unit-box coordinates.
-///
-/// Per iteration: central-difference Jacobian `J` of the prediction (one-sided at a bound),
-/// gradient `g = Jᵀr`; coordinates at a bound with `g` pointing out of the box are held; solve
-/// `(JᵀJ + λ·diag(JᵀJ)) δ = g` on the others, clip `u + δ` to the box, accept if the cost
-/// drops (λ ÷ 3) or raise λ × 4 and retry (up to 10 times per Jacobian).
-fn levenberg_marquardt(
+/// The weighted residual `√wᵢ·(measuredᵢ − predictedᵢ)` of a problem, whose sum of squares is
+/// the cost the annealer minimised; one simulation workspace per thread.
+struct WeightedResiduals<'a> {
+    problem: &'a Problem,
+    sqrt_w: Option<Vec<f64>>,
+}
+
+impl Residuals for WeightedResiduals<'_> {
+    type Workspace = ProblemWorkspace;
+    fn workspace(&self) -> ProblemWorkspace {
+        ProblemWorkspace::new()
+    }
+    fn residuals(&self, x: &[f64], ws: &mut ProblemWorkspace, out: &mut Vec<f64>) -> bool {
+        out.resize(self.problem.inputs().len(), 0.0);
+        if self.problem.residuals_with(x, ws, out).is_err() {
+            return false;
+        }
+        if let Some(sw) = &self.sqrt_w {
+            for (ri, wi) in out.iter_mut().zip(sw) {
+                *ri *= wi;
+            }
+        }
+        true
+    }
+}
+
+/// The bounded Levenberg–Marquardt of `numerics::lm` on the weighted residual, from the
+/// annealer's best point `x0` (cost `f0`). The point and cost are `x0` and `f0` unless a step
+/// was accepted, so a polish that gains nothing returns the annealer's result unchanged.
+fn levenberg_marquardt_polish(
     problem: &Problem,
     x0: &[f64],
     f0: f64,
-    s: &LmSettings,
+    s: &LevenbergMarquardtSettings,
     mut report: impl FnMut(u32, f64, u64),
 ) -> LmResult {
-    let n = problem.dim();
-    let m = problem.inputs().len();
-    let bounds = problem.bounds();
-    let lo: Vec<f64> = bounds.iter().map(|b| b.0).collect();
-    let w: Vec<f64> = bounds.iter().map(|b| b.1 - b.0).collect();
-    let to_x = |u: &[f64]| -> Vec<f64> {
-        u.iter()
-            .zip(lo.iter().zip(&w))
-            .map(|(&ui, (&l, &wi))| (l + ui.clamp(0.0, 1.0) * wi).clamp(l, l + wi))
-            .collect()
-    };
-    let sqrt_w: Option<Vec<f64>> = problem
-        .weights()
-        .map(|ws| ws.iter().map(|v| v.sqrt()).collect());
-    let mut u: Vec<f64> = x0
-        .iter()
-        .zip(lo.iter().zip(&w))
-        .map(|(&x, (&l, &wi))| ((x - l) / wi).clamp(0.0, 1.0))
-        .collect();
-    let mut cost = f0;
-    let mut out = LmResult {
+    let unchanged = LmResult {
         x: x0.to_vec(),
         cost: f0,
         evaluations: 0,
@@ -509,174 +486,42 @@ fn levenberg_marquardt(
         iterations: 0,
     };
     if s.max_iterations == 0 || !f0.is_finite() {
-        return out;
+        return unchanged;
     }
-    let mut ws = ProblemWorkspace::new();
-    let mut r = vec![0.0; m];
-    // Weighted residual at the current point.
-    let residual = |x: &[f64], ws: &mut ProblemWorkspace, r: &mut [f64]| -> bool {
-        if problem.residuals_with(x, ws, r).is_err() {
-            return false;
-        }
-        if let Some(sw) = &sqrt_w {
-            for (ri, wi) in r.iter_mut().zip(sw) {
-                *ri *= wi;
-            }
-        }
-        r.iter().all(|v| v.is_finite())
+    let residuals = WeightedResiduals {
+        problem,
+        sqrt_w: problem
+            .weights()
+            .map(|ws| ws.iter().map(|v| v.sqrt()).collect()),
     };
-    out.evaluations += 1;
-    if !residual(&out.x, &mut ws, &mut r) {
-        out.failed += 1;
-        return out;
-    }
-    cost = cost.min(r.iter().map(|v| v * v).sum());
-    let mut lambda = s.lambda0;
-    let h = s.fd_step;
-    let mut jac = vec![0.0; n * m];
-    let mut trial_r = vec![0.0; m];
-    for it in 1..=s.max_iterations {
-        out.iterations = it;
-        // Columns of J = −∂r/∂u (derivative of the prediction), in parallel, deterministic.
-        let cols: Vec<Option<(Vec<f64>, u64)>> = (0..n)
-            .into_par_iter()
-            .map_init(
-                || (ProblemWorkspace::new(), vec![0.0; m], vec![0.0; m]),
-                |(ws, rp, rm), j| {
-                    let (up, um) = ((u[j] + h).min(1.0), (u[j] - h).max(0.0));
-                    let mut uu = u.clone();
-                    uu[j] = up;
-                    let ok_p = residual(&to_x(&uu), ws, rp);
-                    uu[j] = um;
-                    let ok_m = residual(&to_x(&uu), ws, rm);
-                    if !(ok_p && ok_m) || up <= um {
-                        return None;
-                    }
-                    let d = up - um;
-                    Some((
-                        rm.iter().zip(rp.iter()).map(|(a, b)| (a - b) / d).collect(),
-                        2,
-                    ))
-                },
-            )
-            .collect();
-        let mut failed = false;
-        for (j, c) in cols.into_iter().enumerate() {
-            out.evaluations += 2;
-            match c {
-                Some((col, _)) => jac[j * m..(j + 1) * m].copy_from_slice(&col),
-                None => failed = true,
-            }
-        }
-        if failed {
-            out.failed += 1;
-            break;
-        }
-        // Normal equations.
-        let mut jtj = vec![0.0; n * n];
-        let mut g = vec![0.0; n];
-        for a in 0..n {
-            let ca = &jac[a * m..(a + 1) * m];
-            g[a] = ca.iter().zip(&r).map(|(x, y)| x * y).sum();
-            for b in 0..=a {
-                let cb = &jac[b * m..(b + 1) * m];
-                let v: f64 = ca.iter().zip(cb).map(|(x, y)| x * y).sum();
-                jtj[a * n + b] = v;
-                jtj[b * n + a] = v;
-            }
-        }
-        let free: Vec<usize> = (0..n)
-            .filter(|&j| !((u[j] <= 0.0 && g[j] < 0.0) || (u[j] >= 1.0 && g[j] > 0.0)))
-            .collect();
-        if free.is_empty() {
-            break;
-        }
-        let mut improved = false;
-        let mut converged = false;
-        for _ in 0..10 {
-            let k = free.len();
-            let mut a = vec![0.0; k * k];
-            let mut b = vec![0.0; k];
-            for (p, &i) in free.iter().enumerate() {
-                b[p] = g[i];
-                for (q, &j) in free.iter().enumerate() {
-                    a[p * k + q] = jtj[i * n + j];
-                }
-                a[p * k + p] += lambda * jtj[i * n + i].max(1e-300);
-            }
-            let Some(delta) = solve_spd(&mut a, &mut b, k) else {
-                lambda *= 4.0;
-                continue;
+    let fit = levenberg_marquardt(&residuals, x0, problem.bounds(), s, |p| {
+        report(p.iteration as u32, p.cost, p.evaluations as u64);
+    });
+    match fit {
+        Ok(o) => {
+            let counts = LmResult {
+                evaluations: o.evaluations as u64,
+                failed: o.failed_evaluations as u64,
+                iterations: o.iterations as u32,
+                ..unchanged
             };
-            let mut un = u.clone();
-            for (p, &i) in free.iter().enumerate() {
-                un[i] = (u[i] + delta[p]).clamp(0.0, 1.0);
-            }
-            let xn = to_x(&un);
-            out.evaluations += 1;
-            if residual(&xn, &mut ws, &mut trial_r) {
-                let c: f64 = trial_r.iter().map(|v| v * v).sum();
-                if c < cost {
-                    let gain = (cost - c) / cost;
-                    u = un;
-                    cost = c;
-                    std::mem::swap(&mut r, &mut trial_r);
-                    out.x = xn;
-                    out.cost = c;
-                    lambda = (lambda / 3.0).max(1e-12);
-                    improved = true;
-                    converged = gain < s.ftol_rel;
-                    break;
+            if o.accepted > 0 {
+                LmResult {
+                    x: o.x,
+                    cost: o.cost,
+                    ..counts
                 }
             } else {
-                out.failed += 1;
+                counts
             }
-            lambda *= 4.0;
         }
-        report(it, cost, out.evaluations);
-        if !improved || converged {
-            break;
-        }
+        // the start point cannot be simulated: one failed evaluation
+        Err(_) => LmResult {
+            evaluations: 1,
+            failed: 1,
+            ..unchanged
+        },
     }
-    out
-}
-
-/// Solve `A x = b` for a symmetric positive-definite `A` (row-major `k × k`) by Cholesky;
-/// `None` when `A` is not numerically positive definite.
-fn solve_spd(a: &mut [f64], b: &mut [f64], k: usize) -> Option<Vec<f64>> {
-    for j in 0..k {
-        let mut d = a[j * k + j];
-        for p in 0..j {
-            d -= a[j * k + p] * a[j * k + p];
-        }
-        if !(d > 0.0 && d.is_finite()) {
-            return None;
-        }
-        let l = d.sqrt();
-        a[j * k + j] = l;
-        for i in j + 1..k {
-            let mut v = a[i * k + j];
-            for p in 0..j {
-                v -= a[i * k + p] * a[j * k + p];
-            }
-            a[i * k + j] = v / l;
-        }
-    }
-    for i in 0..k {
-        let mut v = b[i];
-        for p in 0..i {
-            v -= a[i * k + p] * b[p];
-        }
-        b[i] = v / a[i * k + i];
-    }
-    for i in (0..k).rev() {
-        let mut v = b[i];
-        for p in i + 1..k {
-            v -= a[p * k + i] * b[p];
-        }
-        b[i] = v / a[i * k + i];
-    }
-    Some(b.to_vec())
 }
 
 /// A trial turned into the SPEC §8 problem, with what was subtracted from its torque.

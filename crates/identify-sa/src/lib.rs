@@ -18,8 +18,8 @@
 //!   [`chain_seed`]), each with [`IdentifySettings::default_annealer`] (6 000 evaluations,
 //!   cooling 0.8, stages of 5 × 4 sweeps, 6 re-annealings at 0.1 T₀, a 5 % Nelder–Mead
 //!   polish), then polishes every chain's best with a bounded Levenberg–Marquardt on the
-//!   residual vector ([`LmSettings`]: ≤ 40 iterations, central differences of 10⁻³ of each
-//!   range) and keeps the best. The result does not depend on the thread count.
+//!   residual vector ([`IdentifySettings::default_polish`]: ≤ 40 iterations, central
+//!   differences of 10⁻³ of each range; `numerics::lm`) and keeps the best. The result does not depend on the thread count.
 //! * `rms_nm` is the RMS of (torque fitted − model), the torque fitted being the corrected
 //!   one when an unloaded run was given; [`PreparedTrial::raw_rms_nm`] gives the model
 //!   against the raw torque.
@@ -93,7 +93,7 @@
 //! ([`StopReason::MaxEvaluations`]).
 //!
 //! **Polish**: the share `polish_fraction` = 10 % of `max_evaluations` is kept
-//! for [`nelder_mead`] from the best point (initial simplex edge 0.05 of each
+//! for [`nelder_mead()`] from the best point (initial simplex edge 0.05 of each
 //! range, adaptive coefficients, vertices clamped into the box, restarts).
 //!
 //! Everything random comes from one `ChaCha8Rng` seeded with
@@ -174,18 +174,16 @@ mod annealer;
 mod error;
 mod executor;
 pub mod identify;
-mod nelder_mead;
-mod objective;
 mod settings;
 pub mod test_functions;
 
-pub use annealer::{Annealer, StageRecord, StopReason};
+pub use annealer::{reflect_into_unit, Annealer, StageRecord, StopReason};
 pub use error::Error;
 pub use executor::{run, NoObserver, Observer, Outcome, Phase, Progress};
 pub use identify::{
     chain_seed, errors_pct, identify, prepare_trial, truth_values, ChainSummary, Identification,
-    IdentifyEvent, IdentifyObserver, IdentifySettings, LmSettings, PreparedTrial, ProblemObjective,
+    IdentifyEvent, IdentifyObserver, IdentifySettings, PreparedTrial, ProblemObjective,
 };
-pub use nelder_mead::{nelder_mead, NelderMeadOutcome};
-pub use objective::{reflect_into_unit, FnObjective, Objective};
-pub use settings::{Acceptance, NelderMeadSettings, Settings};
+/// Nelder–Mead and the objective trait live in `numerics`; they are part of this crate's API.
+pub use numerics::{nelder_mead, FnObjective, NelderMeadOutcome, NelderMeadSettings, Objective};
+pub use settings::{Acceptance, Settings};

@@ -2,6 +2,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use numerics::NelderMeadSettings;
+
 use crate::Error;
 
 /// The acceptance rule for a move that changes the cost by `Δ` at temperature `T`.
@@ -72,107 +74,6 @@ impl Acceptance {
             Acceptance::Logistic => 0.5,
             Acceptance::Metropolis => 1.0,
         }
-    }
-}
-
-/// Settings of Nelder–Mead (used alone through [`crate::nelder_mead`] and as
-/// the final polish of [`crate::run`]). All lengths are in unit-box coordinates
-/// (every parameter rescaled to `[0, 1]`).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct NelderMeadSettings {
-    /// Maximum objective evaluations. Default 20 000.
-    pub max_evaluations: u64,
-    /// Edge of the initial simplex, unit coordinates. Default 0.05.
-    pub initial_step: f64,
-    /// Absolute tolerance on the spread of costs over the simplex. Default 1e-12.
-    pub ftol_abs: f64,
-    /// Relative tolerance on the spread of costs over the simplex. Default 1e-10.
-    pub ftol_rel: f64,
-    /// Tolerance on the simplex size (max-norm, unit coordinates). Default 1e-9.
-    pub xtol: f64,
-    /// Restarts of a fresh simplex at the best point after convergence; stops
-    /// early when a restart gains less than the cost tolerance. Default 6.
-    pub max_restarts: u32,
-}
-
-impl Default for NelderMeadSettings {
-    fn default() -> Self {
-        Self {
-            max_evaluations: 20_000,
-            initial_step: 0.05,
-            ftol_abs: 1e-12,
-            ftol_rel: 1e-10,
-            xtol: 1e-9,
-            max_restarts: 6,
-        }
-    }
-}
-
-impl NelderMeadSettings {
-    /// Validated settings with the given budget, other fields at their defaults.
-    ///
-    /// # Errors
-    /// [`Error::InvalidSetting`] when `max_evaluations` is 0.
-    pub fn new(max_evaluations: u64) -> Result<Self, Error> {
-        Self {
-            max_evaluations,
-            ..Self::default()
-        }
-        .validate()
-    }
-
-    /// Set the evaluation budget.
-    #[must_use]
-    pub fn with_max_evaluations(mut self, v: u64) -> Self {
-        self.max_evaluations = v;
-        self
-    }
-    /// Set the initial simplex edge (unit coordinates).
-    #[must_use]
-    pub fn with_initial_step(mut self, v: f64) -> Self {
-        self.initial_step = v;
-        self
-    }
-    /// Set the cost tolerances (absolute, relative).
-    #[must_use]
-    pub fn with_ftol(mut self, abs: f64, rel: f64) -> Self {
-        self.ftol_abs = abs;
-        self.ftol_rel = rel;
-        self
-    }
-    /// Set the simplex-size tolerance (unit coordinates).
-    #[must_use]
-    pub fn with_xtol(mut self, v: f64) -> Self {
-        self.xtol = v;
-        self
-    }
-    /// Set the number of restarts.
-    #[must_use]
-    pub fn with_max_restarts(mut self, v: u32) -> Self {
-        self.max_restarts = v;
-        self
-    }
-
-    /// Check every field; returns the settings unchanged when valid.
-    ///
-    /// # Errors
-    /// [`Error::InvalidSetting`] naming the first invalid field.
-    pub fn validate(self) -> Result<Self, Error> {
-        if self.max_evaluations == 0 {
-            return Err(invalid("max_evaluations", 0.0, "must be at least 1"));
-        }
-        check_range(
-            "initial_step",
-            self.initial_step,
-            0.0,
-            1.0,
-            "must be in (0, 1]",
-        )?;
-        check_nonneg("ftol_abs", self.ftol_abs)?;
-        check_nonneg("ftol_rel", self.ftol_rel)?;
-        check_nonneg("xtol", self.xtol)?;
-        Ok(self)
     }
 }
 

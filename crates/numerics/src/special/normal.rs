@@ -1,11 +1,12 @@
-//! The standard normal distribution: quantile (Wichura's AS 241) and CDF.
+//! The standard normal distribution: CDF `Φ`, quantile `Φ⁻¹` and the complementary error
+//! function.
 //!
-//! [`quantile`] is the inverse of Φ with about 1e-16 relative accuracy (the
-//! algorithm R's `qnorm` uses, so rank-normalised diagnostics agree with R's
-//! `posterior` package to the last bits). [`cdf`] and [`erfc`] are evaluated
-//! from a power series (|x| small) or Laplace's continued fraction, which
-//! needs no fitted constants; they are exact to a few ulps and serve to check
-//! the quantile.
+//! `Φ(x) = erfc(−x/√2)/2`. [`erfc`] is evaluated from the positive power series
+//! `erf(x) = (2/√π) e^{−x²} Σₙ 2ⁿ x^{2n+1} / (1·3·…·(2n+1))` for `|x| < 0.5` and from Laplace's
+//! continued fraction `erfc(x) = e^{−x²}/√π · 1/(x + (1/2)/(x + 1/(x + (3/2)/(x + …))))` above,
+//! which need no fitted constants and are exact to a few ulps. [`normal_quantile`] is
+//! Wichura's AS 241 (`PPND16`), about 1e-16 relative accuracy: the algorithm R's `qnorm`
+//! uses, so rank-normalised diagnostics agree with R's `posterior` package to the last bits.
 
 /// Φ⁻¹(p), the standard normal quantile (Wichura 1988, AS 241, `PPND16`).
 ///
@@ -13,12 +14,12 @@
 /// or NaN.
 ///
 /// ```
-/// use identify_mcmc::normal::quantile;
-/// assert!((quantile(0.975) - 1.959_963_984_540_054).abs() < 1e-15);
-/// assert_eq!(quantile(0.5), 0.0);
+/// use numerics::special::normal_quantile;
+/// assert!((normal_quantile(0.975) - 1.959_963_984_540_054).abs() < 1e-15);
+/// assert_eq!(normal_quantile(0.5), 0.0);
 /// ```
 #[allow(clippy::excessive_precision)]
-pub fn quantile(p: f64) -> f64 {
+pub fn normal_quantile(p: f64) -> f64 {
     // Coefficients of AS 241 (Wichura 1988), lowest degree first.
     const A: [f64; 8] = [
         3.3871328727963666080e0,
@@ -175,10 +176,10 @@ pub fn erfc(x: f64) -> f64 {
 /// Φ(x), the standard normal CDF, `erfc(−x/√2)/2`.
 ///
 /// ```
-/// use identify_mcmc::normal::cdf;
-/// assert!((cdf(1.959_963_984_540_054) - 0.975).abs() < 1e-15);
+/// use numerics::special::normal_cdf;
+/// assert!((normal_cdf(1.959_963_984_540_054) - 0.975).abs() < 1e-15);
 /// ```
-pub fn cdf(x: f64) -> f64 {
+pub fn normal_cdf(x: f64) -> f64 {
     0.5 * erfc(-x / std::f64::consts::SQRT_2)
 }
 
@@ -211,8 +212,12 @@ mod tests {
         // Relative residual of Φ(Φ⁻¹(p)) = p over the central range and both tails.
         let mut p = 1e-12;
         while p < 1.0 {
-            let z = quantile(p);
-            let back = if p < 0.5 { cdf(z) } else { 1.0 - cdf(z) };
+            let z = normal_quantile(p);
+            let back = if p < 0.5 {
+                normal_cdf(z)
+            } else {
+                1.0 - normal_cdf(z)
+            };
             let target = if p < 0.5 { p } else { 1.0 - p };
             // dΦ/dz·δz: the z error is what matters; scale by the density.
             let dens = (-0.5 * z * z).exp() / (2.0 * std::f64::consts::PI).sqrt();
@@ -247,28 +252,28 @@ mod tests {
             (0.999_999, 4.753_424_308_817_088),
         ];
         for (p, z) in table {
-            let got = quantile(p);
+            let got = normal_quantile(p);
             assert!(
                 ((got - z) / z).abs() < 1e-15,
-                "quantile({p}) = {got}, want {z}"
+                "normal_quantile({p}) = {got}, want {z}"
             );
         }
-        assert_eq!(quantile(0.5), 0.0);
+        assert_eq!(normal_quantile(0.5), 0.0);
     }
 
     #[test]
     fn quantile_known_values_and_edges() {
-        assert!((quantile(0.975) - 1.959_963_984_540_054).abs() < 1e-15);
-        assert!((quantile(0.025) + 1.959_963_984_540_054).abs() < 1e-15);
-        assert!((quantile(0.841_344_746_068_542_9) - 1.0).abs() < 1e-14);
-        assert!((quantile(1e-20) + 9.262_340_089_798_408).abs() < 1e-13);
-        assert_eq!(quantile(0.0), f64::NEG_INFINITY);
-        assert_eq!(quantile(1.0), f64::INFINITY);
-        assert!(quantile(-0.1).is_nan());
-        assert!(quantile(f64::NAN).is_nan());
+        assert!((normal_quantile(0.975) - 1.959_963_984_540_054).abs() < 1e-15);
+        assert!((normal_quantile(0.025) + 1.959_963_984_540_054).abs() < 1e-15);
+        assert!((normal_quantile(0.841_344_746_068_542_9) - 1.0).abs() < 1e-14);
+        assert!((normal_quantile(1e-20) + 9.262_340_089_798_408).abs() < 1e-13);
+        assert_eq!(normal_quantile(0.0), f64::NEG_INFINITY);
+        assert_eq!(normal_quantile(1.0), f64::INFINITY);
+        assert!(normal_quantile(-0.1).is_nan());
+        assert!(normal_quantile(f64::NAN).is_nan());
         // Symmetry (1 − p is exact for these p).
         for p in [0.015625, 0.125, 0.3125, 0.4375] {
-            assert_eq!(quantile(p), -quantile(1.0 - p));
+            assert_eq!(normal_quantile(p), -normal_quantile(1.0 - p));
         }
     }
 }

@@ -1,12 +1,14 @@
-//! The bounded objective trait, a closure adapter, and the map to the unit box.
+//! The bounded objective trait, a closure adapter, and the affine map between a box and the
+//! unit cube, `x = l + u·(h − l)`, `u = (x − l)/(h − l)`, on which the bounded optimisers of
+//! this crate (and the annealer of `identify-sa`) take their steps.
 
-use crate::Error;
+use crate::NumericsError;
 
 /// A cost function on a box.
 ///
 /// `cost` returns `None` when the evaluation fails (e.g. a simulation that
 /// could not be integrated). A failed evaluation is never turned into NaN: the
-/// annealer treats it as a rejected move and Nelder–Mead as `+∞`. A returned
+/// annealer of `identify-sa` treats it as a rejected move and Nelder–Mead as `+∞`. A returned
 /// `Some(v)` with `v` not finite is treated exactly like `None`.
 pub trait Objective {
     /// Number of parameters.
@@ -32,7 +34,7 @@ impl<T: Objective + ?Sized> Objective for &mut T {
 /// An [`Objective`] made of bounds and a closure `FnMut(&[f64]) -> Option<f64>`.
 ///
 /// ```
-/// use identify_sa::{FnObjective, Objective};
+/// use numerics::{FnObjective, Objective};
 /// let mut sphere = FnObjective::new(vec![(-1.0, 1.0); 2], |x: &[f64]| {
 ///     Some(x.iter().map(|v| v * v).sum())
 /// });
@@ -66,7 +68,7 @@ impl<F: FnMut(&[f64]) -> Option<f64>> Objective for FnObjective<F> {
 
 /// The affine map between the box and the unit cube, `x = lower + u·(upper − lower)`.
 #[derive(Debug, Clone, PartialEq)]
-pub(crate) struct UnitBox {
+pub struct UnitBox {
     lower: Vec<f64>,
     width: Vec<f64>,
     /// Scratch buffer holding the last point mapped to the box.
@@ -75,24 +77,40 @@ pub(crate) struct UnitBox {
 
 impl UnitBox {
     /// Validate the objective's bounds and build the map.
-    pub(crate) fn new<O: Objective + ?Sized>(objective: &O) -> Result<Self, Error> {
+    ///
+    /// # Errors
+    /// [`NumericsError::EmptyProblem`], [`NumericsError::DimensionMismatch`] when the bounds do
+    /// not match `dim()`, [`NumericsError::InvalidBounds`].
+    pub fn new<O: Objective + ?Sized>(objective: &O) -> Result<Self, NumericsError> {
         let n = objective.dim();
         if n == 0 {
-            return Err(Error::EmptyProblem);
+            return Err(NumericsError::EmptyProblem);
         }
         let bounds = objective.bounds();
         if bounds.len() != n {
-            return Err(Error::DimensionMismatch {
+            return Err(NumericsError::DimensionMismatch {
                 expected: n,
                 found: bounds.len(),
             });
+        }
+        Self::from_bounds(bounds)
+    }
+
+    /// Validate `bounds` (finite, lower < upper, at least one) and build the map.
+    ///
+    /// # Errors
+    /// [`NumericsError::EmptyProblem`], [`NumericsError::InvalidBounds`].
+    pub fn from_bounds(bounds: &[(f64, f64)]) -> Result<Self, NumericsError> {
+        let n = bounds.len();
+        if n == 0 {
+            return Err(NumericsError::EmptyProblem);
         }
         let mut lower = Vec::with_capacity(n);
         let mut width = Vec::with_capacity(n);
         for (index, &(lo, hi)) in bounds.iter().enumerate() {
             let w = hi - lo;
             if !(lo.is_finite() && hi.is_finite() && w.is_finite() && w > 0.0) {
-                return Err(Error::InvalidBounds {
+                return Err(NumericsError::InvalidBounds {
                     index,
                     lower: lo,
                     upper: hi,
@@ -108,14 +126,28 @@ impl UnitBox {
         })
     }
 
-    pub(crate) fn dim(&self) -> usize {
+    /// Number of coordinates.
+    pub fn dim(&self) -> usize {
         self.lower.len()
     }
 
+    /// Lower bounds.
+    pub fn lower(&self) -> &[f64] {
+        &self.lower
+    }
+
+    /// Widths `upper − lower`.
+    pub fn width(&self) -> &[f64] {
+        &self.width
+    }
+
     /// Convert a point of the box to unit coordinates, checking it lies inside.
-    pub(crate) fn to_unit(&self, x: &[f64], u: &mut [f64]) -> Result<(), Error> {
+    ///
+    /// # Errors
+    /// [`NumericsError::DimensionMismatch`], [`NumericsError::StartOutOfBounds`].
+    pub fn to_unit(&self, x: &[f64], u: &mut [f64]) -> Result<(), NumericsError> {
         if x.len() != self.dim() {
-            return Err(Error::DimensionMismatch {
+            return Err(NumericsError::DimensionMismatch {
                 expected: self.dim(),
                 found: x.len(),
             });
@@ -123,7 +155,7 @@ impl UnitBox {
         for (i, (&xi, ui)) in x.iter().zip(u.iter_mut()).enumerate() {
             let upper = self.lower[i] + self.width[i];
             if !(xi >= self.lower[i] && xi <= upper) {
-                return Err(Error::StartOutOfBounds {
+                return Err(NumericsError::StartOutOfBounds {
                     index: i,
                     value: xi,
                     lower: self.lower[i],
@@ -135,8 +167,8 @@ impl UnitBox {
         Ok(())
     }
 
-    /// Map unit coordinates to the box into a new vector.
-    pub(crate) fn to_box(&self, u: &[f64]) -> Vec<f64> {
+    /// Map unit coordinates to the box into a new vector (see [`map_coordinate`]).
+    pub fn to_box(&self, u: &[f64]) -> Vec<f64> {
         u.iter()
             .zip(self.lower.iter().zip(&self.width))
             .map(|(&ui, (&lo, &w))| map_coordinate(ui, lo, w))
@@ -145,11 +177,7 @@ impl UnitBox {
 
     /// Evaluate the objective at unit coordinates `u` (no allocation).
     /// Non-finite costs count as failures.
-    pub(crate) fn eval<O: Objective + ?Sized>(
-        &mut self,
-        objective: &mut O,
-        u: &[f64],
-    ) -> Option<f64> {
+    pub fn eval<O: Objective + ?Sized>(&mut self, objective: &mut O, u: &[f64]) -> Option<f64> {
         for (((xi, &ui), &lo), &w) in self.x.iter_mut().zip(u).zip(&self.lower).zip(&self.width) {
             *xi = map_coordinate(ui, lo, w);
         }
@@ -158,28 +186,6 @@ impl UnitBox {
 }
 
 /// `lo + u·w`, kept inside `[lo, lo + w]` despite rounding.
-fn map_coordinate(u: f64, lo: f64, w: f64) -> f64 {
+pub fn map_coordinate(u: f64, lo: f64, w: f64) -> f64 {
     (lo + u * w).clamp(lo, lo + w)
-}
-
-/// Fold any real `y` into `[0, 1]` by reflection at both walls (period 2).
-///
-/// This is how the annealer keeps moves inside the box: a proposal that
-/// overshoots a bound by `d` lands `d` inside it, so the proposal density
-/// stays symmetric and no probability mass piles up on the bounds.
-///
-/// ```
-/// use identify_sa::reflect_into_unit;
-/// assert_eq!(reflect_into_unit(0.25), 0.25);
-/// assert!((reflect_into_unit(1.25) - 0.75).abs() < 1e-15);
-/// assert!((reflect_into_unit(-0.25) - 0.25).abs() < 1e-15);
-/// assert!((reflect_into_unit(2.5) - 0.5).abs() < 1e-15);
-/// ```
-pub fn reflect_into_unit(y: f64) -> f64 {
-    if !y.is_finite() {
-        return 0.5;
-    }
-    let m = y.rem_euclid(2.0);
-    let r = if m > 1.0 { 2.0 - m } else { m };
-    r.clamp(0.0, 1.0)
 }

@@ -1,6 +1,6 @@
 //! Nelder–Mead used alone: quadratics inside the box and on its faces.
 
-use identify_sa::{nelder_mead, Error, FnObjective, NelderMeadSettings, Objective};
+use numerics::{nelder_mead, FnObjective, NelderMeadSettings, NumericsError as Error, Objective};
 
 #[test]
 fn ill_conditioned_correlated_quadratic() {

@@ -1,12 +1,123 @@
-//! Bounded Nelder–Mead with adaptive coefficients and restarts (the final polish).
-
-use serde::{Deserialize, Serialize};
+//! Bounded Nelder–Mead with dimension-adaptive coefficients and restarts.
+//!
+//! The simplex of `n + 1` vertices lives in unit-box coordinates. With the vertices sorted by
+//! cost, `c` the centroid of all but the worst `w`, a step tries the reflection
+//! `r = c + α(c − w)`, then the expansion `e = c + γ(r − c)` or a contraction
+//! `c + ρ(t − c)` (`t = r` outside, `t = w` inside), and else shrinks every vertex towards the
+//! best `b` as `b + σ(v − b)`; every trial point is clamped onto the box. The coefficients
+//! are those of Gao & Han (2012), `α = 1`, `γ = 1 + 2/n`, `ρ = 0.75 − 1/(2n)`, `σ = 1 − 1/n`
+//! (the classical 1, 2, ½, ½ for `n ≤ 2`).
 
 use crate::objective::UnitBox;
-use crate::{Error, NelderMeadSettings, Objective};
+use crate::{NumericsError, Objective};
+
+/// Settings of [`nelder_mead`] (also the final polish of the annealer in `identify-sa`). All lengths are in unit-box coordinates
+/// (every parameter rescaled to `[0, 1]`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(default))]
+pub struct NelderMeadSettings {
+    /// Maximum objective evaluations. Default 20 000.
+    pub max_evaluations: u64,
+    /// Edge of the initial simplex, unit coordinates. Default 0.05.
+    pub initial_step: f64,
+    /// Absolute tolerance on the spread of costs over the simplex. Default 1e-12.
+    pub ftol_abs: f64,
+    /// Relative tolerance on the spread of costs over the simplex. Default 1e-10.
+    pub ftol_rel: f64,
+    /// Tolerance on the simplex size (max-norm, unit coordinates). Default 1e-9.
+    pub xtol: f64,
+    /// Restarts of a fresh simplex at the best point after convergence; stops
+    /// early when a restart gains less than the cost tolerance. Default 6.
+    pub max_restarts: u32,
+}
+
+impl Default for NelderMeadSettings {
+    fn default() -> Self {
+        Self {
+            max_evaluations: 20_000,
+            initial_step: 0.05,
+            ftol_abs: 1e-12,
+            ftol_rel: 1e-10,
+            xtol: 1e-9,
+            max_restarts: 6,
+        }
+    }
+}
+
+impl NelderMeadSettings {
+    /// Validated settings with the given budget, other fields at their defaults.
+    ///
+    /// # Errors
+    /// [`NumericsError::InvalidSetting`] when `max_evaluations` is 0.
+    pub fn new(max_evaluations: u64) -> Result<Self, NumericsError> {
+        Self {
+            max_evaluations,
+            ..Self::default()
+        }
+        .validate()
+    }
+
+    /// Set the evaluation budget.
+    #[must_use]
+    pub fn with_max_evaluations(mut self, v: u64) -> Self {
+        self.max_evaluations = v;
+        self
+    }
+    /// Set the initial simplex edge (unit coordinates).
+    #[must_use]
+    pub fn with_initial_step(mut self, v: f64) -> Self {
+        self.initial_step = v;
+        self
+    }
+    /// Set the cost tolerances (absolute, relative).
+    #[must_use]
+    pub fn with_ftol(mut self, abs: f64, rel: f64) -> Self {
+        self.ftol_abs = abs;
+        self.ftol_rel = rel;
+        self
+    }
+    /// Set the simplex-size tolerance (unit coordinates).
+    #[must_use]
+    pub fn with_xtol(mut self, v: f64) -> Self {
+        self.xtol = v;
+        self
+    }
+    /// Set the number of restarts.
+    #[must_use]
+    pub fn with_max_restarts(mut self, v: u32) -> Self {
+        self.max_restarts = v;
+        self
+    }
+
+    /// Check every field; returns the settings unchanged when valid.
+    ///
+    /// # Errors
+    /// [`NumericsError::InvalidSetting`] naming the first invalid field.
+    pub fn validate(self) -> Result<Self, NumericsError> {
+        let bad = NumericsError::setting;
+        if self.max_evaluations == 0 {
+            return bad("max_evaluations", 0.0, "must be at least 1");
+        }
+        if !(self.initial_step > 0.0 && self.initial_step <= 1.0) {
+            return bad("initial_step", self.initial_step, "must be in (0, 1]");
+        }
+        for (name, v) in [
+            ("ftol_abs", self.ftol_abs),
+            ("ftol_rel", self.ftol_rel),
+            ("xtol", self.xtol),
+        ] {
+            if !(v >= 0.0 && v.is_finite()) {
+                return bad(name, v, "must be finite and non-negative");
+            }
+        }
+        Ok(self)
+    }
+}
 
 /// What [`nelder_mead`] found.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct NelderMeadOutcome {
     /// Best point, in the objective's coordinates.
     pub x: Vec<f64>,
@@ -36,7 +147,7 @@ pub struct NelderMeadOutcome {
 /// Failed evaluations count as `+∞`.
 ///
 /// ```
-/// use identify_sa::{nelder_mead, FnObjective, NelderMeadSettings};
+/// use numerics::{nelder_mead, FnObjective, NelderMeadSettings};
 /// let mut q = FnObjective::new(vec![(-5.0, 5.0); 3], |x: &[f64]| {
 ///     Some((x[0] - 1.0).powi(2) + 2.0 * (x[1] + 0.5).powi(2) + 3.0 * x[2] * x[2])
 /// });
@@ -52,7 +163,7 @@ pub fn nelder_mead<O: Objective + ?Sized>(
     objective: &mut O,
     x0: &[f64],
     settings: &NelderMeadSettings,
-) -> Result<NelderMeadOutcome, Error> {
+) -> Result<NelderMeadOutcome, NumericsError> {
     let settings = settings.validate()?;
     let mut ubox = UnitBox::new(objective)?;
     let n = ubox.dim();
@@ -60,9 +171,9 @@ pub fn nelder_mead<O: Objective + ?Sized>(
     ubox.to_unit(x0, &mut u0)?;
     let f0 = ubox
         .eval(objective, &u0)
-        .ok_or(Error::StartEvaluationFailed)?;
+        .ok_or(NumericsError::StartEvaluationFailed)?;
     let steps = vec![settings.initial_step; n];
-    let r = minimise_unit(
+    let r = nelder_mead_unit(
         objective,
         &mut ubox,
         &u0,
@@ -81,14 +192,21 @@ pub fn nelder_mead<O: Objective + ?Sized>(
     })
 }
 
-/// Result of [`minimise_unit`], in unit coordinates.
-pub(crate) struct UnitResult {
-    pub(crate) u: Vec<f64>,
-    pub(crate) f: f64,
-    pub(crate) evaluations: u64,
-    pub(crate) failed: u64,
-    pub(crate) restarts: u32,
-    pub(crate) converged: bool,
+/// Result of [`nelder_mead_unit`], in unit coordinates.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NelderMeadUnitOutcome {
+    /// Best point (unit coordinates).
+    pub u: Vec<f64>,
+    /// Cost at `u`.
+    pub f: f64,
+    /// New evaluations used (the start point's not included).
+    pub evaluations: u64,
+    /// Evaluations that failed.
+    pub failed: u64,
+    /// Restarts performed after the first convergence.
+    pub restarts: u32,
+    /// Whether the last simplex met the tolerances.
+    pub converged: bool,
 }
 
 /// Counts evaluations against a budget; failures become `+∞`.
@@ -117,8 +235,9 @@ impl<O: Objective + ?Sized> Counter<'_, O> {
 }
 
 /// Nelder–Mead from `u0` (cost `f0` already known) with per-coordinate
-/// initial edges `steps`, using at most `budget` new evaluations.
-pub(crate) fn minimise_unit<O: Objective + ?Sized>(
+/// initial edges `steps`, using at most `budget` new evaluations, on an already validated
+/// unit box (the annealer's polish; [`nelder_mead`] is the checked entry point).
+pub fn nelder_mead_unit<O: Objective + ?Sized>(
     objective: &mut O,
     ubox: &mut UnitBox,
     u0: &[f64],
@@ -126,7 +245,7 @@ pub(crate) fn minimise_unit<O: Objective + ?Sized>(
     steps: &[f64],
     settings: &NelderMeadSettings,
     budget: u64,
-) -> UnitResult {
+) -> NelderMeadUnitOutcome {
     let n = u0.len();
     let mut counter = Counter {
         objective,
@@ -294,7 +413,7 @@ pub(crate) fn minimise_unit<O: Objective + ?Sized>(
             best_u.copy_from_slice(&simplex[j * n..(j + 1) * n]);
         }
     }
-    UnitResult {
+    NelderMeadUnitOutcome {
         u: best_u,
         f: best_f,
         evaluations: counter.evaluations,
