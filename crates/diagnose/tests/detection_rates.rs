@@ -30,6 +30,7 @@
 //!
 //! **Measured** on the default base 424242, a base not used while developing the diagnosis,
 //! with the command above:
+//!
 //! | scenario | correct | misses (seed: named) | mean \|rel. error\| of the headline |
 //! |---|---|---|---|
 //! | no effect | 20/20 | | – |
