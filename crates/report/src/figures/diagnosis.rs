@@ -4,8 +4,8 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::{
-    draw_err, draw_line, legend_strip, mesh_colours, min_max, padded, render, style, text_width,
-    tick_text, titled, Area, Mark, DESC_PX, FONT, SMALL_PX, TICK_PX,
+    draw_err, draw_line, legend_strip, linear_chart, mesh_colours, min_max, padded, render, style,
+    text_width, tick_text, titled, Area, Mark, DESC_PX, FONT, SMALL_PX, TICK_PX,
 };
 use crate::error::{ReportError, Result};
 use crate::labels::format_sig;
@@ -283,29 +283,13 @@ pub fn sensitivity_curves(points: &[SensitivityPoint<'_>]) -> Result<String> {
             .collect();
         let body = legend_strip(FIG, &body, &entries)?;
         let e = draw_err(FIG);
-        let mut chart = ChartBuilder::on(&body)
-            .margin_right(24)
-            .margin_top(6)
-            .x_label_area_size(56)
-            .y_label_area_size(90)
-            .build_cartesian_2d(x.0..x.1, y.0..y.1)
-            .map_err(&e)?;
-        let (xs, ys) = (x.1 - x.0, y.1 - y.0);
-        let xf = move |v: &f64| tick_text(*v, xs);
-        let yf = move |v: &f64| tick_text(*v, ys);
-        let (bold, light) = mesh_colours();
-        chart
-            .configure_mesh()
-            .bold_line_style(bold)
-            .light_line_style(light)
-            .x_label_formatter(&xf)
-            .y_label_formatter(&yf)
-            .label_style((FONT, TICK_PX))
-            .axis_desc_style((FONT, DESC_PX))
-            .x_desc("parameter change (%)")
-            .y_desc("RMS torque change (N·m)")
-            .draw()
-            .map_err(&e)?;
+        let mut chart = linear_chart(
+            FIG,
+            &body,
+            (x, y),
+            90,
+            ("parameter change (%)", "RMS torque change (N·m)"),
+        )?;
         for (i, c) in curves.iter_mut().enumerate() {
             let st = style(i);
             draw_line(FIG, &mut chart, c.clone(), st, 2)?;

@@ -15,6 +15,7 @@ pub use diagnosis::{candidate_ranking, sensitivity_curves, Candidate, Sensitivit
 pub use mcmc::{corner, histograms, rhat_history, traces};
 pub use time::{fit_comparison, residual_vs_angle, residual_vs_time, torque_fit};
 
+use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
@@ -369,6 +370,42 @@ where
             .map_err(draw_err(figure))?;
     }
     Ok(())
+}
+
+/// A linear x–y chart on `area` with the figures' margins, tick labels and axis titles, its
+/// mesh drawn.
+pub(crate) fn linear_chart<'b, 'a>(
+    figure: &'static str,
+    area: &'b Area<'a>,
+    (x, y): ((f64, f64), (f64, f64)),
+    y_label_px: u32,
+    (x_desc, y_desc): (&str, &str),
+) -> Result<ChartContext<'b, SVGBackend<'a>, Cartesian2d<RangedCoordf64, RangedCoordf64>>> {
+    let e = draw_err(figure);
+    let mut chart = ChartBuilder::on(area)
+        .margin_right(24)
+        .margin_top(6)
+        .x_label_area_size(56)
+        .y_label_area_size(y_label_px)
+        .build_cartesian_2d(x.0..x.1, y.0..y.1)
+        .map_err(&e)?;
+    let (xs, ys) = (x.1 - x.0, y.1 - y.0);
+    let xf = move |v: &f64| tick_text(*v, xs);
+    let yf = move |v: &f64| tick_text(*v, ys);
+    let (bold, light) = mesh_colours();
+    chart
+        .configure_mesh()
+        .bold_line_style(bold)
+        .light_line_style(light)
+        .x_label_formatter(&xf)
+        .y_label_formatter(&yf)
+        .label_style((FONT, TICK_PX))
+        .axis_desc_style((FONT, DESC_PX))
+        .x_desc(x_desc)
+        .y_desc(y_desc)
+        .draw()
+        .map_err(&e)?;
+    Ok(chart)
 }
 
 /// Grid lines used by every chart.

@@ -4,9 +4,9 @@
 use plotters::prelude::*;
 
 use super::{
-    check_finite, check_parallel, decimate, draw_err, draw_line, legend_strip, mesh_colours,
-    min_max, padded, render, rms, style, thin_indices, tick_text, titled, Area, Mark, DESC_PX,
-    FONT, MAX_LINE_POINTS, MAX_SCATTER_POINTS, TICK_PX,
+    check_finite, check_parallel, decimate, draw_err, draw_line, legend_strip, linear_chart,
+    mesh_colours, min_max, padded, render, rms, style, thin_indices, tick_text, titled, Area, Mark,
+    DESC_PX, FONT, MAX_LINE_POINTS, MAX_SCATTER_POINTS, TICK_PX,
 };
 use crate::error::{ReportError, Result};
 use crate::palette::{SeriesStyle, BLACK, GREY};
@@ -293,29 +293,16 @@ pub fn residual_vs_angle(
             .collect();
         let body = legend_strip(FIG, &body, &entries)?;
         let e = draw_err(FIG);
-        let mut chart = ChartBuilder::on(&body)
-            .margin_right(24)
-            .margin_top(6)
-            .x_label_area_size(56)
-            .y_label_area_size(Y_LABEL_AREA)
-            .build_cartesian_2d(x.0..x.1, y.0..y.1)
-            .map_err(&e)?;
-        let (xs, ys) = (x.1 - x.0, y.1 - y.0);
-        let xf = move |v: &f64| tick_text(*v, xs);
-        let yf = move |v: &f64| tick_text(*v, ys);
-        let (bold, light) = mesh_colours();
-        chart
-            .configure_mesh()
-            .bold_line_style(bold)
-            .light_line_style(light)
-            .x_label_formatter(&xf)
-            .y_label_formatter(&yf)
-            .label_style((FONT, TICK_PX))
-            .axis_desc_style((FONT, DESC_PX))
-            .x_desc("ankle angle (deg, dorsiflexion > 0)")
-            .y_desc("residual: measured − model (N·m)")
-            .draw()
-            .map_err(&e)?;
+        let mut chart = linear_chart(
+            FIG,
+            &body,
+            (x, y),
+            Y_LABEL_AREA,
+            (
+                "ankle angle (deg, dorsiflexion > 0)",
+                "residual: measured − model (N·m)",
+            ),
+        )?;
         if y.0 < 0.0 && y.1 > 0.0 {
             chart
                 .draw_series(LineSeries::new(
