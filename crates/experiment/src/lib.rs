@@ -72,7 +72,7 @@ pub use files::{
     write_f64, write_trial, write_unloaded, ReadOptions, Trial, Unloaded,
 };
 pub use model_inputs::{model_inputs, model_inputs_named, InputOptions};
-pub use protocol::{Events, MotionSettings, Phase, Protocol, ProtocolTrace, Segment};
+pub use protocol::{Events, MotionPhase, MotionSettings, Protocol, ProtocolTrace, Segment};
 pub use seeds::{rng, Stream};
 pub use synth::{random_params, round_decimals, sorted_json, synthesize, SynthConfig, Synthetic};
 pub use transient::{Transient, TRANSIENT_MIN_EVIDENCE};
