@@ -2,7 +2,7 @@
 //!
 //! The F0 of every muscle enters the torque linearly, so the posterior of the other parameters
 //! `θ` (LST and α0 per muscle) with F0 integrated out is, up to a constant,
-//! `p(θ) ∝ exp(N − ½RSS(θ))/det R(θ)` (module `conditional` at `u = 0`). Its maxima are found by
+//! `p(θ) ∝ exp(N − ½RSS(θ))/det R(θ)` (module `sampling_coordinates` at `u = 0`). Its maxima are found by
 //! Nelder–Mead from the middle of the bounds and from `n − 1` Latin-hypercube points in the box
 //! (run in parallel; each start is independent, so the result does not depend on the thread
 //! count). The optima are sorted by `ln p`; each is kept as a new mode when its `ln p` is within
@@ -21,8 +21,8 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
-use crate::conditional::Conditional;
 use crate::noise::Noise;
+use crate::sampling_coordinates::Conditional;
 use crate::LogDensity;
 
 /// RNG stream of the start design (the chains use streams `1..`; the chain starts stream 0).

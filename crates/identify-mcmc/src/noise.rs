@@ -7,7 +7,7 @@
 //! [`Ar1White`] models the sum exactly (state-space form, scalar Kalman filter).
 
 use muscle_model::noise::autocovariance;
-use muscle_model::{Ar1Gaussian, GaussianIid, MomentFit, NoiseModel};
+use muscle_model::{Ar1Gaussian, GaussianIid, MomentFit, NoiseLikelihood};
 use serde::{Deserialize, Serialize};
 
 use crate::McmcError;
@@ -123,7 +123,7 @@ impl NoiseParams {
         }
     }
 
-    /// The model as a [`NoiseModel`] for [`muscle_model::Problem::log_likelihood_with`].
+    /// The model as a [`NoiseLikelihood`] for [`muscle_model::Problem::log_likelihood_with`].
     ///
     /// # Errors
     /// [`McmcError::InvalidNoise`] for out-of-range values.
@@ -187,7 +187,7 @@ impl Noise {
     }
 }
 
-impl NoiseModel for Noise {
+impl NoiseLikelihood for Noise {
     fn log_likelihood(&self, residual: &[f64]) -> f64 {
         match self {
             Noise::Iid(m) => m.log_likelihood(residual),
