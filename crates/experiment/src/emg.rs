@@ -1,4 +1,4 @@
-//! Synthetic raw EMG (SPEC §4): band-limited Gaussian carrier × drive `d(t)` per channel.
+//! Synthetic raw EMG (docs/formats.md, "Synthetic trials"): band-limited Gaussian carrier × drive `d(t)` per channel.
 
 use rand::Rng;
 use rand_distr::{Distribution, StandardNormal};

@@ -1,4 +1,4 @@
-//! Isokinetic protocols (SPEC §1): trapezoidal-velocity sweeps sampled at 2048 Hz, phases and events.
+//! Isokinetic protocols (docs/formats.md, "Synthetic trials"): trapezoidal-velocity sweeps sampled at 2048 Hz, phases and events.
 
 use std::fmt;
 use std::str::FromStr;
@@ -37,7 +37,7 @@ impl Protocol {
         Self::Cycles { cycles: 3 }
     }
 
-    /// Samples the protocol with the nominal [`MotionSettings`] (SPEC §1, 2048 Hz).
+    /// Samples the protocol with the nominal [`MotionSettings`] at 2048 Hz.
     ///
     /// # Errors
     /// A cycle count outside `1..=MAX_CYCLES`.
@@ -191,7 +191,7 @@ impl FromStr for Protocol {
     }
 }
 
-/// Geometry and timing of the motion. `Default` is SPEC §1.
+/// Geometry and timing of the motion. `Default` is the motion of docs/formats.md, "Synthetic trials".
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct MotionSettings {
     /// Sampling rate (2048 Hz).

@@ -1,4 +1,4 @@
-//! Synthetic EMG: the SPEC §2 envelope follows the drive, rest floor, band limits, gains,
+//! Synthetic EMG: the envelope (docs/model.md, section 1) follows the drive, rest floor, band limits, gains,
 //! determinism and independent streams.
 
 use experiment::{

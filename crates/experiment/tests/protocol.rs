@@ -1,4 +1,4 @@
-//! Protocols of SPEC §1: durations, kinematics, phases and events.
+//! Protocols (docs/formats.md, "Synthetic trials"): durations, kinematics, phases and events.
 
 use experiment::{ErrorKind, MotionPhase, MotionSettings, Protocol};
 

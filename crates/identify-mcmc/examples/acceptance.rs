@@ -1,7 +1,7 @@
 //! The single-trial acceptance on fresh random truths, with the default settings.
 //!
 //! `cargo run --release -p identify-mcmc --example acceptance -- SEED…` synthesises a
-//! seed-protocol trial per seed (truth uniform in the bounds, SPEC noise, unloaded run), runs
+//! seed-protocol trial per seed (truth uniform in the bounds, nominal dynamometer error, unloaded run), runs
 //! [`identify`] with [`McmcIdentifySettings::default`] (sampler seed = trial seed) and prints: max
 //! R̂ (≤ 1.01), min bulk ESS (≥ 400), truths inside their 90 % intervals (≥ 6/9), the soleus
 //! LST error of the posterior mean (≤ 1.5 %), the soleus LST / gl α0 identifiability flags

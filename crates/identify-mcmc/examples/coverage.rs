@@ -2,7 +2,7 @@
 //!
 //! `cargo run --release -p identify-mcmc --example coverage -- [N=30] [ar1_white|ar1|iid] [exact] [from=K]`
 //! synthesises N seed-protocol trials (seeds 1…N, truth drawn uniformly in the bounds by
-//! `experiment::random_params`, SPEC noise, unloaded run), identifies each with
+//! `experiment::random_params`, nominal dynamometer error, unloaded run), identifies each with
 //! [`McmcIdentifySettings::fast`] and the noise model estimated from the unloaded run, and prints
 //! how often each 90 % interval holds the truth.
 

@@ -1,4 +1,4 @@
-//! Bayesian identification of the muscle model (SPEC §7–8): noise model, start points, chains, report.
+//! Bayesian identification of the muscle model (docs/results.md): noise model, start points, chains, report.
 //!
 //! [`identify`] samples the posterior of a [`Problem`]'s free parameters:
 //!
@@ -66,7 +66,7 @@ pub struct NoiseSpec {
     #[serde(default)]
     pub offset_sd_nm: f64,
     /// Lags `1..=max_lag` used by moment fits of [`NoiseKind::Ar1White`] (at 2048 Hz, 20 lags
-    /// ≈ 10 ms, a third of the SPEC's 30 ms correlation time).
+    /// ≈ 10 ms, a third of the nominal 30 ms correlation time of docs/formats.md, "Synthetic trials").
     pub max_lag: usize,
 }
 
@@ -75,7 +75,7 @@ pub struct NoiseSpec {
 pub const UNLOADED_OFFSET_SD_NM: f64 = 0.5;
 
 /// [`NoiseSpec::offset_sd_nm`] without an unloaded run (N·m): the dynamometer's offset is then
-/// not removed at all (the SPEC's nominal is −1.5 N·m).
+/// not removed at all (the nominal synthetic offset is −1.5 N·m).
 pub const NO_UNLOADED_OFFSET_SD_NM: f64 = 5.0;
 
 /// Default lags of the [`NoiseKind::Ar1White`] moment fit.
@@ -294,8 +294,8 @@ impl Default for McmcIdentifySettings {
 impl McmcIdentifySettings {
     /// Cheaper settings for replicate studies (coverage): warm-up ≥ 1 000, checks every 250,
     /// cap 40 000 iterations per chain, bulk ESS target 150 (R̂ target stays 1.01); the mode
-    /// search as by default. (An earlier cap of 8 000 stopped most runs inside warm-up, R̂ up to
-    /// 1.65, and the intervals then covered the truth only 78 % of the time.)
+    /// search as by default. (A cap of 8 000 stops most runs inside warm-up, R̂ up to 1.65, and
+    /// the intervals then cover the truth only 78 % of the time.)
     pub fn fast(seed: u64) -> Self {
         let d = Self::default();
         Self {
@@ -312,10 +312,10 @@ impl McmcIdentifySettings {
     }
 }
 
-/// Posterior summary of one named parameter (SPEC §7 `posterior` entry).
+/// Posterior summary of one named parameter (a `posterior` entry of `identify.json`, docs/formats.md).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ParamPosterior {
-    /// SPEC name, e.g. `sol.lst_m`.
+    /// Name as in the parameters JSON (docs/formats.md), e.g. `sol.lst_m`.
     pub name: String,
     /// Posterior mean.
     pub mean: f64,

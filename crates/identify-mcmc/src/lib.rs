@@ -1,5 +1,5 @@
 //! Metropolis–Hastings identification with several chains, rank-normalised
-//! split R̂ and bulk/tail ESS (SPEC §7–8).
+//! split R̂ and bulk/tail ESS (method and measured results: docs/results.md).
 //!
 //! The crate is generic: anything implementing [`LogDensity`] (dimension,
 //! bounds, `log π(x)` or `None` for a failed evaluation) can be sampled. The

@@ -9,7 +9,7 @@
 //! `max_gap` of the best and it lies more than 4 Laplace standard deviations
 //! (`|L_k⁻¹(θ − θ_k)| > 4`) from every mode kept before it. Each mode carries its Laplace factor.
 //!
-//! Random truths inside the SPEC bounds give posteriors with a second mode surprisingly often
+//! Random truths inside the identification bounds give posteriors with a second mode surprisingly often
 //! (the gastrocnemii trade LST against α0 and against each other); a random walk started at one
 //! optimum never finds the other, and its 90 % intervals then miss the truth.
 

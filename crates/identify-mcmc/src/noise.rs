@@ -1,6 +1,6 @@
 //! Torque-noise models for the likelihood (i.i.d., AR(1), AR(1) + white) and their moment fits.
 //!
-//! The dynamometer's random error is an AR(1) process plus white noise (SPEC §4). Their sum is
+//! The dynamometer's random error is an AR(1) process plus white noise (docs/dynamometer.md). Their sum is
 //! an ARMA(1,1) process whose lag-one autocorrelation `ρ₁ = φ·σ_a²/(σ_a² + σ_w²)` is much
 //! smaller than the AR coefficient `φ` that governs the long-lag correlation, so an AR(1)
 //! fitted on lag one misstates the correlation that sets the width of the posterior.

@@ -2,7 +2,7 @@
 //! identification": ≥ 30 trials, the 90 % intervals hold the truth 90 % ± a binomial margin).
 //!
 //! Trials: seed protocol, truth drawn uniformly in the bounds (`experiment::random_params`, the
-//! prior), SPEC noise, unloaded run supplied; [`McmcIdentifySettings::fast`]. Seeds `1…30` by
+//! prior), nominal dynamometer error, unloaded run supplied; [`McmcIdentifySettings::fast`]. Seeds `1…30` by
 //! default, so CI is reproducible; `SURAE_COVERAGE_FROM=K` draws seeds `K…K+29` instead and
 //! `SURAE_COVERAGE_TRIALS=N` (≥ 30) changes the count. Every trial's line (seed, covered
 //! pattern, R̂, ESS) is printed, so a failure names its seeds.

@@ -1,5 +1,5 @@
-//! The acceptance scenario on the bundled seed fixture (`fixtures/seed`, nominal truth, SPEC
-//! noise, unloaded run): convergence, accuracy, intervals and identifiability flags; and the
+//! The acceptance scenario on the bundled seed fixture (`fixtures/seed`, nominal truth, nominal
+//! dynamometer error, unloaded run): convergence, accuracy, intervals and identifiability flags; and the
 //! same identification on `fixtures/offnominal`, whose truth is away from the nominal
 //! parameters the first mode search and chain start from.
 

@@ -1,5 +1,5 @@
 //! Identify `N` synthetic seed-protocol trials with random true parameters (uniform inside the
-//! SPEC §8 bounds, SPEC §4 noise, unloaded run supplied) and print the median and worst error
+//! identification bounds, nominal dynamometer error, unloaded run supplied) and print the median and worst error
 //! per parameter as a Markdown table.
 //!
 //! `cargo run --release -p identify-sa --example replicates -- 20`

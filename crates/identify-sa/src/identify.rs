@@ -1,4 +1,4 @@
-//! Identification of the muscle parameters (SPEC §8): parallel annealing chains on the
+//! Identification of the muscle parameters (LST, F0, α0 of each muscle): parallel annealing chains on the
 //! sum of squared torque errors, each polished by a bounded Levenberg–Marquardt.
 
 use std::collections::BTreeMap;
@@ -525,7 +525,7 @@ fn levenberg_marquardt_polish(
     }
 }
 
-/// A trial turned into the SPEC §8 problem, with what was subtracted from its torque.
+/// A trial turned into the identification problem, with what was subtracted from its torque.
 #[derive(Debug, Clone)]
 pub struct PreparedTrial {
     /// The standard problem (nominal base, 9 free parameters) on the corrected torque.
@@ -567,7 +567,7 @@ impl PreparedTrial {
     }
 }
 
-/// Build the SPEC §8 problem from a trial ([`experiment::model_inputs()`] with `opts`) and,
+/// Build the identification problem from a trial ([`experiment::model_inputs()`] with `opts`) and,
 /// optionally, its unloaded run.
 ///
 /// With an unloaded run, the dynamometer's cycle-locked error is removed from the measured

@@ -2,7 +2,7 @@
 //! dissertation's acceptance rule and initial-temperature search, Corana-style
 //! step adaptation, re-annealing from the best point and a Nelder–Mead polish.
 //!
-//! The muscle identification ([`identify()`], SPEC §8, module [`mod@identify`]) wraps a
+//! The muscle identification ([`identify()`], module [`mod@identify`]; results and method in docs/results.md) wraps a
 //! `muscle_model::Problem` as an [`Objective`] ([`ProblemObjective`]: cost = the SSE of the
 //! dissertation's eq. 12, a failed simulation = a rejected move); the annealer itself does
 //! not depend on the model.
