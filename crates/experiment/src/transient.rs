@@ -7,8 +7,8 @@
 //!
 //! For fixed `(τ, f)` the model is linear in `(c, B, C)`, so the search is a grid over `τ`
 //! and `f` with `(c, B, C)` from the normal equations at each point: ordinary least squares
-//! ([`fit_linear`]) for the first guess, then generalised least squares on the recording
-//! whitened by the random part's Kalman filter ([`Gls`]), which weighs the AR(1)'s strong low
+//! (`fit_linear`) for the first guess, then generalised least squares on the recording
+//! whitened by the random part's Kalman filter (`Gls`), which weighs the AR(1)'s strong low
 //! frequencies correctly. The whole schedule (which grids, how often the random part is
 //! refitted) is [`crate::correction::DynamometerCorrection::fit`]. The amplitude is
 //! `A = √(B² + C²)` and `h(s) = A·e^{−s/τ}·sin(2πfs + ψ)` with `ψ = atan2(C, B)`.
