@@ -63,7 +63,7 @@ fn sa_run(trial_path: &Path, trial: &experiment::Trial) -> Result<(u64, f64, Opt
         None
     };
     let prep = identify_sa::prepare_trial(trial, unloaded.as_ref(), &Default::default())?;
-    let settings = identify_sa::IdentifySettings::default();
+    let settings = identify_sa::SaIdentifySettings::default();
     let cpu0 = cpu_seconds();
     let start = Instant::now();
     let fit = identify_sa::identify(&prep.problem, &settings, &identify_sa::NoObserver)?;
@@ -97,7 +97,7 @@ fn mcmc_run(
     let res = identify_mcmc::identify(
         &problem,
         &noise,
-        &identify_mcmc::IdentifySettings::default(),
+        &identify_mcmc::McmcIdentifySettings::default(),
         |_| std::ops::ControlFlow::Continue(()),
     )?;
     let wall = start.elapsed().as_secs_f64();

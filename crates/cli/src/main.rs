@@ -27,16 +27,16 @@ struct Cli {
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Normalised EMG envelopes (band-pass 10–350 Hz, rectify, 2 Hz low-pass, ÷ max).
-    Envelope(commands::envelope::Args),
+    Envelope(commands::envelope::EnvelopeArgs),
     /// Model torque for a trial (total and per muscle), optionally with effects.
-    Simulate(commands::simulate::Args),
+    Simulate(commands::simulate::SimulateArgs),
     /// One-at-a-time ±20 % parameter sweeps: RMS torque change (dissertation Fig. 6).
-    Sensitivity(commands::sensitivity::Args),
+    Sensitivity(commands::sensitivity::SensitivityArgs),
     /// Identify LST, F0 and α0 of sol, gm, gl (writes identify.json).
-    Identify(commands::identify::Args),
+    Identify(commands::identify::IdentifyArgs),
     /// What the model gets wrong: residual analysis, the named cause(s), the
     /// extended model and its held-out gain (writes diagnosis.json).
-    Diagnose(commands::diagnose::Args),
+    Diagnose(commands::diagnose::DiagnoseArgs),
 }
 
 fn main() {

@@ -6,13 +6,13 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Mutex;
 
 /// A progress bar over a number of model evaluations.
-pub struct Progress {
+pub struct ProgressDisplay {
     bar: Option<ProgressBar>,
     per_chain: Mutex<Vec<u64>>,
     best: AtomicU64,
 }
 
-impl Progress {
+impl ProgressDisplay {
     /// A bar of `total` steps labelled `label`; hidden when `show` is false.
     pub fn new(show: bool, total: u64, label: &str) -> Self {
         let bar = show.then(|| {

@@ -1,10 +1,10 @@
-//! Writes a synthetic trial and its unloaded run as SPEC §5 CSV files, for any protocol.
+//! Writes a synthetic trial and its unloaded run as CSV files (docs/formats.md), for any protocol.
 //!
 //! `cargo run --release -p experiment --example synth_trial -- PROTOCOL SEED EFFECTS_JSON OUT_DIR`
 //!
 //! e.g. `-- relaxed+8 77 '{"electromechanical_delay": {"delay_ms": 40}}' /tmp/r8` writes
 //! `/tmp/r8/trial.csv` and `/tmp/r8/unloaded.csv`: nominal muscle parameters, the given
-//! effects (`{}` for none), SPEC §4 dynamometer error and synthetic EMG, all from `SEED`.
+//! effects (`{}` for none), nominal dynamometer error and synthetic EMG, all from `SEED`.
 //! Then `surae diagnose --trial /tmp/r8/trial.csv --unloaded /tmp/r8/unloaded.csv`.
 
 use experiment::{synthesize, Protocol, SynthConfig};

@@ -1,4 +1,4 @@
-//! The dynamometer's own error (SPEC §4): offset, event transients, AR(1) and white noise, 12-bit ADC.
+//! The dynamometer's own error (docs/dynamometer.md): offset, event transients, AR(1) and white noise, 12-bit ADC.
 
 use rand::Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -9,7 +9,7 @@ use crate::files::Unloaded;
 use crate::protocol::{Protocol, ProtocolTrace};
 use crate::seeds::{rng, Stream};
 
-/// Parameters of the dynamometer error. `Default` is SPEC §4 nominal.
+/// Parameters of the dynamometer error. `Default` is the nominal error of docs/formats.md, "Synthetic trials".
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DynamometerSettings {
     /// Constant offset (−1.5 N·m).

@@ -1,4 +1,4 @@
-//! Synthetic raw EMG (SPEC §4): band-limited Gaussian carrier × drive `d(t)` per channel.
+//! Synthetic raw EMG (docs/formats.md, "Synthetic trials"): band-limited Gaussian carrier × drive `d(t)` per channel.
 
 use rand::Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{ErrorKind, ExperimentError, Result};
 use crate::files::Trial;
-use crate::protocol::{Phase, ProtocolTrace, Segment};
+use crate::protocol::{MotionPhase, ProtocolTrace, Segment};
 use crate::seeds::{rng, Stream};
 
 /// An EMG channel of the trial file.
@@ -226,15 +226,15 @@ struct Levels {
 }
 
 fn is_active_sweep(s: Option<&Segment>) -> bool {
-    s.is_some_and(|s| s.active && s.phase != Phase::Hold)
+    s.is_some_and(|s| s.active && s.phase != MotionPhase::Hold)
 }
 
 /// Breakpoints `(t, level)` of the base drive; smoothstep between consecutive ones.
 fn breakpoints(segs: &[Segment], lv: Levels, st: &EmgSettings) -> Vec<(f64, f64)> {
-    let level = |p: Phase| match p {
-        Phase::Concentric => lv.concentric,
-        Phase::Eccentric => lv.eccentric,
-        Phase::Hold => lv.rest,
+    let level = |p: MotionPhase| match p {
+        MotionPhase::Concentric => lv.concentric,
+        MotionPhase::Eccentric => lv.eccentric,
+        MotionPhase::Hold => lv.rest,
     };
     let mut bp = vec![(0.0, lv.rest)];
     for (i, s) in segs.iter().enumerate() {
@@ -242,7 +242,7 @@ fn breakpoints(segs: &[Segment], lv: Levels, st: &EmgSettings) -> Vec<(f64, f64)
         let prev = if i > 0 { segs.get(i - 1) } else { None };
         let next = segs.get(i + 1);
         match (s.phase, s.active) {
-            (Phase::Hold, true) => {
+            (MotionPhase::Hold, true) => {
                 let m = st.ramp_margin_s.min(dur / 4.0);
                 let target = next
                     .filter(|n| is_active_sweep(Some(n)))
@@ -250,7 +250,7 @@ fn breakpoints(segs: &[Segment], lv: Levels, st: &EmgSettings) -> Vec<(f64, f64)
                 bp.push((s.start_s + m, lv.rest));
                 bp.push((s.end_s - m, target));
             }
-            (Phase::Hold, false) => {
+            (MotionPhase::Hold, false) => {
                 if is_active_sweep(prev) {
                     bp.push((s.start_s + st.relax_s.min(dur), lv.rest));
                 }

@@ -1,4 +1,4 @@
-//! The isokinetic experiment (SPEC §1, §4, §5): trial files, protocols, dynamometer error
+//! The isokinetic experiment (docs/formats.md, docs/dynamometer.md): trial files, protocols, dynamometer error
 //! and synthetic EMG.
 //!
 //! * [`files`]: trial / unloaded CSV reading with validation (every error is one line naming
@@ -19,7 +19,7 @@
 //! * [`emg`]: raw EMG `x_c(t) = g_c·d_c(t)·c_c(t)`, `c_c` unit-RMS Gaussian noise
 //!   band-limited to 20–450 Hz, `d_c ∈ [rest, 1]` the drive.
 //! * [`seeds`]: every random part is a `ChaCha8Rng` on its own stream of one seed.
-//! * [`mod@model_inputs`]: a trial → the model's inputs (angle in rad, SPEC §2 envelopes).
+//! * [`mod@model_inputs`]: a trial → the model's inputs (angle in rad, envelopes of docs/model.md, section 1).
 //! * [`synth`]: a whole synthetic experiment (trial, unloaded run, truth) from one seed.
 //!
 //! ```
@@ -72,7 +72,7 @@ pub use files::{
     write_f64, write_trial, write_unloaded, ReadOptions, Trial, Unloaded,
 };
 pub use model_inputs::{model_inputs, model_inputs_named, InputOptions};
-pub use protocol::{Events, MotionSettings, Phase, Protocol, ProtocolTrace, Segment};
+pub use protocol::{Events, MotionPhase, MotionSettings, Protocol, ProtocolTrace, Segment};
 pub use seeds::{rng, Stream};
 pub use synth::{random_params, round_decimals, sorted_json, synthesize, SynthConfig, Synthetic};
 pub use transient::{Transient, TRANSIENT_MIN_EVIDENCE};

@@ -1,4 +1,4 @@
-//! The one bridge from a trial file to the model's inputs: degrees → radians, raw EMG → SPEC §2 envelopes.
+//! The one bridge from a trial file to the model's inputs: degrees → radians, raw EMG → envelopes (docs/model.md, section 1).
 //!
 //! Every consumer (CLI `simulate` / `identify` / `diagnose`, `cargo xtask gen-fixtures`, the
 //! tests) turns a [`Trial`] into [`muscle_model::TrialInputs`] through [`model_inputs`], so

@@ -1,4 +1,4 @@
-//! Isokinetic protocols (SPEC §1): trapezoidal-velocity sweeps sampled at 2048 Hz, phases and events.
+//! Isokinetic protocols (docs/formats.md, "Synthetic trials"): trapezoidal-velocity sweeps sampled at 2048 Hz, phases and events.
 
 use std::fmt;
 use std::str::FromStr;
@@ -37,7 +37,7 @@ impl Protocol {
         Self::Cycles { cycles: 3 }
     }
 
-    /// Samples the protocol with the nominal [`MotionSettings`] (SPEC §1, 2048 Hz).
+    /// Samples the protocol with the nominal [`MotionSettings`] at 2048 Hz.
     ///
     /// # Errors
     /// A cycle count outside `1..=MAX_CYCLES`.
@@ -87,7 +87,7 @@ impl Protocol {
         for w in segments.windows(2) {
             let (a, b) = (w[0].phase, w[1].phase);
             let t = w[1].start_s;
-            match (a == Phase::Hold, b == Phase::Hold) {
+            match (a == MotionPhase::Hold, b == MotionPhase::Hold) {
                 (true, false) => tr.events.starts.push(t),
                 (false, false) => tr.events.reversals.push(t),
                 (false, true) => tr.events.stops.push(t),
@@ -113,7 +113,7 @@ impl Protocol {
         let ts = m.sweep_duration_s();
         let mut segs = Vec::new();
         let mut t = 0.0;
-        let mut push = |phase: Phase, dur: f64, active: bool, cycle: Option<usize>| {
+        let mut push = |phase: MotionPhase, dur: f64, active: bool, cycle: Option<usize>| {
             segs.push(Segment {
                 phase,
                 start_s: t,
@@ -130,18 +130,18 @@ impl Protocol {
         };
         let mut cycle = 0;
         if relaxed_first {
-            push(Phase::Hold, m.hold_start_s, false, None);
-            push(Phase::Concentric, ts, false, Some(cycle));
-            push(Phase::Eccentric, ts, false, Some(cycle));
+            push(MotionPhase::Hold, m.hold_start_s, false, None);
+            push(MotionPhase::Concentric, ts, false, Some(cycle));
+            push(MotionPhase::Eccentric, ts, false, Some(cycle));
             cycle += 1;
         }
-        push(Phase::Hold, m.hold_start_s, true, None);
+        push(MotionPhase::Hold, m.hold_start_s, true, None);
         for _ in 0..maximal {
-            push(Phase::Concentric, ts, true, Some(cycle));
-            push(Phase::Eccentric, ts, true, Some(cycle));
+            push(MotionPhase::Concentric, ts, true, Some(cycle));
+            push(MotionPhase::Eccentric, ts, true, Some(cycle));
             cycle += 1;
         }
-        push(Phase::Hold, m.hold_end_s, false, None);
+        push(MotionPhase::Hold, m.hold_end_s, false, None);
         Ok(segs)
     }
 }
@@ -191,7 +191,7 @@ impl FromStr for Protocol {
     }
 }
 
-/// Geometry and timing of the motion. `Default` is SPEC §1.
+/// Geometry and timing of the motion. `Default` is the motion of docs/formats.md, "Synthetic trials".
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct MotionSettings {
     /// Sampling rate (2048 Hz).
@@ -269,7 +269,7 @@ impl MotionSettings {
 
 /// What the dynamometer is doing.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-pub enum Phase {
+pub enum MotionPhase {
     /// Not moving (at +15°).
     Hold,
     /// Moving towards plantarflexion (+15° → −20°): plantarflexors shorten.
@@ -282,7 +282,7 @@ pub enum Phase {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Segment {
     /// Hold or sweep direction.
-    pub phase: Phase,
+    pub phase: MotionPhase,
     /// Start time (s).
     pub start_s: f64,
     /// End time (s).
@@ -299,9 +299,9 @@ impl Segment {
     #[must_use]
     pub fn kinematics(&self, t: f64, m: &MotionSettings) -> (f64, f64, f64) {
         let (x0, dir) = match self.phase {
-            Phase::Hold => return (m.dorsi_angle_deg, 0.0, 0.0),
-            Phase::Concentric => (m.dorsi_angle_deg, -1.0),
-            Phase::Eccentric => (m.plantar_angle_deg, 1.0),
+            MotionPhase::Hold => return (m.dorsi_angle_deg, 0.0, 0.0),
+            MotionPhase::Concentric => (m.dorsi_angle_deg, -1.0),
+            MotionPhase::Eccentric => (m.plantar_angle_deg, 1.0),
         };
         let ts = m.sweep_duration_s();
         let acc = m.acceleration_deg_s2();
@@ -362,7 +362,7 @@ pub struct ProtocolTrace {
     /// Angular acceleration (°/s²), piecewise constant (±speed/ramp in the ramps).
     pub acceleration_deg_s2: Vec<f64>,
     /// Phase of each sample (a sample at a boundary belongs to the later segment).
-    pub phase: Vec<Phase>,
+    pub phase: Vec<MotionPhase>,
     /// Whether the subject is active at each sample (see [`Segment::active`]).
     pub active: Vec<bool>,
     /// The segments, in time order, contiguous.

@@ -1,4 +1,4 @@
-//! A complete synthetic experiment in memory (SPEC §4): trial with "measured" torque, unloaded run, truth.
+//! A complete synthetic experiment in memory (docs/formats.md, "Synthetic trials"): trial with "measured" torque, unloaded run, truth.
 //!
 //! [`synthesize`] does what `cargo xtask gen-fixtures` writes to disk, and what the
 //! identification and diagnosis tests use to make trials with known (random) parameters:
@@ -60,9 +60,9 @@ pub struct SynthConfig {
     pub protocol: Protocol,
     /// The true model parameters.
     pub params: ModelParams,
-    /// The true model extensions (SPEC §6).
+    /// The true model extensions (docs/formats.md, "Effects JSON").
     pub effects: Effects,
-    /// The dynamometer error (SPEC §4).
+    /// The dynamometer error (docs/dynamometer.md).
     pub dynamometer: DynamometerSettings,
     /// The synthetic EMG. `include_ta` is forced on when `antagonist_coactivation` is present.
     pub emg: EmgSettings,
@@ -77,7 +77,7 @@ pub struct SynthConfig {
 }
 
 impl SynthConfig {
-    /// Nominal parameters, no effect, SPEC §4 dynamometer, default EMG, default rounding,
+    /// Nominal parameters, no effect, nominal dynamometer error, default EMG, default rounding,
     /// [`SimSettings::tight`] (the "true" torque is the model solved to rtol 1e-10, so it does
     /// not move when the fast default integration settings are tuned).
     #[must_use]
@@ -121,8 +121,8 @@ impl SynthConfig {
 
     /// The truth as JSON (keys sorted at every level):
     /// `{"angle_decimals", "dynamometer", "effects", "emg", "emg_decimals", "params",
-    /// "protocol", "seed", "sim"}` with `params` the full SPEC §5 parameters JSON and
-    /// `effects` the SPEC §5 effects JSON.
+    /// "protocol", "seed", "sim"}` with `params` the full parameters JSON and
+    /// `effects` the effects JSON (both in docs/formats.md).
     #[must_use]
     pub fn truth_json(&self) -> Value {
         let v = json!({
@@ -226,7 +226,7 @@ pub fn synthesize(cfg: &SynthConfig) -> Result<Synthetic> {
     })
 }
 
-/// Draws the 9 identified parameters (SPEC §8: LST, F0, α0 of each muscle) uniformly inside
+/// Draws the 9 identified parameters (LST, F0, α0 of each muscle) uniformly inside
 /// their bounds around `nominal` (LST ±5 %, F0 ±20 %, α0 ±20 %, the bounds of
 /// [`ParamId::default_bounds`]); every other parameter is `nominal`'s.
 pub fn random_params(rng: &mut impl Rng, nominal: &ModelParams) -> ModelParams {

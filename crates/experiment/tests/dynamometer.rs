@@ -1,4 +1,4 @@
-//! Dynamometer error of SPEC §4: random-part statistics, quantisation, shared systematic part,
+//! Dynamometer error (docs/dynamometer.md): random-part statistics, quantisation, shared systematic part,
 //! and recovery of the transients by cycle-averaging the unloaded run.
 
 use experiment::{

@@ -1,8 +1,8 @@
-//! Synthetic EMG: the SPEC §2 envelope follows the drive, rest floor, band limits, gains,
+//! Synthetic EMG: the envelope (docs/model.md, section 1) follows the drive, rest floor, band limits, gains,
 //! determinism and independent streams.
 
 use experiment::{
-    synthetic_emg, EmgMuscle, EmgSettings, ErrorKind, Phase, Protocol, ProtocolTrace,
+    synthetic_emg, EmgMuscle, EmgSettings, ErrorKind, MotionPhase, Protocol, ProtocolTrace,
 };
 use signal::{normalised_envelope, EnvelopeSettings, Normalisation};
 
@@ -90,10 +90,10 @@ fn drive_shape_rest_floor_and_levels() {
             }
         }
         let con = mean_where(&c.drive, |i| {
-            cruise(i) && tr.active[i] && tr.phase[i] == Phase::Concentric
+            cruise(i) && tr.active[i] && tr.phase[i] == MotionPhase::Concentric
         });
         let ecc = mean_where(&c.drive, |i| {
-            cruise(i) && tr.active[i] && tr.phase[i] == Phase::Eccentric
+            cruise(i) && tr.active[i] && tr.phase[i] == MotionPhase::Eccentric
         });
         if c.muscle == EmgMuscle::Ta {
             assert!(
@@ -110,7 +110,7 @@ fn drive_shape_rest_floor_and_levels() {
             );
             // Slow wobble of a few percent in the concentric cruise.
             let v: Vec<f64> = (0..n)
-                .filter(|&i| cruise(i) && tr.active[i] && tr.phase[i] == Phase::Concentric)
+                .filter(|&i| cruise(i) && tr.active[i] && tr.phase[i] == MotionPhase::Concentric)
                 .map(|i| c.drive[i] / con - 1.0)
                 .collect();
             let sd = (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt();

@@ -74,7 +74,7 @@ fn rms(a: &[f64], b: &[f64]) -> f64 {
     (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / a.len() as f64).sqrt()
 }
 
-/// Theory for the nominal SPEC §4 noise at 2048 Hz.
+/// Theory for the nominal dynamometer noise at 2048 Hz.
 struct Theory {
     sigma: f64,
     lag1: f64,

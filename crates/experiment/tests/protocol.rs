@@ -1,6 +1,6 @@
-//! Protocols of SPEC §1: durations, kinematics, phases and events.
+//! Protocols (docs/formats.md, "Synthetic trials"): durations, kinematics, phases and events.
 
-use experiment::{ErrorKind, MotionSettings, Phase, Protocol};
+use experiment::{ErrorKind, MotionPhase, MotionSettings, Protocol};
 
 const FS: f64 = 2048.0;
 /// One sweep: 35° at 30 °/s plus one 50 ms ramp.
@@ -54,15 +54,15 @@ fn seed_protocol_durations_angles_velocity_and_events() {
     for i in 0..tr.len() {
         let t = tr.time_s[i];
         match tr.phase[i] {
-            Phase::Hold => {
+            MotionPhase::Hold => {
                 assert!(!(0.5..0.5 + 2.0 * SWEEP).contains(&t));
                 assert_eq!((tr.angle_deg[i], tr.velocity_deg_s[i]), (15.0, 0.0));
             }
-            Phase::Concentric => {
+            MotionPhase::Concentric => {
                 assert!((0.5..0.5 + SWEEP).contains(&t));
                 assert!(tr.velocity_deg_s[i] <= 0.0);
             }
-            Phase::Eccentric => {
+            MotionPhase::Eccentric => {
                 assert!((0.5 + SWEEP..0.5 + 2.0 * SWEEP).contains(&t));
                 assert!(tr.velocity_deg_s[i] >= 0.0);
             }
@@ -124,8 +124,8 @@ fn relaxed_protocol_structure_and_events() {
     assert!(tr.active[at(t1 - 0.2)] && tr.active[at(t1 + 1.0)] && tr.active[at(t1 + 4.0)]);
     assert!(!tr.active[tr.len() - 1]);
     // Segments: hold, C, E, hold, C, E, C, E, hold; contiguous.
-    let phases: Vec<Phase> = tr.segments.iter().map(|s| s.phase).collect();
-    use Phase::{Concentric as C, Eccentric as E, Hold as H};
+    let phases: Vec<MotionPhase> = tr.segments.iter().map(|s| s.phase).collect();
+    use MotionPhase::{Concentric as C, Eccentric as E, Hold as H};
     assert_eq!(phases, vec![H, C, E, H, C, E, C, E, H]);
     for w in tr.segments.windows(2) {
         assert_eq!(w[0].end_s, w[1].start_s);

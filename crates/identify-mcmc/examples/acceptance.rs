@@ -1,8 +1,8 @@
 //! The single-trial acceptance on fresh random truths, with the default settings.
 //!
 //! `cargo run --release -p identify-mcmc --example acceptance -- SEED…` synthesises a
-//! seed-protocol trial per seed (truth uniform in the bounds, SPEC noise, unloaded run), runs
-//! [`identify`] with [`IdentifySettings::default`] (sampler seed = trial seed) and prints: max
+//! seed-protocol trial per seed (truth uniform in the bounds, nominal dynamometer error, unloaded run), runs
+//! [`identify`] with [`McmcIdentifySettings::default`] (sampler seed = trial seed) and prints: max
 //! R̂ (≤ 1.01), min bulk ESS (≥ 400), truths inside their 90 % intervals (≥ 6/9), the soleus
 //! LST error of the posterior mean (≤ 1.5 %), the soleus LST / gl α0 identifiability flags
 //! (identifiable / not) and the wall time (≤ 120 s on 2 cores), then `PASS` or `FAIL`.
@@ -10,7 +10,7 @@
 use std::ops::ControlFlow;
 
 use experiment::{random_params, synthesize, SynthConfig};
-use identify_mcmc::{identify, IdentifySettings, NoiseKind, NoiseSpec, Settings};
+use identify_mcmc::{identify, McmcIdentifySettings, McmcSettings, NoiseKind, NoiseSpec};
 use muscle_model::{Effects, ModelParams, ParamId, Problem};
 use rand::SeedableRng;
 
@@ -26,9 +26,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let syn = synthesize(&SynthConfig::new("seed".parse()?, seed).with_params(truth))?;
         let problem = Problem::standard(syn.inputs.clone(), syn.trial.torque_nm.clone())?;
         let noise = NoiseSpec::from_unloaded(&syn.trial, &syn.unloaded, NoiseKind::Ar1White)?;
-        let d = IdentifySettings::default();
-        let settings = IdentifySettings {
-            mcmc: Settings { seed, ..d.mcmc },
+        let d = McmcIdentifySettings::default();
+        let settings = McmcIdentifySettings {
+            mcmc: McmcSettings { seed, ..d.mcmc },
             ..d
         };
         let res = identify(&problem, &noise, &settings, |_| ControlFlow::Continue(()))?;

@@ -2,14 +2,14 @@
 //!
 //! `cargo run --release -p identify-mcmc --example coverage -- [N=30] [ar1_white|ar1|iid] [exact] [from=K]`
 //! synthesises N seed-protocol trials (seeds 1…N, truth drawn uniformly in the bounds by
-//! `experiment::random_params`, SPEC noise, unloaded run), identifies each with
-//! [`IdentifySettings::fast`] and the noise model estimated from the unloaded run, and prints
+//! `experiment::random_params`, nominal dynamometer error, unloaded run), identifies each with
+//! [`McmcIdentifySettings::fast`] and the noise model estimated from the unloaded run, and prints
 //! how often each 90 % interval holds the truth.
 
 use std::ops::ControlFlow;
 
 use experiment::{random_params, synthesize, SynthConfig};
-use identify_mcmc::{identify, IdentifySettings, NoiseKind, NoiseSpec};
+use identify_mcmc::{identify, McmcIdentifySettings, NoiseKind, NoiseSpec};
 use muscle_model::{Effects, ModelParams, ParamId, Problem};
 use rand::SeedableRng;
 
@@ -51,7 +51,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 &cfg.dynamometer,
             ));
         }
-        let res = identify(&problem, &noise, &IdentifySettings::fast(seed), |_| {
+        let res = identify(&problem, &noise, &McmcIdentifySettings::fast(seed), |_| {
             ControlFlow::Continue(())
         })?;
         conv += usize::from(res.converged);

@@ -4,7 +4,7 @@
 
 use std::ops::ControlFlow;
 
-use identify_mcmc::{run_with_observer, FnLogDensity, Phase, Settings};
+use identify_mcmc::{run_with_observer, ChainPhase, FnLogDensity, McmcSettings};
 
 fn main() -> Result<(), identify_mcmc::McmcError> {
     let rho: f64 = 0.9;
@@ -12,14 +12,14 @@ fn main() -> Result<(), identify_mcmc::McmcError> {
         let q = (x[0] * x[0] - 2.0 * rho * x[0] * x[1] + x[1] * x[1]) / (1.0 - rho * rho);
         Some(-0.5 * q)
     });
-    let settings = Settings {
+    let settings = McmcSettings {
         seed: 1,
-        ..Settings::default()
+        ..McmcSettings::default()
     };
     let result = run_with_observer(&target, &settings, None, |p| {
         let phase = match p.phase {
-            Phase::Warmup => "warm-up ",
-            Phase::Sampling => "sampling",
+            ChainPhase::Warmup => "warm-up ",
+            ChainPhase::Sampling => "sampling",
         };
         println!(
             "{phase} {:>6} iterations  max R-hat {:.4}  min bulk ESS {:>7.1}  acceptance {:.3}",

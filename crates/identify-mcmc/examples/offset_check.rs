@@ -51,7 +51,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             &est,
             identify_mcmc::NoiseKind::Ar1White,
         )?;
-        let identify_mcmc::NoiseSource::Fixed(params) = spec.source else {
+        let identify_mcmc::McmcNoiseSource::Fixed(params) = spec.source else {
             unreachable!("from_correction fixes the noise model")
         };
         let centred: Vec<f64> = rem.iter().map(|v| v - mean).collect();

@@ -7,12 +7,12 @@
 use std::ops::ControlFlow;
 use std::path::Path;
 
-use identify_mcmc::{identify, IdentifySettings, NoiseKind, NoiseSpec};
+use identify_mcmc::{identify, McmcIdentifySettings, NoiseKind, NoiseSpec};
 use muscle_model::{Effects, ModelParams, ParamId, Problem};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut kind = NoiseKind::Ar1White;
-    let mut settings = IdentifySettings::default();
+    let mut settings = McmcIdentifySettings::default();
     let mut csv = None;
     for a in std::env::args().skip(1) {
         match a.as_str() {

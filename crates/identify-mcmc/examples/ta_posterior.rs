@@ -10,7 +10,7 @@
 use std::ops::ControlFlow;
 
 use experiment::{random_params, synthesize, SynthConfig};
-use identify_mcmc::{identify, IdentifySettings, NoiseKind, NoiseSpec};
+use identify_mcmc::{identify, McmcIdentifySettings, NoiseKind, NoiseSpec};
 use muscle_model::{EffectKind, Effects, ModelParams, ParamId, Problem};
 use rand::SeedableRng;
 
@@ -40,7 +40,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     )?;
     println!("bounds {:?}", problem.bounds());
     let noise = NoiseSpec::from_unloaded(&syn.trial, &syn.unloaded, NoiseKind::Ar1White)?;
-    let res = identify(&problem, &noise, &IdentifySettings::fast(seed), |_| {
+    let res = identify(&problem, &noise, &McmcIdentifySettings::fast(seed), |_| {
         ControlFlow::Continue(())
     })?;
     for p in &res.posterior {

@@ -1,4 +1,4 @@
-//! Bayesian identification of the muscle model (SPEC §7–8): noise model, start points, chains, report.
+//! Bayesian identification of the muscle model (docs/results.md): noise model, start points, chains, report.
 //!
 //! [`identify`] samples the posterior of a [`Problem`]'s free parameters:
 //!
@@ -8,7 +8,7 @@
 //!    Nelder–Mead fit of the sum of squares (`numerics`' [`nelder_mead()`]);
 //! 3. a multi-start search (module `modes`) finds the modes of the posterior of LST and α0 with
 //!    F0 integrated out; the best one centres the wall-free sampling coordinates (module
-//!    `conditional`) and all of them make the jump mixture ([`crate::MixtureProposal`]);
+//!    `sampling_coordinates`) and all of them make the jump mixture ([`crate::MixtureProposal`]);
 //! 4. `n_chains` chains start from draws of that mixture (`u ~ N(0, spread²)` for F0, from the
 //!    seed's stream 0) and run the adaptive Metropolis–Hastings sampler of this crate with mode
 //!    jumps (uniform prior on the bounds; a failed simulation is a rejected proposal) until
@@ -29,16 +29,19 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
-use crate::conditional::Conditional;
 use crate::mixture::{ComponentSpec, MixtureProposal};
 use crate::modes::{find_modes, Mode};
 use crate::noise::{NoiseKind, NoiseParams};
-use crate::{run_with_proposal, LogDensity, McmcError, Progress, RunResult, Settings, StopReason};
+use crate::sampling_coordinates::Conditional;
+use crate::{
+    run_with_proposal, ChainProgress, ChainStopReason, LogDensity, McmcError, McmcSettings,
+    RunResult,
+};
 
 /// Where the likelihood's noise model comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
-pub enum NoiseSource {
+pub enum McmcNoiseSource {
     /// Given (e.g. fitted to the unloaded run's random remainder).
     Fixed(NoiseParams),
     /// Fitted by moments ([`NoiseParams::fit`]) to the residual of the preliminary
@@ -54,7 +57,7 @@ pub struct NoiseSpec {
     /// torque before anything else; `None` leaves the torque as measured.
     pub systematic: Option<Vec<f64>>,
     /// The random part.
-    pub source: NoiseSource,
+    pub source: McmcNoiseSource,
     /// Prior sd of a constant torque offset left after the correction, integrated out of the
     /// likelihood (N·m; 0: none). The unloaded run's offset is an estimate: over 12 synthetic
     /// seed-protocol trials its error was −0.10 ± 0.09 N·m and the trial's remainder kept a mean
@@ -63,7 +66,7 @@ pub struct NoiseSpec {
     #[serde(default)]
     pub offset_sd_nm: f64,
     /// Lags `1..=max_lag` used by moment fits of [`NoiseKind::Ar1White`] (at 2048 Hz, 20 lags
-    /// ≈ 10 ms, a third of the SPEC's 30 ms correlation time).
+    /// ≈ 10 ms, a third of the nominal 30 ms correlation time of docs/formats.md, "Synthetic trials").
     pub max_lag: usize,
 }
 
@@ -72,7 +75,7 @@ pub struct NoiseSpec {
 pub const UNLOADED_OFFSET_SD_NM: f64 = 0.5;
 
 /// [`NoiseSpec::offset_sd_nm`] without an unloaded run (N·m): the dynamometer's offset is then
-/// not removed at all (the SPEC's nominal is −1.5 N·m).
+/// not removed at all (the nominal synthetic offset is −1.5 N·m).
 pub const NO_UNLOADED_OFFSET_SD_NM: f64 = 5.0;
 
 /// Default lags of the [`NoiseKind::Ar1White`] moment fit.
@@ -83,7 +86,7 @@ impl NoiseSpec {
     pub fn fixed(noise: NoiseParams, systematic: Option<Vec<f64>>) -> Self {
         Self {
             systematic,
-            source: NoiseSource::Fixed(noise),
+            source: McmcNoiseSource::Fixed(noise),
             offset_sd_nm: 0.0,
             max_lag: DEFAULT_MAX_LAG,
         }
@@ -94,7 +97,7 @@ impl NoiseSpec {
     pub fn from_residual(kind: NoiseKind) -> Self {
         Self {
             systematic: None,
-            source: NoiseSource::FromResidual(kind),
+            source: McmcNoiseSource::FromResidual(kind),
             offset_sd_nm: NO_UNLOADED_OFFSET_SD_NM,
             max_lag: DEFAULT_MAX_LAG,
         }
@@ -192,9 +195,9 @@ impl NoiseSpec {
 /// Settings of [`identify`].
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
-pub struct IdentifySettings {
+pub struct McmcIdentifySettings {
     /// The sampler (seed, chains, warm-up, caps, targets).
-    pub mcmc: Settings,
+    pub mcmc: McmcSettings,
     /// Nelder–Mead budget of each start of the mode search (and of the preliminary fit when
     /// the noise model comes from the residual).
     pub nelder_mead_evaluations: u64,
@@ -260,18 +263,18 @@ fn default_jump_refit() -> usize {
     4
 }
 
-impl Default for IdentifySettings {
+impl Default for McmcIdentifySettings {
     /// 4 chains, warm-up ≥ 1 000 and checks every 500 iterations, cap 100 000 iterations per
     /// chain; mode search of 12 Nelder–Mead starts × 600 evaluations; jumps with probability
     /// 0.2 (ν = 4, inflation 1.3, refit with up to 4 clusters); starts drawn from the mode
     /// mixture with `u ~ N(0, 1.5²I)`; 5 correlations; `K = 50`; monitor margin 1.
     fn default() -> Self {
         Self {
-            mcmc: Settings {
+            mcmc: McmcSettings {
                 warmup_min: 1_000,
                 block: 500,
                 max_total: 100_000,
-                ..Settings::default()
+                ..McmcSettings::default()
             },
             nelder_mead_evaluations: 600,
             mode_starts: default_mode_starts(),
@@ -288,15 +291,15 @@ impl Default for IdentifySettings {
     }
 }
 
-impl IdentifySettings {
+impl McmcIdentifySettings {
     /// Cheaper settings for replicate studies (coverage): warm-up ≥ 1 000, checks every 250,
     /// cap 40 000 iterations per chain, bulk ESS target 150 (R̂ target stays 1.01); the mode
-    /// search as by default. (An earlier cap of 8 000 stopped most runs inside warm-up, R̂ up to
-    /// 1.65, and the intervals then covered the truth only 78 % of the time.)
+    /// search as by default. (A cap of 8 000 stops most runs inside warm-up, R̂ up to 1.65, and
+    /// the intervals then cover the truth only 78 % of the time.)
     pub fn fast(seed: u64) -> Self {
         let d = Self::default();
         Self {
-            mcmc: Settings {
+            mcmc: McmcSettings {
                 seed,
                 warmup_min: 1_000,
                 block: 250,
@@ -309,10 +312,10 @@ impl IdentifySettings {
     }
 }
 
-/// Posterior summary of one named parameter (SPEC §7 `posterior` entry).
+/// Posterior summary of one named parameter (a `posterior` entry of `identify.json`, docs/formats.md).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ParamPosterior {
-    /// SPEC name, e.g. `sol.lst_m`.
+    /// Name as in the parameters JSON (docs/formats.md), e.g. `sol.lst_m`.
     pub name: String,
     /// Posterior mean.
     pub mean: f64,
@@ -371,7 +374,7 @@ pub struct ModeInfo {
 fn mode_mixture(
     target: &Conditional<'_>,
     modes: &[Mode],
-    settings: &IdentifySettings,
+    settings: &McmcIdentifySettings,
 ) -> Result<(MixtureProposal, Vec<ModeInfo>), McmcError> {
     let nl = target.nl().to_vec();
     let m = nl.len();
@@ -461,12 +464,12 @@ pub struct McmcIdentification {
     /// the cap was hit or the run stopped).
     pub converged: bool,
     /// Largest `|z|` over the states visited while sampling; near `z_half_width` the box
-    /// truncates the posterior (then raise `IdentifySettings::z_half_width`).
+    /// truncates the posterior (then raise `McmcIdentifySettings::z_half_width`).
     pub max_abs_z: f64,
     /// The `K` used.
     pub z_half_width: f64,
     /// Why sampling stopped.
-    pub stop: StopReason,
+    pub stop: ChainStopReason,
     /// Warm-up iterations per chain.
     pub warmup_iterations: usize,
     /// Sampling iterations per chain.
@@ -567,7 +570,7 @@ fn with_measured(problem: &Problem, measured: Vec<f64>) -> Result<Problem, McmcE
 
 /// Sample the posterior of `problem`'s free parameters (see the module documentation).
 ///
-/// `observer` sees the sampler's [`Progress`] after every block and may stop the run.
+/// `observer` sees the sampler's [`ChainProgress`] after every block and may stop the run.
 ///
 /// # Errors
 /// Invalid settings, a systematic correction of the wrong length, a Nelder–Mead start where the
@@ -575,11 +578,11 @@ fn with_measured(problem: &Problem, measured: Vec<f64>) -> Result<Problem, McmcE
 pub fn identify<F>(
     problem: &Problem,
     noise: &NoiseSpec,
-    settings: &IdentifySettings,
+    settings: &McmcIdentifySettings,
     observer: F,
 ) -> Result<McmcIdentification, McmcError>
 where
-    F: FnMut(&Progress) -> ControlFlow<()>,
+    F: FnMut(&ChainProgress) -> ControlFlow<()>,
 {
     let started = Instant::now();
     settings.mcmc.validate()?;
@@ -616,8 +619,8 @@ where
 
     // Noise model (a preliminary least-squares fit only when it comes from the residual).
     let noise_params = match noise.source {
-        NoiseSource::Fixed(p) => p,
-        NoiseSource::FromResidual(kind) => {
+        McmcNoiseSource::Fixed(p) => p,
+        McmcNoiseSource::FromResidual(kind) => {
             let base = corrected.base_vector();
             let x0: Vec<f64> = base
                 .iter()
@@ -736,7 +739,7 @@ where
             reason: "must be finite and ≥ 1",
         });
     }
-    let inner = Settings {
+    let inner = McmcSettings {
         ess_target: settings.mcmc.ess_target * margin,
         rhat_target: 1.0 + (settings.mcmc.rhat_target - 1.0) / margin,
         ..settings.mcmc

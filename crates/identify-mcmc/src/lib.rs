@@ -1,5 +1,5 @@
 //! Metropolis–Hastings identification with several chains, rank-normalised
-//! split R̂ and bulk/tail ESS (SPEC §7–8).
+//! split R̂ and bulk/tail ESS (method and measured results: docs/results.md).
 //!
 //! The crate is generic: anything implementing [`LogDensity`] (dimension,
 //! bounds, `log π(x)` or `None` for a failed evaluation) can be sampled. The
@@ -34,7 +34,7 @@
 //! continues in blocks until every parameter has `R̂ < 1.01` and bulk
 //! `ESS ≥ 400` over the kept draws, or until `max_total` iterations per chain
 //! (100 000 by default), in which case [`RunResult::stop`] is
-//! [`StopReason::CapReached`] and `converged` is false.
+//! [`ChainStopReason::CapReached`] and `converged` is false.
 //!
 //! # Diagnostics ([`diagnostics`])
 //!
@@ -73,7 +73,7 @@
 //! cycle-locked systematic error estimated from the unloaded run ([`NoiseSpec::from_unloaded`]).
 //! Before sampling, a multi-start Nelder–Mead search (module `modes`) finds the modes of the
 //! posterior of the nonlinear parameters (F0 integrated out exactly). The chains then run in
-//! coordinates without walls (module `conditional`): LST and α0 on the logit scale of their
+//! coordinates without walls (module `sampling_coordinates`): LST and α0 on the logit scale of their
 //! bounds, whitened by the best mode's Laplace fit, and F0 on its exact truncated Gaussian
 //! conditional through the GHK map, which removes the curved F0–length ridge. Each step is,
 //! with probability `jump_probability`, an independence proposal from a Student-t mixture on
@@ -86,14 +86,14 @@
 //! A correlated 2-D Gaussian (ρ = 0.9) in a box far wider than the posterior:
 //!
 //! ```
-//! use identify_mcmc::{run, FnLogDensity, Settings};
+//! use identify_mcmc::{run, FnLogDensity, McmcSettings};
 //!
 //! let rho: f64 = 0.9;
 //! let target = FnLogDensity::new(vec![(-10.0, 10.0), (-10.0, 10.0)], move |x: &[f64]| {
 //!     let q = (x[0] * x[0] - 2.0 * rho * x[0] * x[1] + x[1] * x[1]) / (1.0 - rho * rho);
 //!     Some(-0.5 * q)
 //! });
-//! let settings = Settings { seed: 7, warmup_min: 1000, block: 500, max_total: 20_000, ..Settings::default() };
+//! let settings = McmcSettings { seed: 7, warmup_min: 1000, block: 500, max_total: 20_000, ..McmcSettings::default() };
 //! let result = run(&target, &settings, None).unwrap();
 //! assert!(result.converged);
 //! for s in &result.summary {
@@ -103,36 +103,37 @@
 //! assert!((result.correlation[0][1] - rho).abs() < 0.05);
 //! ```
 
-mod conditional;
 pub mod diagnostics;
 pub mod identify;
 pub mod mixture;
 mod modes;
 pub mod noise;
 mod sampler;
+mod sampling_coordinates;
 mod settings;
 mod summary;
 mod target;
 
 pub use mixture::{ComponentSpec, MixtureProposal};
 pub use sampler::{
-    run, run_with_observer, run_with_proposal, Phase, Progress, RunResult, StopReason,
-    MAX_INIT_TRIES,
+    run, run_with_observer, run_with_proposal, ChainPhase, ChainProgress, ChainStopReason,
+    RunResult, MAX_INIT_TRIES,
 };
-pub use settings::{Proposal, Settings};
+pub use settings::{McmcSettings, Proposal};
 pub use summary::{correlation_matrix, strongest_correlations, CorrelationPair, Summary};
 pub use target::{FnLogDensity, LogDensity};
 
 pub use identify::{
-    identify, IdentifySettings, McmcIdentification, ModeInfo, NamedCorrelation, NoiseSource,
-    NoiseSpec, ParamPosterior, DEFAULT_MAX_LAG, NO_UNLOADED_OFFSET_SD_NM, UNLOADED_OFFSET_SD_NM,
+    identify, McmcIdentification, McmcIdentifySettings, McmcNoiseSource, ModeInfo,
+    NamedCorrelation, NoiseSpec, ParamPosterior, DEFAULT_MAX_LAG, NO_UNLOADED_OFFSET_SD_NM,
+    UNLOADED_OFFSET_SD_NM,
 };
 pub use noise::{Ar1White, Noise, NoiseKind, NoiseParams};
 
 /// Everything that can go wrong before sampling starts.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum McmcError {
-    /// A [`Settings`] field is out of range.
+    /// A [`McmcSettings`] field is out of range.
     #[error("invalid setting `{name}` = {value}: {reason}")]
     InvalidSetting {
         /// Field name.

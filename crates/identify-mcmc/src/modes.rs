@@ -2,14 +2,14 @@
 //!
 //! The F0 of every muscle enters the torque linearly, so the posterior of the other parameters
 //! `θ` (LST and α0 per muscle) with F0 integrated out is, up to a constant,
-//! `p(θ) ∝ exp(N − ½RSS(θ))/det R(θ)` (module `conditional` at `u = 0`). Its maxima are found by
+//! `p(θ) ∝ exp(N − ½RSS(θ))/det R(θ)` (module `sampling_coordinates` at `u = 0`). Its maxima are found by
 //! Nelder–Mead from the middle of the bounds and from `n − 1` Latin-hypercube points in the box
 //! (run in parallel; each start is independent, so the result does not depend on the thread
 //! count). The optima are sorted by `ln p`; each is kept as a new mode when its `ln p` is within
 //! `max_gap` of the best and it lies more than 4 Laplace standard deviations
 //! (`|L_k⁻¹(θ − θ_k)| > 4`) from every mode kept before it. Each mode carries its Laplace factor.
 //!
-//! Random truths inside the SPEC bounds give posteriors with a second mode surprisingly often
+//! Random truths inside the identification bounds give posteriors with a second mode surprisingly often
 //! (the gastrocnemii trade LST against α0 and against each other); a random walk started at one
 //! optimum never finds the other, and its 90 % intervals then miss the truth.
 
@@ -21,8 +21,8 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
-use crate::conditional::Conditional;
 use crate::noise::Noise;
+use crate::sampling_coordinates::Conditional;
 use crate::LogDensity;
 
 /// RNG stream of the start design (the chains use streams `1..`; the chain starts stream 0).

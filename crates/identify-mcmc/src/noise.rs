@@ -1,13 +1,13 @@
 //! Torque-noise models for the likelihood (i.i.d., AR(1), AR(1) + white) and their moment fits.
 //!
-//! The dynamometer's random error is an AR(1) process plus white noise (SPEC §4). Their sum is
+//! The dynamometer's random error is an AR(1) process plus white noise (docs/dynamometer.md). Their sum is
 //! an ARMA(1,1) process whose lag-one autocorrelation `ρ₁ = φ·σ_a²/(σ_a² + σ_w²)` is much
 //! smaller than the AR coefficient `φ` that governs the long-lag correlation, so an AR(1)
 //! fitted on lag one misstates the correlation that sets the width of the posterior.
 //! [`Ar1White`] models the sum exactly (state-space form, scalar Kalman filter).
 
 use muscle_model::noise::autocovariance;
-use muscle_model::{Ar1Gaussian, GaussianIid, MomentFit, NoiseModel};
+use muscle_model::{Ar1Gaussian, GaussianIid, MomentFit, NoiseLikelihood};
 use serde::{Deserialize, Serialize};
 
 use crate::McmcError;
@@ -123,7 +123,7 @@ impl NoiseParams {
         }
     }
 
-    /// The model as a [`NoiseModel`] for [`muscle_model::Problem::log_likelihood_with`].
+    /// The model as a [`NoiseLikelihood`] for [`muscle_model::Problem::log_likelihood_with`].
     ///
     /// # Errors
     /// [`McmcError::InvalidNoise`] for out-of-range values.
@@ -187,7 +187,7 @@ impl Noise {
     }
 }
 
-impl NoiseModel for Noise {
+impl NoiseLikelihood for Noise {
     fn log_likelihood(&self, residual: &[f64]) -> f64 {
         match self {
             Noise::Iid(m) => m.log_likelihood(residual),

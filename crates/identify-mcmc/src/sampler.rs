@@ -12,14 +12,14 @@ use numerics::cholesky::cholesky_in_place;
 
 use crate::mixture::MixtureProposal;
 use crate::summary::{correlation_matrix, strongest_correlations, CorrelationPair, Summary};
-use crate::{diagnostics, LogDensity, McmcError, Proposal, Settings};
+use crate::{diagnostics, LogDensity, McmcError, McmcSettings, Proposal};
 
 /// Uniform draws from the bounds tried per chain to find a finite start.
 pub const MAX_INIT_TRIES: usize = 1_000;
 
-/// Which phase a [`Progress`] report comes from.
+/// Which phase a [`ChainProgress`] report comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub enum Phase {
+pub enum ChainPhase {
     /// Warm-up (adaptation on for [`Proposal::Adaptive`]); draws discarded.
     Warmup,
     /// Sampling with the frozen proposal; draws kept.
@@ -28,9 +28,9 @@ pub enum Phase {
 
 /// What the observer of [`run_with_observer`] sees after every block.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Progress {
+pub struct ChainProgress {
     /// Current phase.
-    pub phase: Phase,
+    pub phase: ChainPhase,
     /// Iterations per chain so far (warm-up + sampling).
     pub iterations: usize,
     /// Iterations per chain in the current phase.
@@ -46,7 +46,7 @@ pub struct Progress {
 
 /// Why sampling stopped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub enum StopReason {
+pub enum ChainStopReason {
     /// Every parameter reached R̂ < `rhat_target` and bulk ESS ≥ `ess_target`.
     Converged,
     /// `max_total` iterations were spent before the targets were met.
@@ -59,7 +59,7 @@ pub enum StopReason {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RunResult {
     /// The settings used.
-    pub settings: Settings,
+    pub settings: McmcSettings,
     /// Number of parameters.
     pub dim: usize,
     /// Kept sampling draws in the target's reported coordinates
@@ -76,7 +76,7 @@ pub struct RunResult {
     /// Whether warm-up ended by its R̂ criterion (false: by its cap or a stop).
     pub warmup_converged: bool,
     /// Why sampling stopped.
-    pub stop: StopReason,
+    pub stop: ChainStopReason,
     /// `stop == Converged`: all R̂ < target and all bulk ESS ≥ target.
     pub converged: bool,
     /// Acceptance rate of every chain during sampling.
@@ -218,7 +218,7 @@ struct Context<'a> {
     lower: Vec<f64>,
     upper: Vec<f64>,
     widths: Vec<f64>,
-    settings: &'a Settings,
+    settings: &'a McmcSettings,
     mixture: Option<MixtureProposal>,
 }
 
@@ -459,14 +459,14 @@ impl Chain {
         target: &T,
         ctx: &Context<'_>,
         iters: usize,
-        phase: Phase,
+        phase: ChainPhase,
     ) {
         let thin = ctx.settings.thin;
         let adaptive = matches!(ctx.settings.proposal, Proposal::Adaptive);
         let store_len = iters / thin + 1;
         match phase {
-            Phase::Warmup => self.warm.iter_mut().for_each(|v| v.reserve(store_len)),
-            Phase::Sampling => {
+            ChainPhase::Warmup => self.warm.iter_mut().for_each(|v| v.reserve(store_len)),
+            ChainPhase::Sampling => {
                 self.samp.iter_mut().for_each(|v| v.reserve(store_len));
                 self.samp_lp.reserve(store_len);
             }
@@ -474,17 +474,17 @@ impl Chain {
         for _ in 0..iters {
             let (alpha, accepted, jump) = self.step(target, ctx);
             let counts = match phase {
-                Phase::Warmup => &mut self.warm_counts,
-                Phase::Sampling => &mut self.samp_counts,
+                ChainPhase::Warmup => &mut self.warm_counts,
+                ChainPhase::Sampling => &mut self.samp_counts,
             };
             counts.proposed += 1;
             counts.accepted += u64::from(accepted);
-            if jump && phase == Phase::Sampling {
+            if jump && phase == ChainPhase::Sampling {
                 self.jump_counts.proposed += 1;
                 self.jump_counts.accepted += u64::from(accepted);
             }
             // The random walk's scale adapts to its own acceptance only.
-            if adaptive && phase == Phase::Warmup && !jump {
+            if adaptive && phase == ChainPhase::Warmup && !jump {
                 self.adapt.update(
                     &self.x,
                     alpha,
@@ -493,7 +493,7 @@ impl Chain {
                     &ctx.widths,
                 );
             }
-            if phase == Phase::Sampling {
+            if phase == ChainPhase::Sampling {
                 for v in &self.x {
                     self.max_abs = self.max_abs.max(v.abs());
                 }
@@ -501,19 +501,19 @@ impl Chain {
             self.phase_iter += 1;
             if self.phase_iter % thin == 0 {
                 let store = match phase {
-                    Phase::Warmup => &mut self.warm,
-                    Phase::Sampling => &mut self.samp,
+                    ChainPhase::Warmup => &mut self.warm,
+                    ChainPhase::Sampling => &mut self.samp,
                 };
                 for (s, &v) in store.iter_mut().zip(&self.rx) {
                     s.push(v);
                 }
-                if phase == Phase::Warmup {
+                if phase == ChainPhase::Warmup {
                     if let Some(mix) = ctx.mixture.as_ref().filter(|m| m.refit_components() > 0) {
                         self.warm_x
                             .push(mix.coords().iter().map(|&i| self.x[i]).collect());
                     }
                 }
-                if phase == Phase::Sampling {
+                if phase == ChainPhase::Sampling {
                     self.samp_lp.push(self.stored);
                 }
             }
@@ -524,7 +524,7 @@ impl Chain {
 /// Run the sampler with no observer. See [`run_with_observer`].
 pub fn run<T: LogDensity + ?Sized>(
     target: &T,
-    settings: &Settings,
+    settings: &McmcSettings,
     init: Option<&[Vec<f64>]>,
 ) -> Result<RunResult, McmcError> {
     run_with_observer(target, settings, init, |_| ControlFlow::Continue(()))
@@ -606,11 +606,11 @@ fn check_interval(block: usize, done: usize) -> usize {
     block * (done / (10 * block)).max(1)
 }
 
-fn mean_rate(chains: &[Chain], phase: Phase) -> f64 {
+fn mean_rate(chains: &[Chain], phase: ChainPhase) -> f64 {
     let (acc, prop) = chains.iter().fold((0u64, 0u64), |(a, p), c| {
         let k = match phase {
-            Phase::Warmup => c.warm_counts,
-            Phase::Sampling => c.samp_counts,
+            ChainPhase::Warmup => c.warm_counts,
+            ChainPhase::Sampling => c.samp_counts,
         };
         (a + k.accepted, p + k.proposed)
     });
@@ -649,20 +649,20 @@ fn refit_mixture(ctx: &mut Context<'_>, chains: &[Chain], seed: u64, iterations:
 /// current pool; chain `c` uses `ChaCha8Rng::seed_from_u64(seed)` with stream
 /// `c + 1`, so the result is bit-identical for any thread count. `observer`
 /// is called after every block and may stop the run
-/// ([`StopReason::Stopped`]); the draws so far are then returned.
+/// ([`ChainStopReason::Stopped`]); the draws so far are then returned.
 ///
 /// # Errors
 /// Invalid settings or bounds, malformed or infeasible start points
 /// ([`McmcError`]).
 pub fn run_with_observer<T, F>(
     target: &T,
-    settings: &Settings,
+    settings: &McmcSettings,
     init: Option<&[Vec<f64>]>,
     observer: F,
 ) -> Result<RunResult, McmcError>
 where
     T: LogDensity + ?Sized,
-    F: FnMut(&Progress) -> ControlFlow<()>,
+    F: FnMut(&ChainProgress) -> ControlFlow<()>,
 {
     run_with_proposal(target, settings, init, None, observer)
 }
@@ -677,14 +677,14 @@ where
 /// As [`run_with_observer`], and a mixture coordinate outside the target's dimension.
 pub fn run_with_proposal<T, F>(
     target: &T,
-    settings: &Settings,
+    settings: &McmcSettings,
     init: Option<&[Vec<f64>]>,
     mixture: Option<&MixtureProposal>,
     mut observer: F,
 ) -> Result<RunResult, McmcError>
 where
     T: LogDensity + ?Sized,
-    F: FnMut(&Progress) -> ControlFlow<()>,
+    F: FnMut(&ChainProgress) -> ControlFlow<()>,
 {
     settings.validate()?;
     check_target(target)?;
@@ -743,20 +743,20 @@ where
         let n = check_interval(block, warm).min(warmup_cap - warm);
         chains
             .par_iter_mut()
-            .for_each(|c| c.run_block(target, &ctx, n, Phase::Warmup));
+            .for_each(|c| c.run_block(target, &ctx, n, ChainPhase::Warmup));
         warm += n;
         let max_rhat = if warm >= settings.warmup_min {
             monitor(&chains, d, true).0
         } else {
             f64::NAN
         };
-        let progress = Progress {
-            phase: Phase::Warmup,
+        let progress = ChainProgress {
+            phase: ChainPhase::Warmup,
             iterations: warm,
             phase_iterations: warm,
             max_rhat,
             min_ess_bulk: f64::NAN,
-            acceptance_rate: mean_rate(&chains, Phase::Warmup),
+            acceptance_rate: mean_rate(&chains, ChainPhase::Warmup),
         };
         if observer(&progress).is_break() {
             stopped = true;
@@ -776,34 +776,34 @@ where
 
     // Sampling with the frozen proposal.
     let mut samp = 0usize;
-    let mut stop = StopReason::Stopped;
+    let mut stop = ChainStopReason::Stopped;
     if !stopped {
         loop {
             let n = check_interval(block, samp).min(settings.max_total - warm - samp);
             if n == 0 {
-                stop = StopReason::CapReached;
+                stop = ChainStopReason::CapReached;
                 break;
             }
             chains
                 .par_iter_mut()
-                .for_each(|c| c.run_block(target, &ctx, n, Phase::Sampling));
+                .for_each(|c| c.run_block(target, &ctx, n, ChainPhase::Sampling));
             samp += n;
             let (max_rhat, min_ess) = monitor(&chains, d, false);
-            let progress = Progress {
-                phase: Phase::Sampling,
+            let progress = ChainProgress {
+                phase: ChainPhase::Sampling,
                 iterations: warm + samp,
                 phase_iterations: samp,
                 max_rhat,
                 min_ess_bulk: min_ess,
-                acceptance_rate: mean_rate(&chains, Phase::Sampling),
+                acceptance_rate: mean_rate(&chains, ChainPhase::Sampling),
             };
             let flow = observer(&progress);
             if max_rhat < settings.rhat_target && min_ess >= settings.ess_target {
-                stop = StopReason::Converged;
+                stop = ChainStopReason::Converged;
                 break;
             }
             if flow.is_break() {
-                stop = StopReason::Stopped;
+                stop = ChainStopReason::Stopped;
                 break;
             }
         }
@@ -837,7 +837,7 @@ where
         warmup_iterations: warm,
         sampling_iterations: samp,
         warmup_converged,
-        converged: stop == StopReason::Converged,
+        converged: stop == ChainStopReason::Converged,
         stop,
         acceptance_rate: chains.iter().map(|c| c.samp_counts.rate()).collect(),
         warmup_acceptance_rate: chains.iter().map(|c| c.warm_counts.rate()).collect(),

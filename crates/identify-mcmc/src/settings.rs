@@ -39,7 +39,7 @@ pub enum Proposal {
 /// claimed as convergence).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
-pub struct Settings {
+pub struct McmcSettings {
     /// Seed of every chain's `ChaCha8Rng` (chain `c` uses stream `c + 1`).
     pub seed: u64,
     /// Number of chains (≥ 1; 4 by default).
@@ -64,7 +64,7 @@ pub struct Settings {
     pub target_acceptance: f64,
 }
 
-impl Default for Settings {
+impl Default for McmcSettings {
     fn default() -> Self {
         Self {
             seed: 42,
@@ -82,7 +82,7 @@ impl Default for Settings {
     }
 }
 
-impl Settings {
+impl McmcSettings {
     /// Check every field; the first problem found is returned.
     pub fn validate(&self) -> Result<(), McmcError> {
         let bad = |name: &'static str, value: String, reason: &'static str| {

@@ -25,7 +25,7 @@ pub struct Summary {
     pub prior_sd: f64,
     /// `sd / prior_sd`: 1 means the data taught nothing about the parameter.
     pub prior_sd_ratio: f64,
-    /// `sd < prior_sd/2` (SPEC §7): the data narrowed the parameter down.
+    /// `sd < prior_sd/2`: the data narrowed the parameter down.
     pub identifiable: bool,
 }
 

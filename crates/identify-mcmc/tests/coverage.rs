@@ -2,7 +2,7 @@
 //! identification": ≥ 30 trials, the 90 % intervals hold the truth 90 % ± a binomial margin).
 //!
 //! Trials: seed protocol, truth drawn uniformly in the bounds (`experiment::random_params`, the
-//! prior), SPEC noise, unloaded run supplied; [`IdentifySettings::fast`]. Seeds `1…30` by
+//! prior), nominal dynamometer error, unloaded run supplied; [`McmcIdentifySettings::fast`]. Seeds `1…30` by
 //! default, so CI is reproducible; `SURAE_COVERAGE_FROM=K` draws seeds `K…K+29` instead and
 //! `SURAE_COVERAGE_TRIALS=N` (≥ 30) changes the count. Every trial's line (seed, covered
 //! pattern, R̂, ESS) is printed, so a failure names its seeds.
@@ -17,7 +17,7 @@
 use std::ops::ControlFlow;
 
 use experiment::{random_params, synthesize, SynthConfig};
-use identify_mcmc::{identify, IdentifySettings, NoiseKind, NoiseSpec};
+use identify_mcmc::{identify, McmcIdentifySettings, NoiseKind, NoiseSpec};
 use muscle_model::{Effects, ModelParams, ParamId, Problem};
 use rand::SeedableRng;
 
@@ -50,7 +50,7 @@ fn ninety_percent_intervals_cover_random_truths() {
         let problem = Problem::standard(syn.inputs.clone(), syn.trial.torque_nm.clone()).unwrap();
         let noise =
             NoiseSpec::from_unloaded(&syn.trial, &syn.unloaded, NoiseKind::Ar1White).unwrap();
-        let res = identify(&problem, &noise, &IdentifySettings::fast(seed), |_| {
+        let res = identify(&problem, &noise, &McmcIdentifySettings::fast(seed), |_| {
             ControlFlow::Continue(())
         })
         .unwrap();

@@ -1,12 +1,12 @@
-//! The acceptance scenario on the bundled seed fixture (`fixtures/seed`, nominal truth, SPEC
-//! noise, unloaded run): convergence, accuracy, intervals and identifiability flags; and the
+//! The acceptance scenario on the bundled seed fixture (`fixtures/seed`, nominal truth, nominal
+//! dynamometer error, unloaded run): convergence, accuracy, intervals and identifiability flags; and the
 //! same identification on `fixtures/offnominal`, whose truth is away from the nominal
 //! parameters the first mode search and chain start from.
 
 use std::ops::ControlFlow;
 use std::path::Path;
 
-use identify_mcmc::{identify, IdentifySettings, McmcIdentification, NoiseKind, NoiseSpec};
+use identify_mcmc::{identify, McmcIdentification, McmcIdentifySettings, NoiseKind, NoiseSpec};
 use muscle_model::{Effects, ModelParams, ParamId, Problem};
 
 /// Identifies the fixture in `fixtures/<folder>` with the default settings; returns the
@@ -23,7 +23,7 @@ fn identify_fixture(folder: &str) -> (McmcIdentification, Vec<f64>) {
     let inputs = experiment::model_inputs(&trial, &experiment::InputOptions::default()).unwrap();
     let problem = Problem::standard(inputs, trial.torque_nm.clone()).unwrap();
     let noise = NoiseSpec::from_unloaded(&trial, &unloaded, NoiseKind::Ar1White).unwrap();
-    let res = identify(&problem, &noise, &IdentifySettings::default(), |_| {
+    let res = identify(&problem, &noise, &McmcIdentifySettings::default(), |_| {
         ControlFlow::Continue(())
     })
     .unwrap();

@@ -3,7 +3,7 @@
 use std::ops::ControlFlow;
 
 use experiment::{synthesize, SynthConfig};
-use identify_mcmc::{identify, IdentifySettings, NoiseKind, NoiseSpec, StopReason};
+use identify_mcmc::{identify, ChainStopReason, McmcIdentifySettings, NoiseKind, NoiseSpec};
 use muscle_model::Problem;
 
 #[test]
@@ -11,7 +11,7 @@ fn thread_count_does_not_change_the_result_and_cap_is_reported() {
     let syn = synthesize(&SynthConfig::new("seed".parse().unwrap(), 5)).unwrap();
     let problem = Problem::standard(syn.inputs.clone(), syn.trial.torque_nm.clone()).unwrap();
     let noise = NoiseSpec::from_unloaded(&syn.trial, &syn.unloaded, NoiseKind::Ar1White).unwrap();
-    let mut settings = IdentifySettings::fast(3);
+    let mut settings = McmcIdentifySettings::fast(3);
     settings.nelder_mead_evaluations = 200;
     settings.mcmc.warmup_min = 200;
     settings.mcmc.block = 100;
@@ -30,7 +30,7 @@ fn thread_count_does_not_change_the_result_and_cap_is_reported() {
     assert_eq!(one.run.log_density, two.run.log_density);
     assert_eq!(one.posterior, two.posterior);
     // 400 iterations cannot reach bulk ESS 150 on 9 parameters: the cap is reported.
-    assert_eq!(one.stop, StopReason::CapReached);
+    assert_eq!(one.stop, ChainStopReason::CapReached);
     assert!(!one.converged);
     let lp = &one.run.log_density[0];
     assert!(lp.iter().all(|v| v.is_finite()));

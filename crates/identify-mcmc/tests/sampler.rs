@@ -5,8 +5,8 @@ use std::ops::ControlFlow;
 
 use identify_mcmc::diagnostics::ess_mean;
 use identify_mcmc::{
-    run, run_with_observer, FnLogDensity, LogDensity, McmcError, Phase, Proposal, RunResult,
-    Settings, StopReason,
+    run, run_with_observer, ChainPhase, ChainStopReason, FnLogDensity, LogDensity, McmcError,
+    McmcSettings, Proposal, RunResult,
 };
 
 /// `E f` from the pooled draws and its Monte Carlo standard error
@@ -69,14 +69,14 @@ fn check_gaussian(result: &RunResult) {
 #[test]
 fn adaptive_sampler_recovers_correlated_gaussian() {
     let target = gaussian_2d();
-    let settings = Settings {
+    let settings = McmcSettings {
         seed: 11,
         ess_target: 2000.0,
-        ..Settings::default()
+        ..McmcSettings::default()
     };
     let result = run(&target, &settings, None).unwrap();
     assert!(result.converged, "stop = {:?}", result.stop);
-    assert_eq!(result.stop, StopReason::Converged);
+    assert_eq!(result.stop, ChainStopReason::Converged);
     for s in &result.summary {
         assert!(s.rhat < 1.01 && s.ess_bulk >= 2000.0);
     }
@@ -94,12 +94,12 @@ fn adaptive_sampler_recovers_correlated_gaussian() {
 #[test]
 fn dissertation_proposal_recovers_correlated_gaussian() {
     let target = gaussian_2d();
-    let settings = Settings {
+    let settings = McmcSettings {
         seed: 5,
         proposal: Proposal::Dissertation { scale: 0.02 },
         ess_target: 1500.0,
         max_total: 200_000,
-        ..Settings::default()
+        ..McmcSettings::default()
     };
     let result = run(&target, &settings, None).unwrap();
     assert!(result.converged, "stop = {:?}", result.stop);
@@ -115,11 +115,11 @@ fn adaptive_sampler_recovers_banana() {
         let y2 = x[1] + b * x[0] * x[0] - 100.0 * b;
         Some(-0.5 * (x[0] * x[0] / 100.0 + y2 * y2))
     });
-    let settings = Settings {
+    let settings = McmcSettings {
         seed: 3,
         ess_target: 1500.0,
         max_total: 400_000,
-        ..Settings::default()
+        ..McmcSettings::default()
     };
     let result = run(&target, &settings, None).unwrap();
     assert!(result.converged, "stop = {:?}", result.stop);
@@ -137,12 +137,12 @@ fn adaptive_sampler_recovers_banana() {
 #[test]
 fn results_do_not_depend_on_thread_count() {
     let target = gaussian_2d();
-    let settings = Settings {
+    let settings = McmcSettings {
         seed: 99,
         warmup_min: 1000,
         block: 500,
         max_total: 6000,
-        ..Settings::default()
+        ..McmcSettings::default()
     };
     let run_on = |threads: usize| {
         rayon::ThreadPoolBuilder::new()
@@ -162,7 +162,7 @@ fn results_do_not_depend_on_thread_count() {
     // Different seeds give different chains, and the chains differ from each other.
     let other = run(
         &target,
-        &Settings {
+        &McmcSettings {
             seed: 100,
             ..settings
         },
@@ -185,12 +185,12 @@ fn failed_evaluations_are_rejections() {
             Some(-0.5 * x[0] * x[0])
         }
     });
-    let settings = Settings {
+    let settings = McmcSettings {
         seed: 1,
         warmup_min: 1000,
         block: 1000,
         max_total: 20_000,
-        ..Settings::default()
+        ..McmcSettings::default()
     };
     let result = run(&target, &settings, None).unwrap();
     assert!(result.failed_evaluations > 100);
@@ -210,12 +210,12 @@ fn cap_is_reported_not_claimed_as_convergence() {
         Some(a.max(b) + (1.0 + (-(a - b).abs()).exp()).ln())
     });
     let init = vec![vec![15.0], vec![-15.0], vec![15.0], vec![-15.0]];
-    let settings = Settings {
+    let settings = McmcSettings {
         seed: 2,
         warmup_min: 1000,
         block: 1000,
         max_total: 8000,
-        ..Settings::default()
+        ..McmcSettings::default()
     };
     let mut reports = Vec::new();
     let result = run_with_observer(&target, &settings, Some(&init), |p| {
@@ -223,7 +223,7 @@ fn cap_is_reported_not_claimed_as_convergence() {
         ControlFlow::Continue(())
     })
     .unwrap();
-    assert_eq!(result.stop, StopReason::CapReached);
+    assert_eq!(result.stop, ChainStopReason::CapReached);
     assert!(!result.converged);
     assert!(!result.warmup_converged);
     assert_eq!(result.warmup_iterations + result.sampling_iterations, 8000);
@@ -232,44 +232,44 @@ fn cap_is_reported_not_claimed_as_convergence() {
         "rhat {}",
         result.summary[0].rhat
     );
-    assert!(reports.iter().any(|p| p.phase == Phase::Warmup));
-    assert!(reports.iter().any(|p| p.phase == Phase::Sampling));
+    assert!(reports.iter().any(|p| p.phase == ChainPhase::Warmup));
+    assert!(reports.iter().any(|p| p.phase == ChainPhase::Sampling));
     assert_eq!(reports.last().unwrap().iterations, 8000);
 
     // An unreachable ESS target on an easy target also ends at the cap.
     let easy = gaussian_2d();
-    let settings = Settings {
+    let settings = McmcSettings {
         ess_target: 1e9,
         warmup_min: 1000,
         block: 1000,
         max_total: 5000,
-        ..Settings::default()
+        ..McmcSettings::default()
     };
     let result = run(&easy, &settings, None).unwrap();
-    assert_eq!(result.stop, StopReason::CapReached);
+    assert_eq!(result.stop, ChainStopReason::CapReached);
     assert!(!result.converged);
 }
 
 #[test]
 fn observer_can_stop_the_run() {
     let target = gaussian_2d();
-    let settings = Settings {
+    let settings = McmcSettings {
         warmup_min: 1000,
         block: 500,
         ess_target: 1e9,
-        ..Settings::default()
+        ..McmcSettings::default()
     };
     let mut calls = 0;
     let result = run_with_observer(&target, &settings, None, |p| {
         calls += 1;
-        if p.phase == Phase::Sampling {
+        if p.phase == ChainPhase::Sampling {
             ControlFlow::Break(())
         } else {
             ControlFlow::Continue(())
         }
     })
     .unwrap();
-    assert_eq!(result.stop, StopReason::Stopped);
+    assert_eq!(result.stop, ChainStopReason::Stopped);
     assert!(!result.converged);
     assert_eq!(result.sampling_iterations, 500);
     assert_eq!(result.draws[0][0].len(), 500);
@@ -279,13 +279,13 @@ fn observer_can_stop_the_run() {
 #[test]
 fn thinning_keeps_every_kth_state() {
     let target = gaussian_2d();
-    let settings = Settings {
+    let settings = McmcSettings {
         thin: 5,
         warmup_min: 1000,
         block: 1000,
         max_total: 4000,
         ess_target: 1e9,
-        ..Settings::default()
+        ..McmcSettings::default()
     };
     let result = run(&target, &settings, None).unwrap();
     assert_eq!(
@@ -301,9 +301,9 @@ fn identifiability_flags_an_unconstrained_parameter() {
     let target = FnLogDensity::new(vec![(0.0, 1.0), (0.0, 1.0)], |x: &[f64]| {
         Some(-0.5 * ((x[0] - 0.3) / 0.01).powi(2))
     });
-    let settings = Settings {
+    let settings = McmcSettings {
         seed: 8,
-        ..Settings::default()
+        ..McmcSettings::default()
     };
     let result = run(&target, &settings, None).unwrap();
     assert!(result.converged);
@@ -317,9 +317,9 @@ fn identifiability_flags_an_unconstrained_parameter() {
 #[test]
 fn invalid_input_is_an_error() {
     let target = gaussian_2d();
-    let bad = Settings {
+    let bad = McmcSettings {
         n_chains: 0,
-        ..Settings::default()
+        ..McmcSettings::default()
     };
     assert!(matches!(
         run(&target, &bad, None),
@@ -328,17 +328,17 @@ fn invalid_input_is_an_error() {
             ..
         })
     ));
-    let bad = Settings {
+    let bad = McmcSettings {
         proposal: Proposal::Dissertation { scale: -1.0 },
-        ..Settings::default()
+        ..McmcSettings::default()
     };
     assert!(matches!(
         run(&target, &bad, None),
         Err(McmcError::InvalidSetting { .. })
     ));
-    let bad = Settings {
+    let bad = McmcSettings {
         max_total: 10,
-        ..Settings::default()
+        ..McmcSettings::default()
     };
     assert!(matches!(
         run(&target, &bad, None),
@@ -347,7 +347,7 @@ fn invalid_input_is_an_error() {
             ..
         })
     ));
-    let ok = Settings::default();
+    let ok = McmcSettings::default();
     let wrong_count = vec![vec![0.0, 0.0]; 3];
     assert_eq!(
         run(&target, &ok, Some(&wrong_count)).unwrap_err(),
@@ -386,21 +386,21 @@ fn invalid_input_is_an_error() {
 
 #[test]
 fn settings_round_trip_through_json() {
-    let s = Settings {
+    let s = McmcSettings {
         seed: 3,
         proposal: Proposal::Dissertation { scale: 0.01 },
-        ..Settings::default()
+        ..McmcSettings::default()
     };
     let json = serde_json::to_string(&s).unwrap();
-    let back: Settings = serde_json::from_str(&json).unwrap();
+    let back: McmcSettings = serde_json::from_str(&json).unwrap();
     assert_eq!(s, back);
     // Missing fields take their defaults.
-    let partial: Settings = serde_json::from_str(r#"{"seed": 9}"#).unwrap();
+    let partial: McmcSettings = serde_json::from_str(r#"{"seed": 9}"#).unwrap();
     assert_eq!(
         partial,
-        Settings {
+        McmcSettings {
             seed: 9,
-            ..Settings::default()
+            ..McmcSettings::default()
         }
     );
 }
@@ -424,9 +424,9 @@ fn narrow_correlated_posterior_in_a_wide_box() {
         }
         Some(-0.5 * q)
     });
-    let settings = Settings {
+    let settings = McmcSettings {
         seed: 21,
-        ..Settings::default()
+        ..McmcSettings::default()
     };
     let result = run(&target, &settings, None).unwrap();
     eprintln!(
@@ -480,12 +480,12 @@ impl LogDensity for Shifted {
 
 #[test]
 fn draws_and_summaries_are_in_reported_coordinates() {
-    let settings = Settings {
+    let settings = McmcSettings {
         seed: 5,
         warmup_min: 1_000,
         block: 500,
         max_total: 20_000,
-        ..Settings::default()
+        ..McmcSettings::default()
     };
     let r = run(&Shifted, &settings, None).unwrap();
     assert!(r.converged);
@@ -516,16 +516,16 @@ fn mixture_proposal_crosses_between_separated_modes() {
         Some(m + (w1 * (a - m).exp() + w2 * (b - m).exp()).ln())
     };
     let target = FnLogDensity::new(vec![(-20.0, 20.0), (-20.0, 20.0)], log_pdf);
-    let settings = Settings {
+    let settings = McmcSettings {
         seed: 11,
         warmup_min: 2_000,
         block: 1_000,
         max_total: 40_000,
-        ..Settings::default()
+        ..McmcSettings::default()
     };
     // Every chain starts in the left mode (weight 0.3).
     let inits = vec![vec![-6.0, 1.0]; settings.n_chains];
-    let local = Settings {
+    let local = McmcSettings {
         proposal: Proposal::Dissertation { scale: 0.02 },
         ..settings
     };

@@ -1,5 +1,5 @@
 //! Identify `N` synthetic seed-protocol trials with random true parameters (uniform inside the
-//! SPEC §8 bounds, SPEC §4 noise, unloaded run supplied) and print the median and worst error
+//! identification bounds, nominal dynamometer error, unloaded run supplied) and print the median and worst error
 //! per parameter as a Markdown table.
 //!
 //! `cargo run --release -p identify-sa --example replicates -- 20`
@@ -8,7 +8,7 @@
 //! seed `1000 + k`; the identification uses the default settings.
 
 use experiment::{random_params, synthesize, InputOptions, Protocol, SynthConfig};
-use identify_sa::{identify, prepare_trial, IdentifySettings, NoObserver};
+use identify_sa::{identify, prepare_trial, NoObserver, SaIdentifySettings};
 use muscle_model::{Effects, ModelParams};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -39,7 +39,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         );
         let syn = synthesize(&SynthConfig::new(Protocol::Seed, seed).with_params(truth))?;
         let prep = prepare_trial(&syn.trial, Some(&syn.unloaded), &InputOptions::default())?;
-        let id = identify(&prep.problem, &IdentifySettings::default(), &NoObserver)?;
+        let id = identify(&prep.problem, &SaIdentifySettings::default(), &NoObserver)?;
         let floor = prep
             .problem
             .rms(&prep.problem.vector_from(&truth, &Effects::none()))?;

@@ -6,7 +6,7 @@
 //! default); `SA_CASE=4` runs only that row of the table.
 
 use identify_sa::test_functions::{Kind, TestFunction};
-use identify_sa::{run, NoObserver, Objective, Settings};
+use identify_sa::{run, AnnealSettings, NoObserver, Objective};
 
 fn main() {
     let seeds: u64 = std::env::args()
@@ -34,7 +34,7 @@ fn main() {
         let t = std::time::Instant::now();
         for seed in 0..seeds {
             let mut f = TestFunction::new(kind, dim);
-            let base: Settings = std::env::var("SA_SETTINGS")
+            let base: AnnealSettings = std::env::var("SA_SETTINGS")
                 .ok()
                 .and_then(|j| serde_json::from_str(&j).ok())
                 .unwrap_or_default();

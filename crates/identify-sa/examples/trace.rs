@@ -3,7 +3,7 @@
 //! `cargo run --release -p identify-sa --example trace -- KIND DIM BUDGET SEED`
 
 use identify_sa::test_functions::{Kind, TestFunction};
-use identify_sa::{run, NoObserver, Settings};
+use identify_sa::{run, AnnealSettings, NoObserver};
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -17,7 +17,7 @@ fn main() {
     let budget = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(60_000);
     let seed = args.get(4).and_then(|s| s.parse().ok()).unwrap_or(0);
     let mut f = TestFunction::new(kind, dim);
-    let base: Settings = std::env::var("SA_SETTINGS")
+    let base: AnnealSettings = std::env::var("SA_SETTINGS")
         .ok()
         .and_then(|j| serde_json::from_str(&j).ok())
         .unwrap_or_default();

@@ -6,12 +6,12 @@ use serde::{Deserialize, Serialize};
 
 use numerics::UnitBox;
 
-use crate::{Error, Objective, Settings};
+use crate::{AnnealSettings, Error, Objective};
 
 /// Why an optimisation stopped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
-pub enum StopReason {
+pub enum AnnealStopReason {
     /// The best cost stayed within tolerance for `stall_stages` stages after
     /// the last allowed re-annealing.
     Converged,
@@ -59,7 +59,7 @@ enum Move {
 /// so that a driver owns the budget; the annealer never evaluates past it.
 #[derive(Debug, Clone)]
 pub struct Annealer {
-    settings: Settings,
+    settings: AnnealSettings,
     ubox: UnitBox,
     rng: ChaCha8Rng,
     u: Vec<f64>,
@@ -76,7 +76,7 @@ pub struct Annealer {
     failed: u64,
     stage_bests: Vec<f64>,
     history: Vec<StageRecord>,
-    stop: Option<StopReason>,
+    stop: Option<AnnealStopReason>,
     initialised: bool,
 }
 
@@ -85,7 +85,10 @@ impl Annealer {
     ///
     /// # Errors
     /// Invalid settings or bounds.
-    pub fn new<O: Objective + ?Sized>(objective: &O, settings: Settings) -> Result<Self, Error> {
+    pub fn new<O: Objective + ?Sized>(
+        objective: &O,
+        settings: AnnealSettings,
+    ) -> Result<Self, Error> {
         let settings = settings.validate()?;
         let ubox = UnitBox::new(objective)?;
         let n = ubox.dim();
@@ -199,7 +202,7 @@ impl Annealer {
         let mut uphill = Vec::with_capacity(moves);
         for m in 0..moves {
             if self.evaluations >= limit {
-                self.stop = Some(StopReason::MaxEvaluations);
+                self.stop = Some(AnnealStopReason::MaxEvaluations);
                 break;
             }
             if let Move::Rejected(d) = self.try_move(objective, m % n, 0.0) {
@@ -225,7 +228,7 @@ impl Annealer {
             let mut accepted = 0u32;
             for m in 0..moves {
                 if self.evaluations >= limit {
-                    self.stop = Some(StopReason::MaxEvaluations);
+                    self.stop = Some(AnnealStopReason::MaxEvaluations);
                     break;
                 }
                 if self.try_move(objective, m % n, t) == Move::Accepted {
@@ -301,7 +304,7 @@ impl Annealer {
             for _ in 0..s.moves_per_adaptation {
                 for h in 0..n {
                     if self.evaluations >= max_evaluations {
-                        self.stop = Some(StopReason::MaxEvaluations);
+                        self.stop = Some(AnnealStopReason::MaxEvaluations);
                         break 'rounds;
                     }
                     stage_moves += 1;
@@ -351,7 +354,7 @@ impl Annealer {
                 self.stage_bests.clear();
                 self.restart_from_best();
             } else {
-                self.stop = Some(StopReason::Converged);
+                self.stop = Some(AnnealStopReason::Converged);
             }
         } else {
             self.temperature = (self.temperature * s.cooling).max(f64::MIN_POSITIVE);
@@ -395,11 +398,11 @@ impl Annealer {
 
     /// Why the annealer stopped, if it has.
     #[must_use]
-    pub fn stop_reason(&self) -> Option<StopReason> {
+    pub fn stop_reason(&self) -> Option<AnnealStopReason> {
         self.stop
     }
     /// Mark the annealer stopped (used by drivers, e.g. when an observer interrupts).
-    pub fn set_stopped(&mut self, reason: StopReason) {
+    pub fn set_stopped(&mut self, reason: AnnealStopReason) {
         self.stop = Some(reason);
     }
     /// Best cost found so far.
@@ -464,7 +467,7 @@ impl Annealer {
     }
     /// The validated settings.
     #[must_use]
-    pub fn settings(&self) -> &Settings {
+    pub fn settings(&self) -> &AnnealSettings {
         &self.settings
     }
 

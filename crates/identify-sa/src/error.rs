@@ -27,7 +27,7 @@ pub enum Error {
     /// A setting is outside its valid range.
     #[error("invalid setting `{name}` = {value}: {reason}")]
     InvalidSetting {
-        /// Field name in [`crate::Settings`] or [`crate::NelderMeadSettings`].
+        /// Field name in [`crate::AnnealSettings`] or [`crate::NelderMeadSettings`].
         name: &'static str,
         /// The value supplied (integers converted to `f64`).
         value: f64,

@@ -6,12 +6,12 @@ use serde::{Deserialize, Serialize};
 
 use numerics::nelder_mead_unit;
 
-use crate::{Annealer, Error, Objective, Settings, StageRecord, StopReason};
+use crate::{AnnealSettings, AnnealStopReason, Annealer, Error, Objective, StageRecord};
 
 /// What the driver is doing when it calls the observer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
-pub enum Phase {
+pub enum AnnealPhase {
     /// The start point is evaluated and the initial temperature found.
     InitialTemperature,
     /// A temperature stage has ended.
@@ -22,9 +22,9 @@ pub enum Phase {
 
 /// A snapshot passed to the observer.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Progress {
+pub struct AnnealProgress {
     /// Phase that just ended.
-    pub phase: Phase,
+    pub phase: AnnealPhase,
     /// Evaluations used so far.
     pub evaluations: u64,
     /// The total budget.
@@ -41,12 +41,12 @@ pub struct Progress {
 
 /// Receives progress after the initial-temperature search, after every stage
 /// and after the polish; returning `ControlFlow::Break(())` stops the run
-/// (the best point so far is returned with [`StopReason::Interrupted`]).
+/// (the best point so far is returned with [`AnnealStopReason::Interrupted`]).
 ///
-/// Implemented for `NoObserver` and for every `FnMut(&Progress) -> ControlFlow<()>`.
+/// Implemented for `NoObserver` and for every `FnMut(&AnnealProgress) -> ControlFlow<()>`.
 pub trait Observer {
     /// Called by the driver; see the trait doc.
-    fn observe(&mut self, progress: &Progress) -> ControlFlow<()>;
+    fn observe(&mut self, progress: &AnnealProgress) -> ControlFlow<()>;
 }
 
 /// An observer that does nothing.
@@ -54,13 +54,13 @@ pub trait Observer {
 pub struct NoObserver;
 
 impl Observer for NoObserver {
-    fn observe(&mut self, _: &Progress) -> ControlFlow<()> {
+    fn observe(&mut self, _: &AnnealProgress) -> ControlFlow<()> {
         ControlFlow::Continue(())
     }
 }
 
-impl<F: FnMut(&Progress) -> ControlFlow<()>> Observer for F {
-    fn observe(&mut self, progress: &Progress) -> ControlFlow<()> {
+impl<F: FnMut(&AnnealProgress) -> ControlFlow<()>> Observer for F {
+    fn observe(&mut self, progress: &AnnealProgress) -> ControlFlow<()> {
         self(progress)
     }
 }
@@ -91,7 +91,7 @@ pub struct Outcome {
     /// One record per stage (stage 0 = initial-temperature search).
     pub history: Vec<StageRecord>,
     /// Why the annealing stopped.
-    pub stop: StopReason,
+    pub stop: AnnealStopReason,
 }
 
 /// Minimise `objective` over its box by simulated annealing followed by a
@@ -107,7 +107,7 @@ pub struct Outcome {
 pub fn run<O: Objective + ?Sized, B: Observer + ?Sized>(
     objective: &mut O,
     x0: Option<&[f64]>,
-    settings: &Settings,
+    settings: &AnnealSettings,
     observer: &mut B,
 ) -> Result<Outcome, Error> {
     let settings = settings.validate()?;
@@ -120,7 +120,7 @@ pub fn run<O: Objective + ?Sized, B: Observer + ?Sized>(
     let anneal_limit = total - reserve;
     let mut annealer = Annealer::new(objective, settings)?;
     annealer.init(objective, x0, anneal_limit)?;
-    let progress = |a: &Annealer, phase| Progress {
+    let progress = |a: &Annealer, phase| AnnealProgress {
         phase,
         evaluations: a.evaluations(),
         max_evaluations: total,
@@ -130,30 +130,32 @@ pub fn run<O: Objective + ?Sized, B: Observer + ?Sized>(
         reanneals: a.reanneals(),
     };
     if observer
-        .observe(&progress(&annealer, Phase::InitialTemperature))
+        .observe(&progress(&annealer, AnnealPhase::InitialTemperature))
         .is_break()
     {
-        annealer.set_stopped(StopReason::Interrupted);
+        annealer.set_stopped(AnnealStopReason::Interrupted);
     }
     while annealer.stop_reason().is_none() {
         if annealer.next_iter(objective, anneal_limit).is_none() {
             break;
         }
         if observer
-            .observe(&progress(&annealer, Phase::Annealing))
+            .observe(&progress(&annealer, AnnealPhase::Annealing))
             .is_break()
         {
-            annealer.set_stopped(StopReason::Interrupted);
+            annealer.set_stopped(AnnealStopReason::Interrupted);
         }
     }
-    let stop = annealer.stop_reason().unwrap_or(StopReason::MaxEvaluations);
+    let stop = annealer
+        .stop_reason()
+        .unwrap_or(AnnealStopReason::MaxEvaluations);
     let annealing_cost = annealer.best_cost();
     let mut polish_evaluations = 0;
     let budget = settings
         .polish
         .max_evaluations
         .min(total.saturating_sub(annealer.evaluations()));
-    if settings.polish_fraction > 0.0 && stop != StopReason::Interrupted && budget > 0 {
+    if settings.polish_fraction > 0.0 && stop != AnnealStopReason::Interrupted && budget > 0 {
         let n = annealer.best_unit().len();
         let u0 = annealer.best_unit().to_vec();
         let steps = vec![settings.polish.initial_step; n];
@@ -172,7 +174,7 @@ pub fn run<O: Objective + ?Sized, B: Observer + ?Sized>(
             annealer.set_best_unit(&r.u, r.f);
         }
         // The observer's answer no longer matters: the run is over.
-        let _ = observer.observe(&progress(&annealer, Phase::Polish));
+        let _ = observer.observe(&progress(&annealer, AnnealPhase::Polish));
     }
     Ok(Outcome {
         x: annealer.best_x(),

@@ -1,4 +1,4 @@
-//! Identification of the muscle parameters (SPEC §8): parallel annealing chains on the
+//! Identification of the muscle parameters (LST, F0, α0 of each muscle): parallel annealing chains on the
 //! sum of squared torque errors, each polished by a bounded Levenberg–Marquardt.
 
 use std::collections::BTreeMap;
@@ -12,7 +12,8 @@ use serde::{Deserialize, Serialize};
 use numerics::{levenberg_marquardt, FiniteDifferences, LevenbergMarquardtSettings, Residuals};
 
 use crate::{
-    run, Error, NelderMeadSettings, Objective, Progress, Settings, StageRecord, StopReason,
+    run, AnnealProgress, AnnealSettings, AnnealStopReason, Error, NelderMeadSettings, Objective,
+    StageRecord,
 };
 
 /// A [`Problem`] seen as an [`Objective`]: the cost is the (weighted) sum of squared torque
@@ -51,7 +52,7 @@ impl Objective for ProblemObjective<'_> {
 /// (chosen so that a seed-protocol fit takes well under 30 s on two cores).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
-pub struct IdentifySettings {
+pub struct SaIdentifySettings {
     /// Master seed: chain `k` anneals with seed [`chain_seed`]`(seed, k)`. Default 42.
     pub seed: u64,
     /// Independent annealing chains, run in parallel (rayon); chain 0 starts from the base
@@ -59,14 +60,14 @@ pub struct IdentifySettings {
     /// own stream. The result does not depend on the number of threads. Default 4.
     pub chains: u32,
     /// Annealer settings of every chain (its `seed` is replaced per chain). Defaults:
-    /// [`IdentifySettings::default_annealer`].
-    pub annealer: Settings,
+    /// [`SaIdentifySettings::default_annealer`].
+    pub annealer: AnnealSettings,
     /// The Levenberg–Marquardt polish applied to every chain's best point. Defaults:
-    /// [`IdentifySettings::default_polish`]; `max_iterations` 0 disables it.
+    /// [`SaIdentifySettings::default_polish`]; `max_iterations` 0 disables it.
     pub polish: LevenbergMarquardtSettings,
 }
 
-impl Default for IdentifySettings {
+impl Default for SaIdentifySettings {
     fn default() -> Self {
         Self {
             seed: 42,
@@ -77,14 +78,14 @@ impl Default for IdentifySettings {
     }
 }
 
-impl IdentifySettings {
+impl SaIdentifySettings {
     /// The annealer settings used per chain by default: 6 000 evaluations, cooling 0.8,
     /// stages of `N_s = 5` × `N_T = 4` sweeps (180 evaluations for 9 parameters), 6
     /// re-annealings at 0.1 T₀ with steps 0.05, and a 5 % Nelder–Mead polish before the
-    /// Levenberg–Marquardt one. Everything else is [`Settings::default`].
+    /// Levenberg–Marquardt one. Everything else is [`AnnealSettings::default`].
     #[must_use]
-    pub fn default_annealer() -> Settings {
-        Settings {
+    pub fn default_annealer() -> AnnealSettings {
+        AnnealSettings {
             max_evaluations: 6_000,
             cooling: 0.8,
             moves_per_adaptation: 5,
@@ -94,7 +95,7 @@ impl IdentifySettings {
             reanneal_step: 0.05,
             polish_fraction: 0.05,
             polish: NelderMeadSettings::default(),
-            ..Settings::default()
+            ..AnnealSettings::default()
         }
     }
 
@@ -177,7 +178,7 @@ pub enum IdentifyEvent {
         /// Chain index.
         chain: u32,
         /// The annealer's snapshot.
-        progress: Progress,
+        progress: AnnealProgress,
     },
     /// One accepted or rejected Levenberg–Marquardt iteration of a chain's polish.
     Polish {
@@ -242,7 +243,7 @@ pub struct ChainSummary {
     /// Re-annealings performed.
     pub reanneals: u32,
     /// Why the annealing stopped.
-    pub stop: StopReason,
+    pub stop: AnnealStopReason,
     /// Stage history of the chain.
     pub history: Vec<StageRecord>,
 }
@@ -335,7 +336,7 @@ pub fn errors_pct(
 /// of another chain.
 pub fn identify<B: IdentifyObserver + ?Sized>(
     problem: &Problem,
-    settings: &IdentifySettings,
+    settings: &SaIdentifySettings,
     observer: &B,
 ) -> Result<Identification, Error> {
     let settings = settings.validate()?;
@@ -386,7 +387,7 @@ pub fn identify<B: IdentifyObserver + ?Sized>(
 
 fn run_chain<B: IdentifyObserver + ?Sized>(
     problem: &Problem,
-    settings: &IdentifySettings,
+    settings: &SaIdentifySettings,
     k: u32,
     base: &[f64],
     observer: &B,
@@ -395,7 +396,7 @@ fn run_chain<B: IdentifyObserver + ?Sized>(
     let s = settings.annealer.with_seed(seed);
     let mut objective = ProblemObjective::new(problem);
     let x0 = if k == 0 { Some(base) } else { None };
-    let out = run(&mut objective, x0, &s, &mut |p: &Progress| {
+    let out = run(&mut objective, x0, &s, &mut |p: &AnnealProgress| {
         observer.observe(&IdentifyEvent::Chain {
             chain: k,
             progress: *p,
@@ -524,7 +525,7 @@ fn levenberg_marquardt_polish(
     }
 }
 
-/// A trial turned into the SPEC §8 problem, with what was subtracted from its torque.
+/// A trial turned into the identification problem, with what was subtracted from its torque.
 #[derive(Debug, Clone)]
 pub struct PreparedTrial {
     /// The standard problem (nominal base, 9 free parameters) on the corrected torque.
@@ -566,7 +567,7 @@ impl PreparedTrial {
     }
 }
 
-/// Build the SPEC §8 problem from a trial ([`experiment::model_inputs()`] with `opts`) and,
+/// Build the identification problem from a trial ([`experiment::model_inputs()`] with `opts`) and,
 /// optionally, its unloaded run.
 ///
 /// With an unloaded run, the dynamometer's cycle-locked error is removed from the measured

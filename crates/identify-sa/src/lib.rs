@@ -2,7 +2,7 @@
 //! dissertation's acceptance rule and initial-temperature search, Corana-style
 //! step adaptation, re-annealing from the best point and a Nelder–Mead polish.
 //!
-//! The muscle identification ([`identify()`], SPEC §8, module [`mod@identify`]) wraps a
+//! The muscle identification ([`identify()`], module [`mod@identify`]; results and method in docs/results.md) wraps a
 //! `muscle_model::Problem` as an [`Objective`] ([`ProblemObjective`]: cost = the SSE of the
 //! dissertation's eq. 12, a failed simulation = a rejected move); the annealer itself does
 //! not depend on the model.
@@ -15,10 +15,10 @@
 //!   detected from its angle) from the measured torque and returns what it subtracted.
 //! * [`identify()`] runs `chains` = 4 independent annealing chains in parallel (rayon; chain
 //!   0 from the nominal values, the others from random points; chain `k` seeded with
-//!   [`chain_seed`]), each with [`IdentifySettings::default_annealer`] (6 000 evaluations,
+//!   [`chain_seed`]), each with [`SaIdentifySettings::default_annealer`] (6 000 evaluations,
 //!   cooling 0.8, stages of 5 × 4 sweeps, 6 re-annealings at 0.1 T₀, a 5 % Nelder–Mead
 //!   polish), then polishes every chain's best with a bounded Levenberg–Marquardt on the
-//!   residual vector ([`IdentifySettings::default_polish`]: ≤ 40 iterations, central
+//!   residual vector ([`SaIdentifySettings::default_polish`]: ≤ 40 iterations, central
 //!   differences of 10⁻³ of each range; `numerics::lm`) and keeps the best. The result does not depend on the thread count.
 //! * `rms_nm` is the RMS of (torque fitted − model), the torque fitted being the corrected
 //!   one when an unloaded run was given; [`PreparedTrial::raw_rms_nm`] gives the model
@@ -89,15 +89,15 @@
 //! times, the chain restarts from the best point at
 //! `T = reanneal_temperature · T₀` (0.3 T₀) with every step reset to
 //! `reanneal_step` = 0.1. After the last pass the run stops with
-//! [`StopReason::Converged`]; in practice the budget usually ends it first
-//! ([`StopReason::MaxEvaluations`]).
+//! [`AnnealStopReason::Converged`]; in practice the budget usually ends it first
+//! ([`AnnealStopReason::MaxEvaluations`]).
 //!
 //! **Polish**: the share `polish_fraction` = 10 % of `max_evaluations` is kept
 //! for [`nelder_mead()`] from the best point (initial simplex edge 0.05 of each
 //! range, adaptive coefficients, vertices clamped into the box, restarts).
 //!
 //! Everything random comes from one `ChaCha8Rng` seeded with
-//! [`Settings::seed`]; there is no threading, so a run is a deterministic
+//! [`AnnealSettings::seed`]; there is no threading, so a run is a deterministic
 //! function of `(objective, start, settings)`.
 //!
 //! # Defaults
@@ -151,15 +151,15 @@
 //!
 //! ```
 //! use std::ops::ControlFlow;
-//! use identify_sa::{run, FnObjective, Progress, Settings};
+//! use identify_sa::{run, FnObjective, AnnealProgress, AnnealSettings};
 //!
 //! // A correlated quadratic valley on a box, minimum at (1, 2).
 //! let mut valley = FnObjective::new(vec![(-5.0, 5.0), (0.0, 4.0)], |x: &[f64]| {
 //!     Some((x[0] - 1.0).powi(2) + 50.0 * (x[1] - 2.0 * x[0]).powi(2))
 //! });
-//! let settings = Settings::default().with_seed(7).with_max_evaluations(10_000);
+//! let settings = AnnealSettings::default().with_seed(7).with_max_evaluations(10_000);
 //! let mut stages = 0;
-//! let out = run(&mut valley, None, &settings, &mut |p: &Progress| {
+//! let out = run(&mut valley, None, &settings, &mut |p: &AnnealProgress| {
 //!     stages += 1; // e.g. drive a progress bar with p.evaluations / p.max_evaluations
 //!     ControlFlow::Continue(())
 //! })
@@ -177,13 +177,13 @@ pub mod identify;
 mod settings;
 pub mod test_functions;
 
-pub use annealer::{reflect_into_unit, Annealer, StageRecord, StopReason};
+pub use annealer::{reflect_into_unit, AnnealStopReason, Annealer, StageRecord};
 pub use error::Error;
-pub use executor::{run, NoObserver, Observer, Outcome, Phase, Progress};
+pub use executor::{run, AnnealPhase, AnnealProgress, NoObserver, Observer, Outcome};
 pub use identify::{
     chain_seed, errors_pct, identify, prepare_trial, truth_values, ChainSummary, Identification,
-    IdentifyEvent, IdentifyObserver, IdentifySettings, PreparedTrial, ProblemObjective,
+    IdentifyEvent, IdentifyObserver, PreparedTrial, ProblemObjective, SaIdentifySettings,
 };
 /// Nelder–Mead and the objective trait live in `numerics`; they are part of this crate's API.
 pub use numerics::{nelder_mead, FnObjective, NelderMeadOutcome, NelderMeadSettings, Objective};
-pub use settings::{Acceptance, Settings};
+pub use settings::{Acceptance, AnnealSettings};

@@ -80,13 +80,13 @@ impl Acceptance {
 /// Settings of the simulated annealing driver [`crate::run`].
 ///
 /// Plain data (`Copy`, `Default`, serde); build with struct-update syntax or
-/// the `with_*` methods, and check with [`Settings::validate`] (the driver
+/// the `with_*` methods, and check with [`AnnealSettings::validate`] (the driver
 /// validates again). Lengths (`*_step`) are in unit-box coordinates: every
 /// parameter is rescaled to `[0, 1]` by its bounds. The defaults and their
 /// reasons are listed in the crate documentation.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
-pub struct Settings {
+pub struct AnnealSettings {
     /// Seed of the `ChaCha8Rng` stream. Default 42.
     pub seed: u64,
     /// Total objective evaluations, annealing and polish included. Default 100 000.
@@ -151,7 +151,7 @@ pub struct Settings {
     pub start_attempts: u32,
 }
 
-impl Default for Settings {
+impl Default for AnnealSettings {
     fn default() -> Self {
         Self {
             seed: 42,
@@ -225,7 +225,7 @@ fn check_positive_count(name: &'static str, v: u32) -> Result<(), Error> {
     }
 }
 
-impl Settings {
+impl AnnealSettings {
     /// Validated settings with the given seed and budget, other fields at their defaults.
     ///
     /// # Errors

@@ -5,8 +5,8 @@ use std::ops::ControlFlow;
 
 use identify_sa::test_functions::{Kind, TestFunction};
 use identify_sa::{
-    reflect_into_unit, run, Acceptance, Annealer, Error, FnObjective, NelderMeadSettings,
-    NoObserver, Objective, Phase, Progress, Settings, StopReason,
+    reflect_into_unit, run, Acceptance, AnnealPhase, AnnealProgress, AnnealSettings,
+    AnnealStopReason, Annealer, Error, FnObjective, NelderMeadSettings, NoObserver, Objective,
 };
 
 #[test]
@@ -96,7 +96,7 @@ fn every_evaluation_is_inside_the_bounds_and_optimum_on_a_face_is_found() {
         violations: 0,
         evaluations: 0,
     };
-    let settings = Settings::default()
+    let settings = AnnealSettings::default()
         .with_seed(7)
         .with_max_evaluations(20_000);
     let out = run(&mut obj, None, &settings, &mut NoObserver).unwrap();
@@ -111,7 +111,7 @@ fn every_evaluation_is_inside_the_bounds_and_optimum_on_a_face_is_found() {
 fn same_seed_same_result_other_seed_other_path() {
     let go = |seed| {
         let mut f = TestFunction::new(Kind::Rastrigin, 3);
-        let s = Settings::default()
+        let s = AnnealSettings::default()
             .with_seed(seed)
             .with_max_evaluations(15_000);
         run(&mut f, None, &s, &mut NoObserver).unwrap()
@@ -128,7 +128,7 @@ fn same_seed_same_result_other_seed_other_path() {
 
 #[test]
 fn the_annealer_step_can_be_driven_by_hand_like_run() {
-    let settings = Settings::default()
+    let settings = AnnealSettings::default()
         .with_seed(3)
         .with_max_evaluations(8_000)
         .with_polish(0.0, Default::default());
@@ -142,7 +142,7 @@ fn the_annealer_step_can_be_driven_by_hand_like_run() {
     while a.next_iter(&mut g, 8_000).is_some() {
         stages += 1;
     }
-    assert_eq!(a.stop_reason(), Some(StopReason::MaxEvaluations));
+    assert_eq!(a.stop_reason(), Some(AnnealStopReason::MaxEvaluations));
     assert_eq!(a.evaluations(), 8_000);
     assert_eq!(a.best_cost(), out.cost);
     assert_eq!(a.best_x(), out.x);
@@ -177,7 +177,7 @@ fn failed_evaluations_are_rejected_moves_not_crashes() {
             Some((x[0] - 1.0).powi(2) + (x[1] + 0.5).powi(2))
         }
     });
-    let settings = Settings::default()
+    let settings = AnnealSettings::default()
         .with_seed(5)
         .with_max_evaluations(10_000);
     let out = run(&mut f, None, &settings, &mut NoObserver).unwrap();
@@ -194,7 +194,7 @@ fn failed_evaluations_are_rejected_moves_not_crashes() {
 #[test]
 fn start_failures_are_errors() {
     let mut never = FnObjective::new(vec![(0.0, 1.0); 2], |_: &[f64]| None);
-    let s = Settings::default().with_max_evaluations(1_000);
+    let s = AnnealSettings::default().with_max_evaluations(1_000);
     assert_eq!(
         run(&mut never, None, &s, &mut NoObserver).unwrap_err(),
         Error::NoFeasibleStart { attempts: 100 }
@@ -224,7 +224,7 @@ fn start_failures_are_errors() {
 
 #[test]
 fn bad_bounds_and_settings_are_errors() {
-    let s = Settings::default();
+    let s = AnnealSettings::default();
     let mut flat = FnObjective::new(vec![(0.0, 1.0), (2.0, 2.0)], |_: &[f64]| Some(0.0));
     assert_eq!(
         run(&mut flat, None, &s, &mut NoObserver).unwrap_err(),
@@ -245,11 +245,11 @@ fn bad_bounds_and_settings_are_errors() {
         Error::EmptyProblem
     );
 
-    let name = |r: Result<Settings, Error>| match r {
+    let name = |r: Result<AnnealSettings, Error>| match r {
         Err(Error::InvalidSetting { name, .. }) => name,
         other => panic!("expected an invalid setting, got {other:?}"),
     };
-    assert_eq!(name(Settings::new(1, 0)), "max_evaluations");
+    assert_eq!(name(AnnealSettings::new(1, 0)), "max_evaluations");
     assert_eq!(name(s.with_cooling(1.0).validate()), "cooling");
     assert_eq!(name(s.with_cooling(f64::NAN).validate()), "cooling");
     assert_eq!(name(s.with_initial_step(0.0).validate()), "initial_step");
@@ -276,28 +276,28 @@ fn bad_bounds_and_settings_are_errors() {
         ),
         "xtol"
     );
-    assert!(Settings::new(9, 1234).is_ok());
+    assert!(AnnealSettings::new(9, 1234).is_ok());
 }
 
 #[test]
 fn settings_round_trip_through_json_and_missing_fields_default() {
-    let s = Settings::default()
+    let s = AnnealSettings::default()
         .with_seed(99)
         .with_acceptance(Acceptance::Metropolis)
         .with_cooling(0.9);
     let json = serde_json::to_string(&s).unwrap();
-    let back: Settings = serde_json::from_str(&json).unwrap();
+    let back: AnnealSettings = serde_json::from_str(&json).unwrap();
     assert_eq!(back, s);
-    let partial: Settings =
+    let partial: AnnealSettings =
         serde_json::from_str(r#"{"seed": 5, "acceptance": "logistic"}"#).unwrap();
-    assert_eq!(partial, Settings::default().with_seed(5));
+    assert_eq!(partial, AnnealSettings::default().with_seed(5));
 }
 
 #[test]
 fn budget_is_a_hard_limit_and_polish_gets_its_share() {
     for budget in [1u64, 2, 50, 333, 4_000] {
         let mut f = TestFunction::new(Kind::Rosenbrock, 3);
-        let s = Settings::default()
+        let s = AnnealSettings::default()
             .with_seed(1)
             .with_max_evaluations(budget);
         let out = run(&mut f, None, &s, &mut NoObserver).unwrap();
@@ -306,7 +306,7 @@ fn budget_is_a_hard_limit_and_polish_gets_its_share() {
         assert!(out.cost <= out.annealing_cost);
         if budget >= 50 {
             assert!(out.polish_evaluations > 0);
-            assert_eq!(out.stop, StopReason::MaxEvaluations);
+            assert_eq!(out.stop, AnnealStopReason::MaxEvaluations);
         }
     }
 }
@@ -314,12 +314,12 @@ fn budget_is_a_hard_limit_and_polish_gets_its_share() {
 #[test]
 fn converges_and_stops_when_reanneals_are_exhausted() {
     let mut f = TestFunction::new(Kind::Sphere, 3);
-    let s = Settings::default()
+    let s = AnnealSettings::default()
         .with_seed(2)
         .with_max_evaluations(1_000_000)
         .with_reannealing(2, 0.3, 0.1);
     let out = run(&mut f, None, &s, &mut NoObserver).unwrap();
-    assert_eq!(out.stop, StopReason::Converged);
+    assert_eq!(out.stop, AnnealStopReason::Converged);
     assert_eq!(out.reanneals, 2);
     assert!(out.evaluations < 200_000, "{}", out.evaluations);
     assert!(out.cost < 1e-12, "{}", out.cost);
@@ -333,21 +333,21 @@ fn converges_and_stops_when_reanneals_are_exhausted() {
 
 #[test]
 fn observer_sees_progress_and_can_interrupt() {
-    let mut seen: Vec<Progress> = Vec::new();
+    let mut seen: Vec<AnnealProgress> = Vec::new();
     let mut f = TestFunction::new(Kind::Ackley, 2);
-    let s = Settings::default()
+    let s = AnnealSettings::default()
         .with_seed(4)
         .with_max_evaluations(10_000);
-    let out = run(&mut f, None, &s, &mut |p: &Progress| {
+    let out = run(&mut f, None, &s, &mut |p: &AnnealProgress| {
         seen.push(*p);
         ControlFlow::Continue(())
     })
     .unwrap();
     assert_eq!(
         seen.first().map(|p| p.phase),
-        Some(Phase::InitialTemperature)
+        Some(AnnealPhase::InitialTemperature)
     );
-    assert_eq!(seen.last().map(|p| p.phase), Some(Phase::Polish));
+    assert_eq!(seen.last().map(|p| p.phase), Some(AnnealPhase::Polish));
     assert_eq!(seen.len() as u64, out.stages + 2);
     assert!(seen
         .windows(2)
@@ -357,7 +357,7 @@ fn observer_sees_progress_and_can_interrupt() {
 
     let mut g = TestFunction::new(Kind::Ackley, 2);
     let mut calls = 0;
-    let stopped = run(&mut g, None, &s, &mut |_: &Progress| {
+    let stopped = run(&mut g, None, &s, &mut |_: &AnnealProgress| {
         calls += 1;
         if calls == 3 {
             ControlFlow::Break(())
@@ -366,7 +366,7 @@ fn observer_sees_progress_and_can_interrupt() {
         }
     })
     .unwrap();
-    assert_eq!(stopped.stop, StopReason::Interrupted);
+    assert_eq!(stopped.stop, AnnealStopReason::Interrupted);
     assert_eq!(stopped.stages, 2);
     assert_eq!(stopped.polish_evaluations, 0);
     assert!(stopped.evaluations < out.evaluations);
@@ -380,7 +380,9 @@ fn initial_temperature_scales_with_the_cost() {
         let mut f = FnObjective::new(vec![(-5.12, 5.12); 3], move |x: &[f64]| {
             Some(scale * TestFunction::new(Kind::Rastrigin, 3).value(x))
         });
-        let s = Settings::default().with_seed(8).with_max_evaluations(6_000);
+        let s = AnnealSettings::default()
+            .with_seed(8)
+            .with_max_evaluations(6_000);
         run(&mut f, None, &s, &mut NoObserver).unwrap()
     };
     let a = t0(1.0);

@@ -15,7 +15,7 @@ use std::path::PathBuf;
 use experiment::{
     random_params, read_trial, read_unloaded, synthesize, InputOptions, Protocol, SynthConfig,
 };
-use identify_sa::{identify, prepare_trial, IdentifySettings, NoObserver, PreparedTrial};
+use identify_sa::{identify, prepare_trial, NoObserver, PreparedTrial, SaIdentifySettings};
 use muscle_model::ModelParams;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -40,7 +40,7 @@ struct Checked {
 }
 
 fn fit_and_check(prep: &PreparedTrial, truth: &ModelParams, label: &str) -> Checked {
-    let id = identify(&prep.problem, &IdentifySettings::default(), &NoObserver).unwrap();
+    let id = identify(&prep.problem, &SaIdentifySettings::default(), &NoObserver).unwrap();
     let truth_x = prep
         .problem
         .vector_from(truth, &muscle_model::Effects::none());
@@ -170,7 +170,7 @@ fn identification_is_deterministic_and_thread_count_independent() {
     // Small budget: the point is reproducibility, not accuracy.
     let trial = read_trial(fixture("trial.csv")).unwrap();
     let prep = prepare_trial(&trial, None, &InputOptions::default()).unwrap();
-    let s = IdentifySettings::default()
+    let s = SaIdentifySettings::default()
         .with_chain_evaluations(600)
         .with_chains(3);
     let one = rayon::ThreadPoolBuilder::new()

@@ -2,7 +2,7 @@
 //! within a fixed evaluation budget (default settings, random start).
 
 use identify_sa::test_functions::{Kind, TestFunction};
-use identify_sa::{run, NoObserver, Settings};
+use identify_sa::{run, AnnealSettings, NoObserver};
 
 const SEEDS: std::ops::Range<u64> = 1000..1020;
 
@@ -11,7 +11,7 @@ fn successes(kind: Kind, dim: usize, budget: u64) -> usize {
     let mut ok = 0;
     for seed in SEEDS {
         let mut f = TestFunction::new(kind, dim);
-        let settings = Settings::default()
+        let settings = AnnealSettings::default()
             .with_seed(seed)
             .with_max_evaluations(budget);
         let out = run(&mut f, None, &settings, &mut NoObserver).expect("valid problem");

@@ -3,7 +3,7 @@
 //!
 //! `cargo run --release -p muscle-model --example accuracy_and_speed`
 
-use muscle_model::unit::{IX_FT, IX_LMT};
+use muscle_model::musculotendon::{IX_FT, IX_LMT};
 use muscle_model::{
     simulate, simulate_into, synthetic, Effects, Formulation, ModelParams, Muscle, MuscleUnit,
     ParamId, SimSettings, Workspace,

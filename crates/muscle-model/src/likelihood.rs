@@ -1,4 +1,4 @@
-//! Log-likelihoods of a torque residual `e = measured − predicted` ([`NoiseModel`]):
+//! Log-likelihoods of a torque residual `e = measured − predicted` ([`NoiseLikelihood`]):
 //! independent Gaussian errors (dissertation eq. 17),
 //!
 //! ```text
@@ -20,7 +20,7 @@ use crate::error::ModelError;
 use serde::{Deserialize, Serialize};
 
 /// A noise model of the torque residual (measured − predicted).
-pub trait NoiseModel {
+pub trait NoiseLikelihood {
     /// Log-likelihood of one contiguous run of residuals.
     fn log_likelihood(&self, residual: &[f64]) -> f64;
 }
@@ -54,7 +54,7 @@ impl GaussianIid {
 
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
 
-impl NoiseModel for GaussianIid {
+impl NoiseLikelihood for GaussianIid {
     fn log_likelihood(&self, residual: &[f64]) -> f64 {
         let s2 = self.sigma * self.sigma;
         let ss: f64 = residual.iter().map(|e| e * e).sum();
@@ -117,7 +117,7 @@ impl Ar1Gaussian {
     }
 }
 
-impl NoiseModel for Ar1Gaussian {
+impl NoiseLikelihood for Ar1Gaussian {
     fn log_likelihood(&self, residual: &[f64]) -> f64 {
         let Some(&e0) = residual.first() else {
             return 0.0;
@@ -138,7 +138,7 @@ impl NoiseModel for Ar1Gaussian {
 /// `noise`'s log-likelihood of `residual`: one run without weights; with weights, samples of
 /// zero weight are excluded and every maximal run of included samples is an independent
 /// segment (weights act as a mask here, not as precisions).
-pub(crate) fn masked_log_likelihood<N: NoiseModel + ?Sized>(
+pub(crate) fn masked_log_likelihood<N: NoiseLikelihood + ?Sized>(
     noise: &N,
     residual: &[f64],
     weights: Option<&[f64]>,

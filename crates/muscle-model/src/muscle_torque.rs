@@ -8,10 +8,10 @@ use crate::error::ModelError;
 use crate::fast_simulation::{self, Channel, Fibre};
 use crate::inputs::TrialInputs;
 use crate::joint_effects::delay_s;
+use crate::musculotendon::{MuscleUnit, IX_FT, IX_LM, STATE_DIM};
 use crate::params::{ModelParams, Muscle};
 use crate::settings::{Formulation, SimSettings};
 use crate::stats::SimStats;
-use crate::unit::{MuscleUnit, IX_FT, IX_LM, STATE_DIM};
 use ode::OdeSystem;
 use std::sync::Arc;
 

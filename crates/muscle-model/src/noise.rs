@@ -31,7 +31,7 @@
 //! (slope capped at `−10⁻⁶`), `σ_a² = min(e^intercept, γ̂_0)`, `σ_w² = max(γ̂_0 − σ_a², floors)`.
 //!
 //! ```
-//! use muscle_model::{Ar1Gaussian, Ar1White, NoiseModel};
+//! use muscle_model::{Ar1Gaussian, Ar1White, NoiseLikelihood};
 //!
 //! let e = [0.3, -0.1, 0.4, 0.2, -0.5];
 //! // Without white noise it is the exact AR(1) likelihood.
@@ -50,7 +50,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::ModelError;
-use crate::likelihood::{Ar1Gaussian, GaussianIid, NoiseModel};
+use crate::likelihood::{Ar1Gaussian, GaussianIid, NoiseLikelihood};
 
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
 
@@ -229,7 +229,7 @@ impl Ar1White {
     }
 }
 
-impl NoiseModel for Ar1White {
+impl NoiseLikelihood for Ar1White {
     fn log_likelihood(&self, residual: &[f64]) -> f64 {
         let mut kf = self.filter();
         let (mut xh, mut ll) = (0.0, 0.0);

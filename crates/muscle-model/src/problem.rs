@@ -5,12 +5,12 @@
 //! SSE(x) = Σᵢ wᵢ (τᵢ − τ̂ᵢ(x))²
 //! ```
 //!
-//! and the log-likelihood of the residual under a [`NoiseModel`] of [`crate::likelihood`].
+//! and the log-likelihood of the residual under a [`NoiseLikelihood`] of [`crate::likelihood`].
 
 use crate::effects::{EffectKind, Effects};
 use crate::error::ModelError;
 use crate::inputs::TrialInputs;
-use crate::likelihood::{masked_log_likelihood, NoiseModel};
+use crate::likelihood::{masked_log_likelihood, NoiseLikelihood};
 use crate::params::{ModelParams, Muscle};
 use crate::settings::SimSettings;
 use crate::simulate::{predict_into, Target};
@@ -587,7 +587,7 @@ impl Problem {
     /// Without weights the whole residual is one run. With weights, samples of zero weight are
     /// excluded and every maximal run of included samples is treated as an independent segment
     /// (weights act as a mask here, not as precisions).
-    pub fn log_likelihood_with<N: NoiseModel + ?Sized>(
+    pub fn log_likelihood_with<N: NoiseLikelihood + ?Sized>(
         &self,
         x: &[f64],
         noise: &N,
@@ -609,7 +609,7 @@ impl Problem {
     }
 
     /// [`Problem::log_likelihood_with`] using a thread-local workspace.
-    pub fn log_likelihood<N: NoiseModel + ?Sized>(
+    pub fn log_likelihood<N: NoiseLikelihood + ?Sized>(
         &self,
         x: &[f64],
         noise: &N,

@@ -13,10 +13,10 @@ use crate::fast_simulation::{self, Channel, Fibre};
 use crate::inputs::TrialInputs;
 use crate::joint_effects::{add_joint_effects, delay_s, needs_ta, run_ta};
 use crate::muscle_torque::{fast_prepare, fast_unit_torque, integration_error, run_muscle};
+use crate::musculotendon::MuscleUnit;
 use crate::params::{ModelParams, Muscle};
 use crate::settings::{Formulation, SimSettings};
 use crate::stats::SimStats;
-use crate::unit::MuscleUnit;
 use std::sync::Arc;
 
 /// Reusable scratch memory for [`crate::simulate_into`] (one per thread).

@@ -6,7 +6,8 @@ mod common;
 
 use muscle_model::{
     sensitivity, simulate, synthetic, Ar1Gaussian, EffectKind, Effects, GaussianIid, ModelError,
-    ModelParams, NoiseModel, ParamId, Problem, ProblemWorkspace, SensitivitySettings, SimSettings,
+    ModelParams, NoiseLikelihood, ParamId, Problem, ProblemWorkspace, SensitivitySettings,
+    SimSettings,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -7,7 +7,7 @@ mod common;
 
 use common::{idx, max_diff, random_identified, rms_diff};
 use muscle_model::activation::ManalBuchanan;
-use muscle_model::unit::{IX_FT, IX_LM, IX_LMT};
+use muscle_model::musculotendon::{IX_FT, IX_LM, IX_LMT};
 use muscle_model::{
     simulate, synthetic, Effects, Formulation, ModelParams, Muscle, MuscleUnit, ParamId,
     SimSettings, TrialInputs,

@@ -5,7 +5,7 @@ use super::{load_trial, load_unloaded, trial_inputs, ModelArgs};
 use crate::error::{CmdResult, Failure};
 use crate::figures::{self, FigureSet};
 use crate::output::OutDir;
-use crate::progress::Progress;
+use crate::progress::ProgressDisplay;
 use diagnose::{DiagnoseSettings, Diagnosis};
 use std::path::{Path, PathBuf};
 
@@ -22,7 +22,7 @@ const PLANNED: &[&str] = &[
 
 /// Arguments of `surae diagnose`.
 #[derive(clap::Args, Debug)]
-pub struct Args {
+pub struct DiagnoseArgs {
     /// Trial CSV (format in docs/formats.md); the bundled seed trial (and its unloaded run) when omitted.
     #[arg(long)]
     pub trial: Option<PathBuf>,
@@ -44,7 +44,7 @@ pub struct Args {
 }
 
 /// Runs the command.
-pub fn run(args: Args) -> CmdResult {
+pub fn run(args: DiagnoseArgs) -> CmdResult {
     let loaded = load_trial(args.trial.as_deref())?;
     let unloaded = load_unloaded(args.unloaded.as_deref(), args.trial.is_some())?;
     if let Some((u, name)) = &unloaded {
@@ -69,7 +69,7 @@ pub fn run(args: Args) -> CmdResult {
     let mut settings = DiagnoseSettings::default();
     settings.input_options.emg_is_envelope = args.emg_is_envelope;
     let show = args.report.show();
-    let progress = Progress::new(show, 0, "diag");
+    let progress = ProgressDisplay::new(show, 0, "diag");
     let mut observer = |p: &diagnose::Progress| {
         progress.message(format!("{} ({} simulations)", p.message, p.evaluations));
         std::ops::ControlFlow::Continue(())

@@ -9,7 +9,7 @@ use std::path::PathBuf;
 
 /// Arguments of `surae envelope`.
 #[derive(clap::Args, Debug)]
-pub struct Args {
+pub struct EnvelopeArgs {
     /// Trial CSV (format in docs/formats.md); the bundled seed trial when omitted.
     #[arg(long)]
     pub trial: Option<PathBuf>,
@@ -57,7 +57,7 @@ fn parse_mvc(items: &[String]) -> CmdResult<Vec<(String, f64)>> {
 }
 
 /// Runs the command.
-pub fn run(args: Args) -> CmdResult {
+pub fn run(args: EnvelopeArgs) -> CmdResult {
     let mvc = parse_mvc(&args.mvc)?;
     let loaded = load_trial(args.trial.as_deref())?;
     let trial = &loaded.trial;

@@ -5,7 +5,7 @@ use super::{load_model_config, load_trial, load_unloaded, trial_inputs, LoadedTr
 use crate::error::{CmdResult, Failure};
 use crate::figures::{self, FigureSet};
 use crate::output::OutDir;
-use crate::progress::Progress;
+use crate::progress::ProgressDisplay;
 use muscle_model::{ModelParams, ParamId, Problem};
 use serde_json::{json, Map, Value};
 use std::collections::BTreeMap;
@@ -45,7 +45,7 @@ const PLANNED: &[&str] = &[
 
 /// Arguments of `surae identify`.
 #[derive(clap::Args, Debug)]
-pub struct Args {
+pub struct IdentifyArgs {
     /// `sa` (simulated annealing) or `mcmc` (Metropolis–Hastings).
     #[arg(long, value_enum)]
     pub method: Method,
@@ -211,7 +211,7 @@ fn rms(a: &[f64], b: &[f64]) -> f64 {
 }
 
 /// Runs the command.
-pub fn run(args: Args) -> CmdResult {
+pub fn run(args: IdentifyArgs) -> CmdResult {
     if args.max_iterations.is_some() && args.method != Method::Mcmc {
         return Err(Failure::bad(
             "--max-iterations applies to --method mcmc only",
@@ -320,9 +320,9 @@ struct Outcome {
 }
 
 fn run_sa(prep: &Prepared, seed: u64, show: bool) -> CmdResult<Outcome> {
-    let settings = identify_sa::IdentifySettings::default().with_seed(seed);
+    let settings = identify_sa::SaIdentifySettings::default().with_seed(seed);
     let total = u64::from(settings.chains) * settings.annealer.max_evaluations;
-    let progress = Progress::new(show, total, "SA");
+    let progress = ProgressDisplay::new(show, total, "SA");
     let observer = |ev: &identify_sa::IdentifyEvent| {
         progress.on_sa_event(ev);
         std::ops::ControlFlow::Continue(())
@@ -607,7 +607,7 @@ fn run_mcmc(
     max_iterations: Option<usize>,
     show: bool,
 ) -> CmdResult<Outcome> {
-    use identify_mcmc::{IdentifySettings, NoiseKind, NoiseSpec};
+    use identify_mcmc::{McmcIdentifySettings, NoiseKind, NoiseSpec};
     // The sampler corrects the raw torque itself (NoiseSpec carries the
     // systematic part), so it gets the problem on the torque as measured.
     let problem = Problem::new(
@@ -623,7 +623,7 @@ fn run_mcmc(
             .map_err(|e| Failure::bad(format!("{}: {e}", prep.loaded.name)))?,
         None => NoiseSpec::from_residual(NoiseKind::Ar1White),
     };
-    let mut settings = IdentifySettings::default();
+    let mut settings = McmcIdentifySettings::default();
     settings.mcmc.seed = seed;
     if let Some(n) = max_iterations {
         settings.mcmc.max_total = n;
@@ -633,12 +633,12 @@ fn run_mcmc(
             .map_err(|e| Failure::bad(format!("--max-iterations {n}: {e}")))?;
     }
     let cap = settings.mcmc.max_total as u64;
-    let progress = Progress::new(show, cap, "MCMC");
+    let progress = ProgressDisplay::new(show, cap, "MCMC");
     let m = identify_mcmc::identify(
         &problem,
         &noise,
         &settings,
-        |p: &identify_mcmc::Progress| {
+        |p: &identify_mcmc::ChainProgress| {
             progress.chain(0, p.iterations as u64, f64::NAN);
             progress.message(format!(
                 "{:?}: max R̂ {:.4}, min ESS {:.0}, acceptance {:.2}",

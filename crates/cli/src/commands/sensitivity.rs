@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 /// Arguments of `surae sensitivity`.
 #[derive(clap::Args, Debug)]
-pub struct Args {
+pub struct SensitivityArgs {
     /// Trial CSV (format in docs/formats.md); the bundled seed trial when omitted.
     #[arg(long)]
     pub trial: Option<PathBuf>,
@@ -27,7 +27,7 @@ pub struct Args {
 }
 
 /// Runs the command.
-pub fn run(args: Args) -> CmdResult {
+pub fn run(args: SensitivityArgs) -> CmdResult {
     if !(args.step.is_finite() && args.step > 0.0) {
         return Err(Failure::bad(format!(
             "--step {}: must be positive",

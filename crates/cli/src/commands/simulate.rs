@@ -8,7 +8,7 @@ use std::path::PathBuf;
 
 /// Arguments of `surae simulate`.
 #[derive(clap::Args, Debug)]
-pub struct Args {
+pub struct SimulateArgs {
     /// Trial CSV (format in docs/formats.md); the bundled seed trial when omitted.
     #[arg(long)]
     pub trial: Option<PathBuf>,
@@ -21,7 +21,7 @@ pub struct Args {
 }
 
 /// Runs the command.
-pub fn run(args: Args) -> CmdResult {
+pub fn run(args: SimulateArgs) -> CmdResult {
     let (params, effects, cfg_inputs) = load_model_config(&args.model)?;
     let loaded = load_trial(args.trial.as_deref())?;
     let inputs = trial_inputs(&loaded, &args.model)?;

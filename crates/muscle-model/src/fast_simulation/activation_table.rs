@@ -15,7 +15,7 @@
 use super::kept::KeptList;
 use crate::activation::Activation;
 use crate::inputs::TrialInputs;
-use crate::unit::MuscleUnit;
+use crate::musculotendon::MuscleUnit;
 use std::sync::{Arc, OnceLock};
 
 /// RK4 substeps per sample interval when the activation is precomputed.

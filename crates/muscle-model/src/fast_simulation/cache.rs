@@ -11,7 +11,7 @@ use super::activation_table::ActTable;
 use super::channel::{Channel, ChannelKey};
 use super::kept::KeptList;
 use crate::inputs::TrialInputs;
-use crate::unit::MuscleUnit;
+use crate::musculotendon::MuscleUnit;
 use std::sync::Arc;
 
 /// The kept activation tables and channels of one trial.

@@ -13,7 +13,7 @@
 
 use super::activation_table::{ActTable, TableKey};
 use crate::inputs::TrialInputs;
-use crate::unit::MuscleUnit;
+use crate::musculotendon::MuscleUnit;
 use std::sync::Arc;
 
 /// What a [`Channel`] was computed from: its activation table's key, the fatigue rate and the

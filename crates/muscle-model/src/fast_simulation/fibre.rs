@@ -13,7 +13,7 @@
 
 use super::channel::Channel;
 use crate::curves::Curves;
-use crate::unit::{MuscleUnit, IX_A, IX_FATIGUE, IX_FT, IX_LM, IX_LMT, STATE_DIM};
+use crate::musculotendon::{MuscleUnit, IX_A, IX_FATIGUE, IX_FT, IX_LM, IX_LMT, STATE_DIM};
 
 /// Constants of the fibre-length right-hand side of one muscle.
 #[derive(Clone, Copy, Debug)]

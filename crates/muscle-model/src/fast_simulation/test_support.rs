@@ -2,8 +2,8 @@
 
 use crate::effects::Effects;
 use crate::inputs::TrialInputs;
+use crate::musculotendon::MuscleUnit;
 use crate::params::{ModelParams, Muscle};
-use crate::unit::MuscleUnit;
 
 /// The seed-like synthetic trial (512 Hz) and the three muscles' units at nominal parameters
 /// with an electromechanical delay of `delay_ms` and an optional fatigue rate; the delay in

@@ -24,10 +24,10 @@
 //!
 //! Without truncation `u` is exactly standard normal and independent of θ; with it, the mass
 //! terms make the density smooth where the box cuts the conditional. Either way the sampler
-//! sees no hard wall: the uniform prior's box is the image of the whole space. (An earlier
-//! version sampled θ linearly and put F0 at `f̂` clamped plus `R⁻ᵀu`: about 28 % of its
-//! random-walk proposals landed outside the box, and on random truths the chains mixed five
-//! to ten times more slowly.)
+//! sees no hard wall: the uniform prior's box is the image of the whole space. Why not
+//! the simpler choice: sampling θ linearly with F0 at `f̂` clamped plus `R⁻ᵀu` puts about 28 %
+//! of the random-walk proposals outside the box, and on random truths its chains mix five to
+//! ten times more slowly.
 
 use std::cell::RefCell;
 
