@@ -4,24 +4,25 @@ use muscle_model::{EffectKind, Effects, ModelParams, ParamId, Problem, TrialInpu
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
-use crate::lm::{minimise, LmOutcome, LmSettings};
-use crate::noise::{NoiseModel, WhitenPlan};
+use crate::lm::{minimise, LmOutcome};
+use crate::noise::{TrialNoiseModel, WhitenPlan};
 use crate::profile::{profile_interval, ProfileInterval, ProfileSettings};
 use crate::segment::Segmentation;
 use crate::DiagnoseError;
+use numerics::LevenbergMarquardtSettings;
 
 /// Everything a fit needs that does not change between models.
 pub(crate) struct Context {
     pub inputs: TrialInputs,
     /// Measured torque minus the dynamometer's systematic part.
     pub y: Vec<f64>,
-    pub noise: NoiseModel,
+    pub noise: TrialNoiseModel,
     pub seg: Segmentation,
     pub plan: WhitenPlan,
     /// Per fold: held-out mask (true = held out) and the plan of the training samples.
     pub folds: Vec<(Vec<bool>, WhitenPlan)>,
-    pub lm: LmSettings,
-    pub cv_lm: LmSettings,
+    pub lm: LevenbergMarquardtSettings,
+    pub cv_lm: LevenbergMarquardtSettings,
     /// Latin-hypercube starts of the muscle parameters added to every extended fit.
     pub extended_extra_starts: usize,
     /// Seed of the Latin-hypercube starts.
@@ -228,7 +229,7 @@ impl Context {
     ) -> Result<Vec<(usize, ProfileInterval)>, DiagnoseError> {
         let problem = self.problem(&fit.kinds)?;
         let f = self.residual_fn(&problem, &self.plan);
-        let lm = LmSettings {
+        let lm = LevenbergMarquardtSettings {
             max_iterations: settings.lm_iterations,
             ftol_rel: settings.ftol_rel,
             ..self.lm
@@ -338,7 +339,7 @@ fn minimise_model<F>(
     f: &F,
     x0: &[f64],
     bounds: &[(f64, f64)],
-    lm: &LmSettings,
+    lm: &LevenbergMarquardtSettings,
 ) -> Option<LmOutcome>
 where
     F: Fn(&[f64]) -> Option<Vec<f64>> + Sync,
@@ -373,7 +374,7 @@ fn minimise_fold<F>(
     f: &F,
     x0: &[f64],
     bounds: &[(f64, f64)],
-    lm: &LmSettings,
+    lm: &LevenbergMarquardtSettings,
 ) -> Option<(Vec<f64>, usize)>
 where
     F: Fn(&[f64]) -> Option<Vec<f64>> + Sync,
@@ -467,8 +468,9 @@ fn wrap_degrees(deg: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::{minimise_model, wrap_degrees, GravitySlots};
-    use crate::lm::{minimise, LmSettings};
+    use crate::lm::minimise;
     use muscle_model::{EffectKind, Muscle, MuscleField, ParamId};
+    use numerics::LevenbergMarquardtSettings;
 
     const ANGLES: [f64; 7] = [-0.35, -0.25, -0.1, 0.0, 0.08, 0.17, 0.26];
 
@@ -539,7 +541,7 @@ mod tests {
         };
         let bounds = [(-1.0, 1.0), (-30.0, 30.0), (-180.0, 180.0)];
         let x0 = [0.5, 4.0, 170.0];
-        let lm = LmSettings::default();
+        let lm = LevenbergMarquardtSettings::default();
         let ours = minimise_model(&free(), &f, &x0, &bounds, &lm).expect("fit");
         assert!(ours.cost < 1e-12, "cost {}", ours.cost);
         assert!((ours.x[1] + 5.0).abs() < 1e-5 && (ours.x[2] - 20.0).abs() < 1e-4);

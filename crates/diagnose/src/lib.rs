@@ -90,12 +90,12 @@ use std::time::Instant;
 
 use experiment::{model_inputs, InputOptions, Trial, Unloaded};
 use muscle_model::{EffectKind, Muscle, ParamId};
+use numerics::LevenbergMarquardtSettings;
 use rayon::prelude::*;
 
 pub use analysis::{AcfPoint, Bin, ResidualAnalysis, Series};
 pub use error::DiagnoseError;
-pub use lm::LmSettings;
-pub use noise::{NoiseModel, NoiseSource, Transient};
+pub use noise::{NoiseModelSource, Transient, TrialNoiseModel};
 pub use report::{
     detection_limit_unit, CandidateReport, Diagnosis, Gain, ModelReport, NearTie, ParamInterval,
     Verdict,
@@ -144,7 +144,7 @@ pub struct DiagnoseSettings {
     /// How the EMG columns become envelopes.
     pub input_options: InputOptions,
     /// Levenberg–Marquardt settings of the full fits.
-    pub lm: LmSettings,
+    pub lm: LevenbergMarquardtSettings,
     /// Levenberg–Marquardt iterations of a cross-validation refit.
     pub cv_iterations: usize,
     /// How the samples are split into cross-validation folds.
@@ -245,7 +245,7 @@ impl Default for DiagnoseSettings {
             confound_cos: 0.98,
             structure_threshold: 3.0,
             input_options: InputOptions::default(),
-            lm: LmSettings::default(),
+            lm: LevenbergMarquardtSettings::default(),
             cv_iterations: 8,
             cv_folds: CvFolds::Auto,
             baseline_extra_starts: 5,
@@ -256,9 +256,9 @@ impl Default for DiagnoseSettings {
     }
 }
 
-/// Stage reported to the observer.
+/// DiagnosisStage reported to the observer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Stage {
+pub enum DiagnosisStage {
     /// Fitting the noise model.
     Noise,
     /// Fitting the baseline.
@@ -269,11 +269,11 @@ pub enum Stage {
     Analysis,
 }
 
-/// Progress report.
+/// DiagnosisProgress report.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Progress {
-    /// Stage.
-    pub stage: Stage,
+pub struct DiagnosisProgress {
+    /// DiagnosisStage.
+    pub stage: DiagnosisStage,
     /// Human message.
     pub message: String,
     /// Simulations so far.
@@ -281,17 +281,17 @@ pub struct Progress {
 }
 
 /// An observer that never stops the diagnosis.
-pub fn no_observer(_: &Progress) -> ControlFlow<()> {
+pub fn no_observer(_: &DiagnosisProgress) -> ControlFlow<()> {
     ControlFlow::Continue(())
 }
 
 fn notify(
-    obs: &mut dyn FnMut(&Progress) -> ControlFlow<()>,
-    stage: Stage,
+    obs: &mut dyn FnMut(&DiagnosisProgress) -> ControlFlow<()>,
+    stage: DiagnosisStage,
     message: String,
     evaluations: usize,
 ) -> Result<(), DiagnoseError> {
-    match obs(&Progress {
+    match obs(&DiagnosisProgress {
         stage,
         message,
         evaluations,
@@ -340,23 +340,28 @@ pub fn run(
     trial: &Trial,
     unloaded: Option<&Unloaded>,
     settings: &DiagnoseSettings,
-    observer: &mut dyn FnMut(&Progress) -> ControlFlow<()>,
+    observer: &mut dyn FnMut(&DiagnosisProgress) -> ControlFlow<()>,
 ) -> Result<Diagnosis, DiagnoseError> {
     let t0 = Instant::now();
     check_settings(settings)?;
     let (inputs, seg) = prepare(trial, settings)?;
     let n = inputs.len();
     let fs = inputs.fs();
-    notify(observer, Stage::Noise, "fitting the noise model".into(), 0)?;
+    notify(
+        observer,
+        DiagnosisStage::Noise,
+        "fitting the noise model".into(),
+        0,
+    )?;
     let times: Vec<f64> = (0..n).map(|i| i as f64 / fs).collect();
     let nominal = nominal_muscles();
     let mut evaluations = 0;
     let lm = settings.lm;
-    let cv_lm = LmSettings {
+    let cv_lm = LevenbergMarquardtSettings {
         max_iterations: settings.cv_iterations,
         ..settings.lm
     };
-    let make_ctx = |y: Vec<f64>, noise: NoiseModel| -> Context {
+    let make_ctx = |y: Vec<f64>, noise: TrialNoiseModel| -> Context {
         let plan = noise.plan(n, None);
         let folds = settings
             .cv_folds
@@ -394,8 +399,11 @@ pub fn run(
                     reason: e.to_string(),
                 }
             })?;
-            let noise =
-                NoiseModel::from_correction(&correction, NoiseSource::Unloaded, u.torque_nm.len());
+            let noise = TrialNoiseModel::from_correction(
+                &correction,
+                NoiseModelSource::Unloaded,
+                u.torque_nm.len(),
+            );
             let sys = noise.systematic(&times, &seg.events);
             let y: Vec<f64> = trial
                 .torque_nm
@@ -407,8 +415,8 @@ pub fn run(
         }
         None => {
             // preliminary white-noise baseline, then the noise model from its residual
-            let pre_noise = NoiseModel {
-                source: NoiseSource::TrialResidual,
+            let pre_noise = TrialNoiseModel {
+                source: NoiseModelSource::TrialResidual,
                 offset_nm: 0.0,
                 transient: noise::Transient::none(),
                 phi: 0.0,
@@ -427,8 +435,11 @@ pub fn run(
                 .map(|(a, b)| a - b)
                 .collect();
             let correction = experiment::DynamometerCorrection::fit(&res, fs, &seg.events, false)?;
-            let mut noise =
-                NoiseModel::from_correction(&correction, NoiseSource::TrialResidual, res.len());
+            let mut noise = TrialNoiseModel::from_correction(
+                &correction,
+                NoiseModelSource::TrialResidual,
+                res.len(),
+            );
             noise.offset_nm = 0.0;
             let sys = noise.systematic(&times, &seg.events);
             let y: Vec<f64> = trial
@@ -443,7 +454,7 @@ pub fn run(
     let ctx = make_ctx(y, noise);
     notify(
         observer,
-        Stage::Baseline,
+        DiagnosisStage::Baseline,
         "fitting the baseline (9 muscle parameters)".into(),
         evaluations,
     )?;
@@ -472,7 +483,7 @@ pub fn run(
     for round in 0..settings.max_effects {
         notify(
             observer,
-            Stage::Round(round),
+            DiagnosisStage::Round(round),
             format!("round {}: ranking extensions", round + 1),
             evaluations,
         )?;
@@ -631,7 +642,7 @@ pub fn run(
     if settings.exchange && current.kinds.len() >= 2 {
         notify(
             observer,
-            Stage::Round(settings.max_effects),
+            DiagnosisStage::Round(settings.max_effects),
             "checking each cause against the alternatives".into(),
             evaluations,
         )?;
@@ -657,13 +668,13 @@ pub fn run(
     }
     notify(
         observer,
-        Stage::Analysis,
+        DiagnosisStage::Analysis,
         "residual analysis".into(),
         evaluations,
     )?;
     notify(
         observer,
-        Stage::Analysis,
+        DiagnosisStage::Analysis,
         "detection limits of the effects not named".into(),
         evaluations,
     )?;
@@ -697,7 +708,7 @@ pub fn run(
     });
     notify(
         observer,
-        Stage::Analysis,
+        DiagnosisStage::Analysis,
         "profile-likelihood intervals".into(),
         evaluations,
     )?;

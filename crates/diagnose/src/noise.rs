@@ -24,7 +24,7 @@ use serde::Serialize;
 /// Where the noise model came from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
-pub enum NoiseSource {
+pub enum NoiseModelSource {
     /// Fitted on the unloaded run (offset, transients and random part).
     Unloaded,
     /// Estimated from the baseline residual of the trial itself (no unloaded run): the
@@ -34,9 +34,9 @@ pub enum NoiseSource {
 
 /// The noise model of the torque residual.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub struct NoiseModel {
+pub struct TrialNoiseModel {
     /// Where it was estimated.
-    pub source: NoiseSource,
+    pub source: NoiseModelSource,
     /// Dynamometer offset `c` (N·m; 0 without an unloaded run).
     pub offset_nm: f64,
     /// Event transient.
@@ -56,7 +56,7 @@ pub struct NoiseModel {
     pub level_dof: f64,
 }
 
-impl NoiseModel {
+impl TrialNoiseModel {
     /// Systematic part at times `t` (s from the first sample) given the event times.
     pub fn systematic(&self, times: &[f64], events: &[f64]) -> Vec<f64> {
         let mut out = vec![self.offset_nm; times.len()];
@@ -65,14 +65,14 @@ impl NoiseModel {
     }
 
     /// The noise model of a dynamometer correction fitted on a recording of `n` samples
-    /// (which sets [`NoiseModel::level_dof`]).
-    pub fn from_correction(c: &DynamometerCorrection, source: NoiseSource, n: usize) -> Self {
+    /// (which sets [`TrialNoiseModel::level_dof`]).
+    pub fn from_correction(c: &DynamometerCorrection, source: NoiseModelSource, n: usize) -> Self {
         let r = c.random;
         let level_dof = match Ar1White::new(r.phi, r.sigma_ar, r.sigma_white.max(1e-5)) {
             Ok(m) => level_dof(&m, n, LEVEL_DOF_REPLICATES, LEVEL_DOF_SEED),
             Err(_) => f64::INFINITY,
         };
-        NoiseModel {
+        TrialNoiseModel {
             source,
             offset_nm: c.offset_nm,
             transient: c.transient,
@@ -127,7 +127,7 @@ pub fn low_frequency_level(m: &Ar1White) -> f64 {
     m.sigma_ar.powi(2) * (1.0 + m.phi) / (1.0 - m.phi) + m.sigma_white.powi(2)
 }
 
-/// Records simulated by [`NoiseModel::from_correction`] to find [`NoiseModel::level_dof`].
+/// Records simulated by [`TrialNoiseModel::from_correction`] to find [`TrialNoiseModel::level_dof`].
 pub const LEVEL_DOF_REPLICATES: usize = 128;
 
 /// Seed of those records (fixed: the same recording gives the same diagnosis).
@@ -231,7 +231,7 @@ mod tests {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
         let y = simulate(&spec(), 8 * 2048, &mut rng);
         let c = DynamometerCorrection::fit(&y, 2048.0, &[], true).expect("a valid record");
-        let fit = NoiseModel::from_correction(&c, NoiseSource::Unloaded, y.len());
+        let fit = TrialNoiseModel::from_correction(&c, NoiseModelSource::Unloaded, y.len());
         assert!(fit.level_dof.is_finite() && fit.level_dof > 10.0, "{fit:?}");
     }
 }

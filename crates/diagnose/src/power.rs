@@ -49,9 +49,9 @@ use experiment::{DynamometerSettings, Trial};
 use muscle_model::{Ar1White, EffectKind};
 
 use crate::fit::{latin_hypercube, Context};
-use crate::lm::LmSettings;
-use crate::noise::{NoiseModel, NoiseSource, Transient};
+use crate::noise::{NoiseModelSource, Transient, TrialNoiseModel};
 use crate::{check_settings, prepare, DiagnoseError, DiagnoseSettings};
+use numerics::LevenbergMarquardtSettings;
 
 /// The null model's misfit to a noise-free trial.
 #[derive(Clone, Debug, PartialEq)]
@@ -96,8 +96,8 @@ pub fn noncentrality(
             ),
         });
     }
-    let model = NoiseModel {
-        source: NoiseSource::Unloaded,
+    let model = TrialNoiseModel {
+        source: NoiseModelSource::Unloaded,
         offset_nm: 0.0,
         transient: Transient::none(),
         phi: noise.phi,
@@ -109,7 +109,7 @@ pub fn noncentrality(
     let plan = model.plan(n, None);
     // to convergence: with the diagnosis's stopping rule (30 iterations, relative decrease
     // 10⁻⁷) a fit to a noise-free trial without effect stops at λ ≈ 0.5, not ≈ 0
-    let lm = LmSettings {
+    let lm = LevenbergMarquardtSettings {
         max_iterations: settings.lm.max_iterations.max(300),
         ftol_rel: settings.lm.ftol_rel.min(1e-12),
         ..settings.lm

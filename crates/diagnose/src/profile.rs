@@ -21,7 +21,8 @@
 //! bracketed, then interpolate linearly in `√d` inside the bracket. Every refit starts from
 //! the last refit inside the interval (the fit itself first).
 
-use crate::lm::{minimise, LmSettings};
+use crate::lm::minimise;
+use numerics::LevenbergMarquardtSettings;
 
 /// Settings of [`profile_interval`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -91,7 +92,7 @@ pub fn profile_interval<F>(
     bounds: &[(f64, f64)],
     s2: f64,
     step0: f64,
-    lm: &LmSettings,
+    lm: &LevenbergMarquardtSettings,
     settings: &ProfileSettings,
 ) -> Option<ProfileInterval>
 where
@@ -137,7 +138,7 @@ struct Search<'a, F> {
     bounds: &'a [(f64, f64)],
     s2: f64,
     step0: f64,
-    lm: &'a LmSettings,
+    lm: &'a LevenbergMarquardtSettings,
     settings: &'a ProfileSettings,
 }
 
@@ -281,7 +282,7 @@ mod tests {
         // covariance (JᵀJ)⁻¹ with s² = 1
         let se = [(stt / det).sqrt(), (n / det).sqrt()];
         let bounds = [(-10.0, 10.0), (-10.0, 10.0)];
-        let lm = LmSettings::default();
+        let lm = LevenbergMarquardtSettings::default();
         for (level, z) in [(1.0, 1.0), (3.84, 3.84f64.sqrt())] {
             let ps = ProfileSettings {
                 level,
@@ -310,7 +311,7 @@ mod tests {
     /// empty side.
     #[test]
     fn bounds_cut_the_interval() {
-        let lm = LmSettings::default();
+        let lm = LevenbergMarquardtSettings::default();
         let ps = ProfileSettings {
             tol: 0.01,
             ..Default::default()
@@ -344,7 +345,7 @@ mod tests {
     #[test]
     fn rejects_bad_arguments() {
         let f = |x: &[f64]| -> Option<Vec<f64>> { Some(vec![x[0]]) };
-        let lm = LmSettings::default();
+        let lm = LevenbergMarquardtSettings::default();
         let ps = ProfileSettings::default();
         let b = [(-1.0, 1.0)];
         assert!(profile_interval(&f, &[0.0], 0.0, 1, &b, 1.0, 0.1, &lm, &ps).is_none());

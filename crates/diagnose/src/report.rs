@@ -6,7 +6,7 @@ use muscle_model::EffectKind;
 use serde::Serialize;
 
 use crate::analysis::ResidualAnalysis;
-use crate::noise::NoiseModel;
+use crate::noise::TrialNoiseModel;
 
 /// `adequate` (no cause named) or `deficient`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -212,7 +212,7 @@ pub struct Diagnosis {
     /// (e.g. an offset and a gravity term over a 35° range of motion).
     pub near_ties: Vec<NearTie>,
     /// Noise model used.
-    pub noise: NoiseModel,
+    pub noise: TrialNoiseModel,
     /// How the held-out errors were cross-validated, e.g. `3 cycles held out in turn` or
     /// `5 folds of 0.5 s blocks`.
     pub cv_folds: String,
@@ -293,8 +293,8 @@ impl Diagnosis {
         l.push(format!(
             "noise        {} (offset {:+.2} N·m, transient {:.1} N·m @ {:.1} Hz, AR(1) φ {:.3} sd {:.2}, white sd {:.2})",
             match self.noise.source {
-                crate::noise::NoiseSource::Unloaded => "from the unloaded run",
-                crate::noise::NoiseSource::TrialResidual => "from the trial residual (no unloaded run)",
+                crate::noise::NoiseModelSource::Unloaded => "from the unloaded run",
+                crate::noise::NoiseModelSource::TrialResidual => "from the trial residual (no unloaded run)",
             },
             self.noise.offset_nm,
             self.noise.transient.b_nm.hypot(self.noise.transient.c_nm),

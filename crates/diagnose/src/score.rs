@@ -362,7 +362,7 @@ fn absorbed(ctx: &Context, fit: &Fit, kind: EffectKind, values: [f64; 2]) -> Opt
         seg: ctx.seg.clone(),
         plan: ctx.plan.clone(),
         folds: Vec::new(),
-        lm: crate::lm::LmSettings {
+        lm: numerics::LevenbergMarquardtSettings {
             max_iterations: 60,
             ftol_rel: 1e-10,
             ..ctx.lm

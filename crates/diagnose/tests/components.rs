@@ -1,6 +1,6 @@
 //! Component tests: segmentation, the dynamometer noise model and its whitening, the LM solver.
 
-use diagnose::noise::{NoiseModel, NoiseSource, Transient};
+use diagnose::noise::{NoiseModelSource, Transient, TrialNoiseModel};
 use diagnose::{lm, CvFolds, PhaseLabel, Segmentation};
 use experiment::{
     unloaded_run, DynamometerCorrection, DynamometerSettings, Protocol, ProtocolTrace, Unloaded,
@@ -39,9 +39,9 @@ fn segments_relaxed_plus_two() {
 }
 
 /// The noise model of an unloaded run, as a diagnosis makes it.
-fn unloaded_model(u: &Unloaded) -> NoiseModel {
+fn unloaded_model(u: &Unloaded) -> TrialNoiseModel {
     let c = DynamometerCorrection::from_unloaded(u).unwrap();
-    NoiseModel::from_correction(&c, NoiseSource::Unloaded, u.len())
+    TrialNoiseModel::from_correction(&c, NoiseModelSource::Unloaded, u.len())
 }
 
 #[test]
@@ -105,7 +105,7 @@ fn auto_folds_are_cycles_from_three_cycles_on_and_blocks_below() {
 }
 
 /// Relative L2 error of a fitted event transient against the true one over 0.5 s.
-fn transient_error(m: &NoiseModel, s: &DynamometerSettings) -> f64 {
+fn transient_error(m: &TrialNoiseModel, s: &DynamometerSettings) -> f64 {
     m.transient.relative_error(&spec_transient(s), 0.5, 2048.0)
 }
 
@@ -206,7 +206,7 @@ fn levenberg_marquardt_solves_a_bounded_curve_fit() {
         &f,
         &[1.0, 1.0],
         &[(0.0, 5.0), (0.0, 5.0)],
-        &lm::LmSettings::default(),
+        &numerics::LevenbergMarquardtSettings::default(),
     )
     .unwrap();
     assert!(
@@ -218,7 +218,7 @@ fn levenberg_marquardt_solves_a_bounded_curve_fit() {
         &f,
         &[1.0, 1.0],
         &[(0.0, 5.0), (0.0, 2.5)],
-        &lm::LmSettings::default(),
+        &numerics::LevenbergMarquardtSettings::default(),
     )
     .unwrap();
     assert!((bounded.x[1] - 2.5).abs() < 1e-12, "{:?}", bounded.x);
