@@ -48,9 +48,11 @@
 use experiment::{DynamometerSettings, Trial};
 use muscle_model::{Ar1White, EffectKind};
 
+use crate::baseline::nominal_muscles;
+use crate::context::prepare;
 use crate::fit::{latin_hypercube, Context};
 use crate::noise::{NoiseModelSource, Transient, TrialNoiseModel};
-use crate::{check_settings, prepare, DiagnoseError, DiagnoseSettings};
+use crate::{DiagnoseError, DiagnoseSettings};
 use numerics::LevenbergMarquardtSettings;
 
 /// The null model's misfit to a noise-free trial.
@@ -84,7 +86,7 @@ pub fn noncentrality(
     noise: &Ar1White,
     settings: &DiagnoseSettings,
 ) -> Result<Information, DiagnoseError> {
-    check_settings(settings)?;
+    settings.validate()?;
     let (inputs, seg) = prepare(trial, settings)?;
     let n = inputs.len();
     if clean_torque.len() != n || clean_torque.iter().any(|v| !v.is_finite()) {
@@ -126,7 +128,7 @@ pub fn noncentrality(
         extended_extra_starts: settings.extended_extra_starts,
         start_seed: settings.start_seed,
     };
-    let mut x0 = crate::nominal_muscles().to_vec();
+    let mut x0 = nominal_muscles().to_vec();
     for k in null {
         x0.extend(&k.null_values()[..k.params().len()]);
     }
