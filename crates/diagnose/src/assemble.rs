@@ -130,7 +130,7 @@ fn residual_scale(fit: &Fit, nobs: usize) -> f64 {
 /// lengths are far too small: the cost is flat along curved valleys in which the muscles
 /// trade off against each other, and the forward-difference Jacobian sees only the local
 /// curvature. On `diag_one 20240609 '{"antagonist_coactivation":{"gain_nm":9.32}}' --ta` sol
-/// α0 had a Laplace SE of 0.16° against an MCMC posterior SD of 1.74° and a profile half-width
+/// α0 has a Laplace SE of 0.16° against an MCMC posterior SD of 1.74° and a profile half-width
 /// of 1.82° (docs/diagnosis.md).
 pub(crate) fn profile_intervals(
     ctx: &Context,

@@ -42,8 +42,8 @@ pub(crate) fn prepare(
 /// simulations spent.
 ///
 /// With an unloaded run the noise model is that run's (docs/dynamometer.md); without one, a
-/// baseline fitted under white noise leaves a residual from which the model is fitted (its
-/// constant offset set to zero: the torque offset is a candidate effect, not noise).
+/// baseline fitted under white noise leaves a residual from which the model is fitted, its
+/// offset set to zero (a dynamometer offset cannot be told from the `torque_offset` effect).
 pub(crate) fn trial_context(
     trial: &Trial,
     unloaded: Option<&Unloaded>,

@@ -119,7 +119,7 @@ impl Context {
     /// Fits `kinds` from `x0` (full vector: 9 muscle params then effect params).
     ///
     /// An extended model starts from the current fit, whose muscle parameters may sit at
-    /// their bounds because they were standing in for the missing effect (e.g. sol α0 and F0
+    /// their bounds because they stand in for the missing effect (e.g. sol α0 and F0
     /// at their upper bounds mimicking an antagonist torque); from there the bounded LM can
     /// stop in that corner. So it is also started with the muscle parameters at their base
     /// (nominal) values and at [`Context::extended_extra_starts`] Latin-hypercube points, with
@@ -329,8 +329,9 @@ impl Context {
 /// `(m, φ)` and `(−m, φ ± 180°)`, and the phase's bound at ±180° cuts the valley of every term
 /// whose representation lies near it. A start from the score test (`m ≥ 0`) of a negative
 /// moment at a small phase is exactly such a term, and its fit could stop against the bound
-/// (gravity trial `hidden_trial(gravity, 400711)`, −5.63 N·m at −24.6°, was named an offset;
-/// in linear coordinates gravity −5.58 N·m at −26.9°). So the minimisation runs in `(A, B)` (both
+/// (on gravity trial `hidden_trial(gravity, 400711)` the fit in `(m, φ)` stops at −5.63 N·m
+/// at −24.6° and an offset is named instead; in linear coordinates gravity is named, −5.58 N·m
+/// at −26.9°). So the minimisation runs in `(A, B)` (both
 /// inside the moment's bounds) and the result is returned in `(m, φ)` with `φ ∈ [−90°, 90°]`,
 /// its Jacobian columns transformed by the chain rule. Without a gravity term this is
 /// [`minimise`].
@@ -364,9 +365,9 @@ where
 /// With one of the three cycles held out, a free phase trades against the tendon slack
 /// lengths: the fold's fit turns the term to absorb the remaining cycles' misfit and predicts
 /// the held-out cycle worse than the baseline does. On gravity trial `hidden_trial(gravity,
-/// 12350)` the fit in linear coordinates had ΔBIC −87.9 but a held-out RMS of 1.562 N·m
-/// against the baseline's 1.466, so the true cause was not named; with the phase held,
-/// 1.261. (Before the linear coordinates the phase's ±180° bound had held it, by accident.)
+/// 12350)` the fit with a free phase in the folds has ΔBIC −87.9 but a held-out RMS of
+/// 1.562 N·m against the baseline's 1.466, so the true cause would not be named; with the
+/// phase held, 1.261.
 /// The phase is a property of the attachment, not of a cycle; the BIC of the full fit still
 /// pays for it.
 fn minimise_fold<F>(

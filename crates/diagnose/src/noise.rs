@@ -195,25 +195,35 @@ mod tests {
     use crate::power::true_noise;
     use experiment::DynamometerSettings;
 
-    /// The SPEC noise at 2048 Hz.
-    fn spec() -> Ar1White {
-        true_noise(&DynamometerSettings::default(), 2048.0).expect("valid SPEC noise")
+    /// The default dynamometer noise at 2048 Hz.
+    fn default_noise() -> Ar1White {
+        true_noise(&DynamometerSettings::default(), 2048.0).expect("valid default noise")
     }
 
     #[test]
     fn level_dof_of_an_unloaded_run_matches_the_scatter_of_full_noise_fits() {
         // `noise_scatter -- 200 1` (full fits of 200 simulated 8 s unloaded runs, systematic
         // part included) measured a 17.2 % SD of the level, i.e. ν = 2/0.172² ≈ 68
-        let nu = level_dof(&spec(), 8 * 2048, LEVEL_DOF_REPLICATES, LEVEL_DOF_SEED);
+        let nu = level_dof(
+            &default_noise(),
+            8 * 2048,
+            LEVEL_DOF_REPLICATES,
+            LEVEL_DOF_SEED,
+        );
         assert!((30.0..90.0).contains(&nu), "ν = {nu}");
         // a record four times longer pins the level about four times better
-        let nu4 = level_dof(&spec(), 32 * 2048, LEVEL_DOF_REPLICATES, LEVEL_DOF_SEED);
+        let nu4 = level_dof(
+            &default_noise(),
+            32 * 2048,
+            LEVEL_DOF_REPLICATES,
+            LEVEL_DOF_SEED,
+        );
         assert!((2.5..6.0).contains(&(nu4 / nu)), "ν = {nu} → {nu4}");
     }
 
     #[test]
     fn level_dof_is_reproducible_and_independent_of_the_threads() {
-        let m = spec();
+        let m = default_noise();
         let a = level_dof(&m, 4096, 32, 7);
         let one = rayon::ThreadPoolBuilder::new()
             .num_threads(1)
@@ -229,7 +239,7 @@ mod tests {
     fn unloaded_fit_reports_finite_level_dof() {
         use rand::SeedableRng;
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-        let y = simulate(&spec(), 8 * 2048, &mut rng);
+        let y = simulate(&default_noise(), 8 * 2048, &mut rng);
         let c = DynamometerCorrection::fit(&y, 2048.0, &[], true).expect("a valid record");
         let fit = TrialNoiseModel::from_correction(&c, NoiseModelSource::Unloaded, y.len());
         assert!(fit.level_dof.is_finite() && fit.level_dof > 10.0, "{fit:?}");

@@ -148,7 +148,7 @@ pub fn noncentrality(
     })
 }
 
-/// The random part of the SPEC §4 dynamometer error at `fs` Hz, as [`noncentrality`] wants
+/// The random part of the simulated dynamometer error (docs/dynamometer.md) at `fs` Hz, as [`noncentrality`] wants
 /// it: AR(1) with `φ = exp(−1/(fs·τc))` and SD `σ_ar`, plus white noise whose variance
 /// includes the ADC's quantisation, `σ_w² + step²/12`.
 ///

@@ -13,7 +13,7 @@
 //! not linear the profile follows the curved valley along which the other parameters
 //! compensate, which the Laplace approximation at `x̂` does not see. On a relaxed+2 trial with
 //! a 9.3 N·m antagonist torque (`diag_one 20240609 '{"antagonist_coactivation":{"gain_nm":9.32}}'
-//! --ta`) the Laplace standard error of sol α0 was 0.16°, its MCMC posterior SD 1.74°
+//! --ta`) the Laplace standard error of sol α0 is 0.16°, its MCMC posterior SD 1.74°
 //! (identify-mcmc example `ta_posterior`) and the profile half-width 1.82° (docs/diagnosis.md).
 //!
 //! Each side is searched on `√d`, which is close to linear in `θ`: the first refit is one
@@ -24,7 +24,8 @@
 use crate::lm::minimise;
 use numerics::LevenbergMarquardtSettings;
 
-/// Settings of [`profile_interval`].
+/// Settings of the profile-likelihood intervals of the final model's parameters
+/// (docs/diagnosis.md).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ProfileSettings {
     /// Level `Δ` of `d(θ)` that ends the interval (1: 68.3 %).

@@ -1,4 +1,4 @@
-//! The diagnosis result: the SPEC §7 `diagnosis.json` shape (plus documented extra fields) and the terminal summary.
+//! The diagnosis result: the `diagnosis.json` shape (docs/formats.md) and the terminal summary.
 
 use std::collections::BTreeMap;
 
@@ -54,7 +54,7 @@ pub struct ModelReport {
 }
 
 /// The 68 % profile-likelihood interval of one parameter: the values at which the best fit
-/// with the parameter held there is worse by `Δ(−2 log L) = s²` (module [`crate::profile`]).
+/// with the parameter held there is worse by `Δ(−2 log L) = s²` (docs/diagnosis.md).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct ParamInterval {
     /// Lower end.
@@ -189,7 +189,7 @@ pub struct NearTie {
     pub heldout_rms_nm: f64,
 }
 
-/// The diagnosis of one trial (serialises to SPEC §7 `diagnosis.json`).
+/// The diagnosis of one trial (serialises to `diagnosis.json`, docs/formats.md).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Diagnosis {
     /// `adequate` or `deficient`.

@@ -27,7 +27,7 @@ pub struct DiagnoseSettings {
     pub pairs: bool,
     /// Minimum score statistic for a refit.
     pub min_score_lm: f64,
-    /// An added effect must lower the held-out deviance ([`CandidateReport::heldout_dev_gain`],
+    /// An added effect must lower the held-out deviance ([`CandidateReport::heldout_dev_gain`](crate::CandidateReport::heldout_dev_gain),
     /// χ² units) by at least this, without raising the held-out RMS.
     pub min_heldout_dev_gain: f64,
     /// Held-out margin of the tie rules (near ties, a simpler model named instead): two
@@ -51,7 +51,7 @@ pub struct DiagnoseSettings {
     /// How the samples are split into cross-validation folds.
     pub cv_folds: CvFolds,
     /// Starts of the baseline fit besides the nominal parameters: Latin-hypercube points in
-    /// the SPEC §8 box (run in parallel; the lowest whitened cost wins). A single start can
+    /// the identification bounds (docs/model.md) (run in parallel; the lowest whitened cost wins). A single start can
     /// stop in a local minimum (e.g. sol F0 at its bound), whose misfit then passes for a
     /// catalogued effect or for unexplained structure.
     pub baseline_extra_starts: usize,
@@ -62,7 +62,7 @@ pub struct DiagnoseSettings {
     pub extended_extra_starts: usize,
     /// Seed of the Latin-hypercube starts.
     pub start_seed: u64,
-    /// Profile-likelihood intervals of the final model's parameters (module [`profile`]).
+    /// Profile-likelihood intervals of the final model's parameters (docs/diagnosis.md).
     pub profile: ProfileSettings,
 }
 

@@ -141,9 +141,10 @@ fn transient_is_fitted_by_generalised_least_squares() {
 
 #[test]
 fn a_least_squares_start_in_the_wrong_basin_is_searched_again() {
-    // On these two SPEC unloaded runs (of confusion-study trials) the ordinary least-squares
-    // grid ended near 2.5 and 9.3 Hz, and the whitened refinement around it stayed there:
-    // the first lost its transient (relative template error 1.0), the second had 0.53.
+    // On these two unloaded runs with the default dynamometer settings (of confusion-study
+    // trials) the ordinary least-squares grid ends near 2.5 and 9.3 Hz, and a whitened
+    // refinement around it alone stays there: the first would lose its transient (relative
+    // template error 1.0), the second keep an error of 0.53.
     // The whitened search over the whole coarse grid finds the 12 Hz transient.
     let s = DynamometerSettings::default();
     for seed in [1_100_712, 500_711] {
@@ -160,9 +161,9 @@ fn a_least_squares_start_in_the_wrong_basin_is_searched_again() {
 
 #[test]
 fn a_recording_without_a_transient_gets_none() {
-    // Without the test of `experiment::TRANSIENT_MIN_EVIDENCE` the grid search fitted the AR(1)
+    // Without the test of `experiment::TRANSIENT_MIN_EVIDENCE` the grid search fits the AR(1)
     // wander of such a run (τ near 1 s, B and C up to 300 N·m and nearly cancelling), and
-    // that shape was subtracted after every event of the trial.
+    // that shape would be subtracted after every event of the trial.
     let s = DynamometerSettings {
         transient_amplitude_nm: 0.0,
         ..Default::default()
@@ -176,7 +177,7 @@ fn a_recording_without_a_transient_gets_none() {
             "seed {seed}: {m:?}"
         );
     }
-    // the SPEC transient is kept, from the same noise
+    // the default transient is kept, from the same noise
     let s = DynamometerSettings::default();
     for seed in 5000..5004 {
         let u = unloaded_run(&s, seed).unwrap();
