@@ -20,7 +20,7 @@ pub enum DiagnosisStage {
 /// Progress report.
 #[derive(Clone, Debug, PartialEq)]
 pub struct DiagnosisProgress {
-    /// DiagnosisStage.
+    /// Stage of the diagnosis.
     pub stage: DiagnosisStage,
     /// Human message.
     pub message: String,

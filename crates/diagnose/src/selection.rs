@@ -84,33 +84,14 @@ pub(crate) fn select(
                 },
             );
         }
-        let leaders: Vec<&score::Score> = scores
-            .iter()
-            .filter(|s| s.lm >= settings.min_score_lm)
-            .take(settings.refits_per_round)
-            .collect();
+        let leaders = leaders(&scores, settings);
         if leaders.is_empty() {
             break;
         }
-        let refits: Vec<Result<Fit, DiagnoseError>> = leaders
-            .par_iter()
-            .map(|s| {
-                let mut kinds = current.kinds.clone();
-                kinds.push(s.kind);
-                ctx.fit(&kinds, &score::extended_start(&current, s), true)
-            })
+        let fits: Vec<Fit> = refit_leaders(ctx, &current, &current.kinds, &leaders, evaluations)?
+            .into_iter()
+            .map(|(f, _)| f)
             .collect();
-        let mut fits: Vec<Fit> = Vec::new();
-        for r in refits {
-            match r {
-                Ok(f) => {
-                    *evaluations += f.evaluations;
-                    fits.push(f);
-                }
-                Err(DiagnoseError::Fit { .. }) | Err(DiagnoseError::Model(_)) => {}
-                Err(e) => return Err(e),
-            }
-        }
         // Judge the candidates against the current fit. Before one is accepted, the current
         // model is refitted from the leader's values of its own parameters: when that beats
         // the current fit, part of the leader's gain was a better optimum of parameters the
@@ -344,30 +325,8 @@ fn exchange(
             .collect();
         evaluations += 4 * scores.len();
         scores.sort_by(|a, b| b.evidence.total_cmp(&a.evidence));
-        let leaders: Vec<&score::Score> = scores
-            .iter()
-            .filter(|s| s.lm >= settings.min_score_lm)
-            .take(settings.refits_per_round)
-            .collect();
-        let refits: Vec<Result<Fit, DiagnoseError>> = leaders
-            .par_iter()
-            .map(|s| {
-                let mut kinds = rest.clone();
-                kinds.push(s.kind);
-                ctx.fit(&kinds, &score::extended_start(&reduced, s), true)
-            })
-            .collect();
-        let mut alts: Vec<(Fit, &score::Score)> = Vec::new();
-        for (r, s) in refits.into_iter().zip(&leaders) {
-            match r {
-                Ok(f) => {
-                    evaluations += f.evaluations;
-                    alts.push((f, s));
-                }
-                Err(DiagnoseError::Fit { .. }) | Err(DiagnoseError::Model(_)) => {}
-                Err(e) => return Err(e),
-            }
-        }
+        let leaders = leaders(&scores, settings);
+        let mut alts = refit_leaders(ctx, &reduced, &rest, &leaders, &mut evaluations)?;
         // by the same margin as an added effect, or as a simpler model the data cannot tell
         // from the current one (an offset for a gravity term); other alternatives within the
         // margins are near ties
@@ -412,4 +371,47 @@ fn exchange(
         current = fit;
     }
     Ok((current, evaluations))
+}
+
+/// The leaders of a ranking sorted by evidence: the candidates whose score statistic reaches
+/// [`DiagnoseSettings::min_score_lm`], at most [`DiagnoseSettings::refits_per_round`].
+fn leaders<'s>(scores: &'s [score::Score], settings: &DiagnoseSettings) -> Vec<&'s score::Score> {
+    scores
+        .iter()
+        .filter(|s| s.lm >= settings.min_score_lm)
+        .take(settings.refits_per_round)
+        .collect()
+}
+
+/// The refits of `from` (the model of effects `kinds`) with each leader added, in parallel,
+/// each started where its score test puts the effect, with the leader's score. A refit that
+/// cannot be fitted or simulated drops out (its candidate stays unrefitted); any other error
+/// stops the diagnosis. The simulations spent are added to `evaluations`.
+fn refit_leaders<'s>(
+    ctx: &Context,
+    from: &Fit,
+    kinds: &[EffectKind],
+    leaders: &[&'s score::Score],
+    evaluations: &mut usize,
+) -> Result<Vec<(Fit, &'s score::Score)>, DiagnoseError> {
+    let refits: Vec<Result<Fit, DiagnoseError>> = leaders
+        .par_iter()
+        .map(|s| {
+            let mut kinds = kinds.to_vec();
+            kinds.push(s.kind);
+            ctx.fit(&kinds, &score::extended_start(from, s), true)
+        })
+        .collect();
+    let mut fits = Vec::new();
+    for (r, s) in refits.into_iter().zip(leaders) {
+        match r {
+            Ok(f) => {
+                *evaluations += f.evaluations;
+                fits.push((f, *s));
+            }
+            Err(DiagnoseError::Fit { .. }) | Err(DiagnoseError::Model(_)) => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(fits)
 }
