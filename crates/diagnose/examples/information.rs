@@ -1,6 +1,7 @@
 //! The information limit of the detection-limit and confusion studies (module
 //! `diagnose::power`): for each trial, the noncentrality `λ` of its hidden effect under the
-//! true SPEC §4 noise, and from it the most often the ΔBIC rule (margin −10) and any test with
+//! true dynamometer noise (the default
+//! settings, docs/dynamometer.md), and from it the most often the ΔBIC rule (margin −10) and any test with
 //! a false-alarm rate of 10⁻³ could name the effect.
 //!
 //! `cargo run --release -p diagnose --example information -- [N] [BASE_SEED] [--scenarios] [--effects a,b] [--against c,d] [--protocol P] [--sizes x,y]`

@@ -6,7 +6,7 @@
 //! effect is eligible) is diagnosed. Each listed effect's reported limit `L` is then hidden in
 //! the same subject and noise (`scenarios::hidden_trial_sized`, same seed: the same muscle
 //! parameters and dynamometer noise), and [`diagnose::power::noncentrality`] with the true
-//! SPEC §4 noise gives the probability that the ΔBIC rule at best names an effect of size `L`.
+//! default dynamometer noise (docs/dynamometer.md) gives the probability that the ΔBIC rule at best names an effect of size `L`.
 //! The limit asks for 0.95; the table prints, per effect, the mean, smallest and largest of
 //! that probability over the N subjects.
 use diagnose::power::{noncentrality, rule_power, true_noise};

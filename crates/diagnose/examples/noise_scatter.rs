@@ -6,7 +6,7 @@
 //!
 //! `cargo run --release -p diagnose --example noise_scatter -- [N] [BASE_SEED]`
 use diagnose::power::{low_frequency_level, true_noise};
-use diagnose::{NoiseModel, NoiseSource};
+use diagnose::{NoiseModelSource, TrialNoiseModel};
 use experiment::{unloaded_run, DynamometerCorrection, DynamometerSettings};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -21,7 +21,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let fs = u.sample_rate_hz();
         truth = low_frequency_level(&true_noise(&s, fs)?);
         let c = DynamometerCorrection::from_unloaded(&u)?;
-        let m = NoiseModel::from_correction(&c, NoiseSource::Unloaded, u.len());
+        let m = TrialNoiseModel::from_correction(&c, NoiseModelSource::Unloaded, u.len());
         ratios.push(low_frequency_level(&m.random_part()) / truth);
     }
     let k = ratios.len() as f64;

@@ -9,8 +9,8 @@
 //! The motion test's p-value is the χ²(df) tail. The time blocks see the noise below about
 //! 1 Hz, where its spectrum is the noise model's low-frequency level
 //! `σ_ar²(1+φ)/(1−φ) + σ_w²`; that level is itself an estimate from one short record (the
-//! unloaded run) and scatters by about 20 % on the SPEC noise. With it estimated with `ν`
-//! effective degrees of freedom ([`NoiseModel::level_dof`](crate::NoiseModel::level_dof), a
+//! unloaded run) and scatters by about 20 % on the default dynamometer noise (docs/dynamometer.md). With it estimated with `ν`
+//! effective degrees of freedom ([`TrialNoiseModel::level_dof`](crate::TrialNoiseModel::level_dof), a
 //! parametric bootstrap of the estimator), the time statistic is `df·F(df, ν)` rather than
 //! `χ²(df)`, and its p-value is `P(F(df, ν) > LM/df)` ([`f_survival`]; the χ² tail when
 //! `ν = ∞`). The structure p-value is the Bonferroni minimum `min(1, 2·min(p_motion, p_time))`;

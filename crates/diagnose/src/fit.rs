@@ -4,24 +4,25 @@ use muscle_model::{EffectKind, Effects, ModelParams, ParamId, Problem, TrialInpu
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
-use crate::lm::{minimise, LmOutcome, LmSettings};
-use crate::noise::{NoiseModel, WhitenPlan};
+use crate::lm::{minimise, LmOutcome};
+use crate::noise::{TrialNoiseModel, WhitenPlan};
 use crate::profile::{profile_interval, ProfileInterval, ProfileSettings};
 use crate::segment::Segmentation;
 use crate::DiagnoseError;
+use numerics::LevenbergMarquardtSettings;
 
 /// Everything a fit needs that does not change between models.
 pub(crate) struct Context {
     pub inputs: TrialInputs,
     /// Measured torque minus the dynamometer's systematic part.
     pub y: Vec<f64>,
-    pub noise: NoiseModel,
+    pub noise: TrialNoiseModel,
     pub seg: Segmentation,
     pub plan: WhitenPlan,
     /// Per fold: held-out mask (true = held out) and the plan of the training samples.
     pub folds: Vec<(Vec<bool>, WhitenPlan)>,
-    pub lm: LmSettings,
-    pub cv_lm: LmSettings,
+    pub lm: LevenbergMarquardtSettings,
+    pub cv_lm: LevenbergMarquardtSettings,
     /// Latin-hypercube starts of the muscle parameters added to every extended fit.
     pub extended_extra_starts: usize,
     /// Seed of the Latin-hypercube starts.
@@ -118,7 +119,7 @@ impl Context {
     /// Fits `kinds` from `x0` (full vector: 9 muscle params then effect params).
     ///
     /// An extended model starts from the current fit, whose muscle parameters may sit at
-    /// their bounds because they were standing in for the missing effect (e.g. sol α0 and F0
+    /// their bounds because they stand in for the missing effect (e.g. sol α0 and F0
     /// at their upper bounds mimicking an antagonist torque); from there the bounded LM can
     /// stop in that corner. So it is also started with the muscle parameters at their base
     /// (nominal) values and at [`Context::extended_extra_starts`] Latin-hypercube points, with
@@ -228,7 +229,7 @@ impl Context {
     ) -> Result<Vec<(usize, ProfileInterval)>, DiagnoseError> {
         let problem = self.problem(&fit.kinds)?;
         let f = self.residual_fn(&problem, &self.plan);
-        let lm = LmSettings {
+        let lm = LevenbergMarquardtSettings {
             max_iterations: settings.lm_iterations,
             ftol_rel: settings.ftol_rel,
             ..self.lm
@@ -328,8 +329,9 @@ impl Context {
 /// `(m, φ)` and `(−m, φ ± 180°)`, and the phase's bound at ±180° cuts the valley of every term
 /// whose representation lies near it. A start from the score test (`m ≥ 0`) of a negative
 /// moment at a small phase is exactly such a term, and its fit could stop against the bound
-/// (gravity trial `hidden_trial(gravity, 400711)`, −5.63 N·m at −24.6°, was named an offset;
-/// in linear coordinates gravity −5.58 N·m at −26.9°). So the minimisation runs in `(A, B)` (both
+/// (on gravity trial `hidden_trial(gravity, 400711)` the fit in `(m, φ)` stops at −5.63 N·m
+/// at −24.6° and an offset is named instead; in linear coordinates gravity is named, −5.58 N·m
+/// at −26.9°). So the minimisation runs in `(A, B)` (both
 /// inside the moment's bounds) and the result is returned in `(m, φ)` with `φ ∈ [−90°, 90°]`,
 /// its Jacobian columns transformed by the chain rule. Without a gravity term this is
 /// [`minimise`].
@@ -338,7 +340,7 @@ fn minimise_model<F>(
     f: &F,
     x0: &[f64],
     bounds: &[(f64, f64)],
-    lm: &LmSettings,
+    lm: &LevenbergMarquardtSettings,
 ) -> Option<LmOutcome>
 where
     F: Fn(&[f64]) -> Option<Vec<f64>> + Sync,
@@ -363,9 +365,9 @@ where
 /// With one of the three cycles held out, a free phase trades against the tendon slack
 /// lengths: the fold's fit turns the term to absorb the remaining cycles' misfit and predicts
 /// the held-out cycle worse than the baseline does. On gravity trial `hidden_trial(gravity,
-/// 12350)` the fit in linear coordinates had ΔBIC −87.9 but a held-out RMS of 1.562 N·m
-/// against the baseline's 1.466, so the true cause was not named; with the phase held,
-/// 1.261. (Before the linear coordinates the phase's ±180° bound had held it, by accident.)
+/// 12350)` the fit with a free phase in the folds has ΔBIC −87.9 but a held-out RMS of
+/// 1.562 N·m against the baseline's 1.466, so the true cause would not be named; with the
+/// phase held, 1.261.
 /// The phase is a property of the attachment, not of a cycle; the BIC of the full fit still
 /// pays for it.
 fn minimise_fold<F>(
@@ -373,7 +375,7 @@ fn minimise_fold<F>(
     f: &F,
     x0: &[f64],
     bounds: &[(f64, f64)],
-    lm: &LmSettings,
+    lm: &LevenbergMarquardtSettings,
 ) -> Option<(Vec<f64>, usize)>
 where
     F: Fn(&[f64]) -> Option<Vec<f64>> + Sync,
@@ -467,8 +469,9 @@ fn wrap_degrees(deg: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::{minimise_model, wrap_degrees, GravitySlots};
-    use crate::lm::{minimise, LmSettings};
+    use crate::lm::minimise;
     use muscle_model::{EffectKind, Muscle, MuscleField, ParamId};
+    use numerics::LevenbergMarquardtSettings;
 
     const ANGLES: [f64; 7] = [-0.35, -0.25, -0.1, 0.0, 0.08, 0.17, 0.26];
 
@@ -539,7 +542,7 @@ mod tests {
         };
         let bounds = [(-1.0, 1.0), (-30.0, 30.0), (-180.0, 180.0)];
         let x0 = [0.5, 4.0, 170.0];
-        let lm = LmSettings::default();
+        let lm = LevenbergMarquardtSettings::default();
         let ours = minimise_model(&free(), &f, &x0, &bounds, &lm).expect("fit");
         assert!(ours.cost < 1e-12, "cost {}", ours.cost);
         assert!((ours.x[1] + 5.0).abs() < 1e-5 && (ours.x[2] - 20.0).abs() < 1e-4);

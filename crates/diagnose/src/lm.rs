@@ -6,15 +6,17 @@
 //! `numerics::lm`. The inference that follows a fit (score tests, Laplace errors, the structure
 //! tests) uses the Jacobian at the fitted point, so when the iteration budget ends right after
 //! an accepted step the Jacobian is evaluated once more there.
+//!
+//! The settings are `numerics::LevenbergMarquardtSettings`, the one Levenberg–Marquardt
+//! settings type of the workspace; its `Default` are the diagnosis's values: 30 iterations,
+//! forward differences of 10⁻³, `λ₀ = 10⁻³` kept in `[10⁻⁹, 10¹⁰]`, a stop below a relative
+//! decrease of 10⁻⁷.
 
 use nalgebra::DMatrix;
 use numerics::lm::finite_difference_jacobian;
-use numerics::{levenberg_marquardt, LevenbergMarquardtStop, Residuals};
-
-/// Settings of [`minimise`]: the one Levenberg–Marquardt settings type of the workspace
-/// (its `Default` are the diagnosis's values: 30 iterations, forward differences of 10⁻³,
-/// `λ₀ = 10⁻³` kept in `[10⁻⁹, 10¹⁰]`, a stop below a relative decrease of 10⁻⁷).
-pub use numerics::LevenbergMarquardtSettings as LmSettings;
+use numerics::{
+    levenberg_marquardt, LevenbergMarquardtSettings, LevenbergMarquardtStop, Residuals,
+};
 
 /// Result of [`minimise`].
 #[derive(Clone, Debug)]
@@ -56,7 +58,12 @@ where
 
 /// Minimises `‖f(x)‖²` from `x0` inside `bounds`; `None` if `f` fails at `x0`, the first
 /// Jacobian cannot be evaluated, or the settings or bounds are invalid.
-pub fn minimise<F>(f: &F, x0: &[f64], bounds: &[(f64, f64)], s: &LmSettings) -> Option<LmOutcome>
+pub fn minimise<F>(
+    f: &F,
+    x0: &[f64],
+    bounds: &[(f64, f64)],
+    s: &LevenbergMarquardtSettings,
+) -> Option<LmOutcome>
 where
     F: Fn(&[f64]) -> Option<Vec<f64>> + Sync,
 {

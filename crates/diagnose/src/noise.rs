@@ -24,7 +24,7 @@ use serde::Serialize;
 /// Where the noise model came from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
-pub enum NoiseSource {
+pub enum NoiseModelSource {
     /// Fitted on the unloaded run (offset, transients and random part).
     Unloaded,
     /// Estimated from the baseline residual of the trial itself (no unloaded run): the
@@ -34,9 +34,9 @@ pub enum NoiseSource {
 
 /// The noise model of the torque residual.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub struct NoiseModel {
+pub struct TrialNoiseModel {
     /// Where it was estimated.
-    pub source: NoiseSource,
+    pub source: NoiseModelSource,
     /// Dynamometer offset `c` (N·m; 0 without an unloaded run).
     pub offset_nm: f64,
     /// Event transient.
@@ -56,7 +56,7 @@ pub struct NoiseModel {
     pub level_dof: f64,
 }
 
-impl NoiseModel {
+impl TrialNoiseModel {
     /// Systematic part at times `t` (s from the first sample) given the event times.
     pub fn systematic(&self, times: &[f64], events: &[f64]) -> Vec<f64> {
         let mut out = vec![self.offset_nm; times.len()];
@@ -65,14 +65,14 @@ impl NoiseModel {
     }
 
     /// The noise model of a dynamometer correction fitted on a recording of `n` samples
-    /// (which sets [`NoiseModel::level_dof`]).
-    pub fn from_correction(c: &DynamometerCorrection, source: NoiseSource, n: usize) -> Self {
+    /// (which sets [`TrialNoiseModel::level_dof`]).
+    pub fn from_correction(c: &DynamometerCorrection, source: NoiseModelSource, n: usize) -> Self {
         let r = c.random;
         let level_dof = match Ar1White::new(r.phi, r.sigma_ar, r.sigma_white.max(1e-5)) {
             Ok(m) => level_dof(&m, n, LEVEL_DOF_REPLICATES, LEVEL_DOF_SEED),
             Err(_) => f64::INFINITY,
         };
-        NoiseModel {
+        TrialNoiseModel {
             source,
             offset_nm: c.offset_nm,
             transient: c.transient,
@@ -127,7 +127,7 @@ pub fn low_frequency_level(m: &Ar1White) -> f64 {
     m.sigma_ar.powi(2) * (1.0 + m.phi) / (1.0 - m.phi) + m.sigma_white.powi(2)
 }
 
-/// Records simulated by [`NoiseModel::from_correction`] to find [`NoiseModel::level_dof`].
+/// Records simulated by [`TrialNoiseModel::from_correction`] to find [`TrialNoiseModel::level_dof`].
 pub const LEVEL_DOF_REPLICATES: usize = 128;
 
 /// Seed of those records (fixed: the same recording gives the same diagnosis).
@@ -195,25 +195,35 @@ mod tests {
     use crate::power::true_noise;
     use experiment::DynamometerSettings;
 
-    /// The SPEC noise at 2048 Hz.
-    fn spec() -> Ar1White {
-        true_noise(&DynamometerSettings::default(), 2048.0).expect("valid SPEC noise")
+    /// The default dynamometer noise at 2048 Hz.
+    fn default_noise() -> Ar1White {
+        true_noise(&DynamometerSettings::default(), 2048.0).expect("valid default noise")
     }
 
     #[test]
     fn level_dof_of_an_unloaded_run_matches_the_scatter_of_full_noise_fits() {
         // `noise_scatter -- 200 1` (full fits of 200 simulated 8 s unloaded runs, systematic
         // part included) measured a 17.2 % SD of the level, i.e. ν = 2/0.172² ≈ 68
-        let nu = level_dof(&spec(), 8 * 2048, LEVEL_DOF_REPLICATES, LEVEL_DOF_SEED);
+        let nu = level_dof(
+            &default_noise(),
+            8 * 2048,
+            LEVEL_DOF_REPLICATES,
+            LEVEL_DOF_SEED,
+        );
         assert!((30.0..90.0).contains(&nu), "ν = {nu}");
         // a record four times longer pins the level about four times better
-        let nu4 = level_dof(&spec(), 32 * 2048, LEVEL_DOF_REPLICATES, LEVEL_DOF_SEED);
+        let nu4 = level_dof(
+            &default_noise(),
+            32 * 2048,
+            LEVEL_DOF_REPLICATES,
+            LEVEL_DOF_SEED,
+        );
         assert!((2.5..6.0).contains(&(nu4 / nu)), "ν = {nu} → {nu4}");
     }
 
     #[test]
     fn level_dof_is_reproducible_and_independent_of_the_threads() {
-        let m = spec();
+        let m = default_noise();
         let a = level_dof(&m, 4096, 32, 7);
         let one = rayon::ThreadPoolBuilder::new()
             .num_threads(1)
@@ -229,9 +239,9 @@ mod tests {
     fn unloaded_fit_reports_finite_level_dof() {
         use rand::SeedableRng;
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-        let y = simulate(&spec(), 8 * 2048, &mut rng);
+        let y = simulate(&default_noise(), 8 * 2048, &mut rng);
         let c = DynamometerCorrection::fit(&y, 2048.0, &[], true).expect("a valid record");
-        let fit = NoiseModel::from_correction(&c, NoiseSource::Unloaded, y.len());
+        let fit = TrialNoiseModel::from_correction(&c, NoiseModelSource::Unloaded, y.len());
         assert!(fit.level_dof.is_finite() && fit.level_dof > 10.0, "{fit:?}");
     }
 }

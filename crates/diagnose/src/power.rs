@@ -48,10 +48,12 @@
 use experiment::{DynamometerSettings, Trial};
 use muscle_model::{Ar1White, EffectKind};
 
+use crate::baseline::nominal_muscles;
+use crate::context::prepare;
 use crate::fit::{latin_hypercube, Context};
-use crate::lm::LmSettings;
-use crate::noise::{NoiseModel, NoiseSource, Transient};
-use crate::{check_settings, prepare, DiagnoseError, DiagnoseSettings};
+use crate::noise::{NoiseModelSource, Transient, TrialNoiseModel};
+use crate::{DiagnoseError, DiagnoseSettings};
+use numerics::LevenbergMarquardtSettings;
 
 /// The null model's misfit to a noise-free trial.
 #[derive(Clone, Debug, PartialEq)]
@@ -84,7 +86,7 @@ pub fn noncentrality(
     noise: &Ar1White,
     settings: &DiagnoseSettings,
 ) -> Result<Information, DiagnoseError> {
-    check_settings(settings)?;
+    settings.validate()?;
     let (inputs, seg) = prepare(trial, settings)?;
     let n = inputs.len();
     if clean_torque.len() != n || clean_torque.iter().any(|v| !v.is_finite()) {
@@ -96,8 +98,8 @@ pub fn noncentrality(
             ),
         });
     }
-    let model = NoiseModel {
-        source: NoiseSource::Unloaded,
+    let model = TrialNoiseModel {
+        source: NoiseModelSource::Unloaded,
         offset_nm: 0.0,
         transient: Transient::none(),
         phi: noise.phi,
@@ -109,7 +111,7 @@ pub fn noncentrality(
     let plan = model.plan(n, None);
     // to convergence: with the diagnosis's stopping rule (30 iterations, relative decrease
     // 10⁻⁷) a fit to a noise-free trial without effect stops at λ ≈ 0.5, not ≈ 0
-    let lm = LmSettings {
+    let lm = LevenbergMarquardtSettings {
         max_iterations: settings.lm.max_iterations.max(300),
         ftol_rel: settings.lm.ftol_rel.min(1e-12),
         ..settings.lm
@@ -126,7 +128,7 @@ pub fn noncentrality(
         extended_extra_starts: settings.extended_extra_starts,
         start_seed: settings.start_seed,
     };
-    let mut x0 = crate::nominal_muscles().to_vec();
+    let mut x0 = nominal_muscles().to_vec();
     for k in null {
         x0.extend(&k.null_values()[..k.params().len()]);
     }
@@ -146,7 +148,7 @@ pub fn noncentrality(
     })
 }
 
-/// The random part of the SPEC §4 dynamometer error at `fs` Hz, as [`noncentrality`] wants
+/// The random part of the simulated dynamometer error (docs/dynamometer.md) at `fs` Hz, as [`noncentrality`] wants
 /// it: AR(1) with `φ = exp(−1/(fs·τc))` and SD `σ_ar`, plus white noise whose variance
 /// includes the ADC's quantisation, `σ_w² + step²/12`.
 ///

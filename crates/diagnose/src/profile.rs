@@ -13,7 +13,7 @@
 //! not linear the profile follows the curved valley along which the other parameters
 //! compensate, which the Laplace approximation at `x̂` does not see. On a relaxed+2 trial with
 //! a 9.3 N·m antagonist torque (`diag_one 20240609 '{"antagonist_coactivation":{"gain_nm":9.32}}'
-//! --ta`) the Laplace standard error of sol α0 was 0.16°, its MCMC posterior SD 1.74°
+//! --ta`) the Laplace standard error of sol α0 is 0.16°, its MCMC posterior SD 1.74°
 //! (identify-mcmc example `ta_posterior`) and the profile half-width 1.82° (docs/diagnosis.md).
 //!
 //! Each side is searched on `√d`, which is close to linear in `θ`: the first refit is one
@@ -21,9 +21,11 @@
 //! bracketed, then interpolate linearly in `√d` inside the bracket. Every refit starts from
 //! the last refit inside the interval (the fit itself first).
 
-use crate::lm::{minimise, LmSettings};
+use crate::lm::minimise;
+use numerics::LevenbergMarquardtSettings;
 
-/// Settings of [`profile_interval`].
+/// Settings of the profile-likelihood intervals of the final model's parameters
+/// (docs/diagnosis.md).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ProfileSettings {
     /// Level `Δ` of `d(θ)` that ends the interval (1: 68.3 %).
@@ -91,7 +93,7 @@ pub fn profile_interval<F>(
     bounds: &[(f64, f64)],
     s2: f64,
     step0: f64,
-    lm: &LmSettings,
+    lm: &LevenbergMarquardtSettings,
     settings: &ProfileSettings,
 ) -> Option<ProfileInterval>
 where
@@ -137,7 +139,7 @@ struct Search<'a, F> {
     bounds: &'a [(f64, f64)],
     s2: f64,
     step0: f64,
-    lm: &'a LmSettings,
+    lm: &'a LevenbergMarquardtSettings,
     settings: &'a ProfileSettings,
 }
 
@@ -281,7 +283,7 @@ mod tests {
         // covariance (JᵀJ)⁻¹ with s² = 1
         let se = [(stt / det).sqrt(), (n / det).sqrt()];
         let bounds = [(-10.0, 10.0), (-10.0, 10.0)];
-        let lm = LmSettings::default();
+        let lm = LevenbergMarquardtSettings::default();
         for (level, z) in [(1.0, 1.0), (3.84, 3.84f64.sqrt())] {
             let ps = ProfileSettings {
                 level,
@@ -310,7 +312,7 @@ mod tests {
     /// empty side.
     #[test]
     fn bounds_cut_the_interval() {
-        let lm = LmSettings::default();
+        let lm = LevenbergMarquardtSettings::default();
         let ps = ProfileSettings {
             tol: 0.01,
             ..Default::default()
@@ -344,7 +346,7 @@ mod tests {
     #[test]
     fn rejects_bad_arguments() {
         let f = |x: &[f64]| -> Option<Vec<f64>> { Some(vec![x[0]]) };
-        let lm = LmSettings::default();
+        let lm = LevenbergMarquardtSettings::default();
         let ps = ProfileSettings::default();
         let b = [(-1.0, 1.0)];
         assert!(profile_interval(&f, &[0.0], 0.0, 1, &b, 1.0, 0.1, &lm, &ps).is_none());

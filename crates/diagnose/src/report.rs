@@ -1,4 +1,4 @@
-//! The diagnosis result: the SPEC §7 `diagnosis.json` shape (plus documented extra fields) and the terminal summary.
+//! The diagnosis result: the `diagnosis.json` shape (docs/formats.md) and the terminal summary.
 
 use std::collections::BTreeMap;
 
@@ -6,7 +6,7 @@ use muscle_model::EffectKind;
 use serde::Serialize;
 
 use crate::analysis::ResidualAnalysis;
-use crate::noise::NoiseModel;
+use crate::noise::TrialNoiseModel;
 
 /// `adequate` (no cause named) or `deficient`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -54,7 +54,7 @@ pub struct ModelReport {
 }
 
 /// The 68 % profile-likelihood interval of one parameter: the values at which the best fit
-/// with the parameter held there is worse by `Δ(−2 log L) = s²` (module [`crate::profile`]).
+/// with the parameter held there is worse by `Δ(−2 log L) = s²` (docs/diagnosis.md).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct ParamInterval {
     /// Lower end.
@@ -189,7 +189,7 @@ pub struct NearTie {
     pub heldout_rms_nm: f64,
 }
 
-/// The diagnosis of one trial (serialises to SPEC §7 `diagnosis.json`).
+/// The diagnosis of one trial (serialises to `diagnosis.json`, docs/formats.md).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Diagnosis {
     /// `adequate` or `deficient`.
@@ -212,7 +212,7 @@ pub struct Diagnosis {
     /// (e.g. an offset and a gravity term over a 35° range of motion).
     pub near_ties: Vec<NearTie>,
     /// Noise model used.
-    pub noise: NoiseModel,
+    pub noise: TrialNoiseModel,
     /// How the held-out errors were cross-validated, e.g. `3 cycles held out in turn` or
     /// `5 folds of 0.5 s blocks`.
     pub cv_folds: String,
@@ -293,8 +293,8 @@ impl Diagnosis {
         l.push(format!(
             "noise        {} (offset {:+.2} N·m, transient {:.1} N·m @ {:.1} Hz, AR(1) φ {:.3} sd {:.2}, white sd {:.2})",
             match self.noise.source {
-                crate::noise::NoiseSource::Unloaded => "from the unloaded run",
-                crate::noise::NoiseSource::TrialResidual => "from the trial residual (no unloaded run)",
+                crate::noise::NoiseModelSource::Unloaded => "from the unloaded run",
+                crate::noise::NoiseModelSource::TrialResidual => "from the trial residual (no unloaded run)",
             },
             self.noise.offset_nm,
             self.noise.transient.b_nm.hypot(self.noise.transient.c_nm),

@@ -12,8 +12,10 @@
 //! | `viscous_damping` | `|b|` ∈ [2, 8] N·m·s/rad, random sign | `b_nm_s_per_rad` |
 //! | `inertia` | `I` ∈ [0.05, 0.3] kg·m² | `i_kg_m2` |
 //!
-//! True muscle parameters are drawn uniformly in the SPEC §8 bounds
-//! ([`experiment::random_params`]); protocol `relaxed+2`, SPEC §4 noise, unloaded run supplied.
+//! True muscle parameters are drawn uniformly in the identification bounds
+//! (docs/model.md)
+//! ([`experiment::random_params`]); protocol `relaxed+2`, the default dynamometer noise
+//! (docs/dynamometer.md), unloaded run supplied.
 //! Gravity is drawn where it is identifiable on this protocol: with `φ` near ±90° the term is
 //! `m·cos q`, which over the 35° range differs from a constant by less than 6 % (a
 //! `torque_offset` in disguise); with `m > 0` and small `φ`, `m·sin q` rises with dorsiflexion

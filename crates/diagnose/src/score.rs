@@ -288,7 +288,7 @@ pub(crate) fn lambda_95(k: usize, n_obs: usize, max_delta_bic: f64) -> f64 {
 /// 1. linearised at `fit`: `λ(θ) ≈ θ²‖P⊥s‖²`, `s` the whitened sensitivity of the score
 ///    test, gives `θ₁ = √(λ₉₅/‖P⊥s‖²)`. This is optimistic: the muscle parameters absorb
 ///    more than their first-order directions (on the antagonist limit trials `5900…5907`,
-///    `θ₁` was 0.57–0.71× the limit implied by `power::noncentrality`);
+///    `θ₁` is 0.57–0.71× the limit implied by `power::noncentrality`);
 /// 2. the fit's model is refitted from `fit.x` to the noise-free torque with the effect at
 ///    `θ₁` (Levenberg–Marquardt, up to 60 iterations), and with `λ ∝ θ²` the limit is
 ///    `θ₁·√(λ₉₅/λ(θ₁))`.
@@ -362,7 +362,7 @@ fn absorbed(ctx: &Context, fit: &Fit, kind: EffectKind, values: [f64; 2]) -> Opt
         seg: ctx.seg.clone(),
         plan: ctx.plan.clone(),
         folds: Vec::new(),
-        lm: crate::lm::LmSettings {
+        lm: numerics::LevenbergMarquardtSettings {
             max_iterations: 60,
             ftol_rel: 1e-10,
             ..ctx.lm

@@ -1,6 +1,6 @@
 //! Component tests: segmentation, the dynamometer noise model and its whitening, the LM solver.
 
-use diagnose::noise::{NoiseModel, NoiseSource, Transient};
+use diagnose::noise::{NoiseModelSource, Transient, TrialNoiseModel};
 use diagnose::{lm, CvFolds, PhaseLabel, Segmentation};
 use experiment::{
     unloaded_run, DynamometerCorrection, DynamometerSettings, Protocol, ProtocolTrace, Unloaded,
@@ -39,9 +39,9 @@ fn segments_relaxed_plus_two() {
 }
 
 /// The noise model of an unloaded run, as a diagnosis makes it.
-fn unloaded_model(u: &Unloaded) -> NoiseModel {
+fn unloaded_model(u: &Unloaded) -> TrialNoiseModel {
     let c = DynamometerCorrection::from_unloaded(u).unwrap();
-    NoiseModel::from_correction(&c, NoiseSource::Unloaded, u.len())
+    TrialNoiseModel::from_correction(&c, NoiseModelSource::Unloaded, u.len())
 }
 
 #[test]
@@ -105,7 +105,7 @@ fn auto_folds_are_cycles_from_three_cycles_on_and_blocks_below() {
 }
 
 /// Relative L2 error of a fitted event transient against the true one over 0.5 s.
-fn transient_error(m: &NoiseModel, s: &DynamometerSettings) -> f64 {
+fn transient_error(m: &TrialNoiseModel, s: &DynamometerSettings) -> f64 {
     m.transient.relative_error(&spec_transient(s), 0.5, 2048.0)
 }
 
@@ -141,9 +141,10 @@ fn transient_is_fitted_by_generalised_least_squares() {
 
 #[test]
 fn a_least_squares_start_in_the_wrong_basin_is_searched_again() {
-    // On these two SPEC unloaded runs (of confusion-study trials) the ordinary least-squares
-    // grid ended near 2.5 and 9.3 Hz, and the whitened refinement around it stayed there:
-    // the first lost its transient (relative template error 1.0), the second had 0.53.
+    // On these two unloaded runs with the default dynamometer settings (of confusion-study
+    // trials) the ordinary least-squares grid ends near 2.5 and 9.3 Hz, and a whitened
+    // refinement around it alone stays there: the first would lose its transient (relative
+    // template error 1.0), the second keep an error of 0.53.
     // The whitened search over the whole coarse grid finds the 12 Hz transient.
     let s = DynamometerSettings::default();
     for seed in [1_100_712, 500_711] {
@@ -160,9 +161,9 @@ fn a_least_squares_start_in_the_wrong_basin_is_searched_again() {
 
 #[test]
 fn a_recording_without_a_transient_gets_none() {
-    // Without the test of `experiment::TRANSIENT_MIN_EVIDENCE` the grid search fitted the AR(1)
+    // Without the test of `experiment::TRANSIENT_MIN_EVIDENCE` the grid search fits the AR(1)
     // wander of such a run (τ near 1 s, B and C up to 300 N·m and nearly cancelling), and
-    // that shape was subtracted after every event of the trial.
+    // that shape would be subtracted after every event of the trial.
     let s = DynamometerSettings {
         transient_amplitude_nm: 0.0,
         ..Default::default()
@@ -176,7 +177,7 @@ fn a_recording_without_a_transient_gets_none() {
             "seed {seed}: {m:?}"
         );
     }
-    // the SPEC transient is kept, from the same noise
+    // the default transient is kept, from the same noise
     let s = DynamometerSettings::default();
     for seed in 5000..5004 {
         let u = unloaded_run(&s, seed).unwrap();
@@ -206,7 +207,7 @@ fn levenberg_marquardt_solves_a_bounded_curve_fit() {
         &f,
         &[1.0, 1.0],
         &[(0.0, 5.0), (0.0, 5.0)],
-        &lm::LmSettings::default(),
+        &numerics::LevenbergMarquardtSettings::default(),
     )
     .unwrap();
     assert!(
@@ -218,7 +219,7 @@ fn levenberg_marquardt_solves_a_bounded_curve_fit() {
         &f,
         &[1.0, 1.0],
         &[(0.0, 5.0), (0.0, 2.5)],
-        &lm::LmSettings::default(),
+        &numerics::LevenbergMarquardtSettings::default(),
     )
     .unwrap();
     assert!((bounded.x[1] - 2.5).abs() < 1e-12, "{:?}", bounded.x);

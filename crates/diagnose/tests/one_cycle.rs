@@ -27,7 +27,7 @@ fn one_cycle_trials_cross_validate_in_blocks() {
         assert_eq!(d.verdict, Verdict::Adequate, "seed {seed}:\n{summary}");
         assert_eq!(d.cv_folds, "5 folds of 0.5 s blocks");
         assert_eq!(d.to_json_value()["cv_folds"], "5 folds of 0.5 s blocks");
-        // held out by cycle it was 2.0–2.5 N·m on seeds 1–3 (5.3 on the bundled seed trial)
+        // held out by cycle it is 2.0–2.5 N·m on seeds 1–3 (5.3 on the bundled seed trial)
         // against 1.1–1.2 N·m in sample
         assert!(
             d.baseline.heldout_rms_nm < 1.25 * d.baseline.rms_nm,

@@ -70,7 +70,7 @@ pub fn run(args: DiagnoseArgs) -> CmdResult {
     settings.input_options.emg_is_envelope = args.emg_is_envelope;
     let show = args.report.show();
     let progress = ProgressDisplay::new(show, 0, "diag");
-    let mut observer = |p: &diagnose::Progress| {
+    let mut observer = |p: &diagnose::DiagnosisProgress| {
         progress.message(format!("{} ({} simulations)", p.message, p.evaluations));
         std::ops::ControlFlow::Continue(())
     };

@@ -1,0 +1,155 @@
+//! The trial prepared for fitting: model inputs, segmentation of the motion, and the noise
+//! model whose systematic part is subtracted from the measured torque and whose random part
+//! whitens the residual (docs/diagnosis.md, docs/dynamometer.md).
+
+use experiment::{model_inputs, Trial, Unloaded};
+use muscle_model::{Muscle, TrialInputs};
+use numerics::LevenbergMarquardtSettings;
+
+use crate::baseline::nominal_muscles;
+use crate::fit::Context;
+use crate::noise::{NoiseModelSource, Transient, TrialNoiseModel, WhitenPlan};
+use crate::segment::Segmentation;
+use crate::{DiagnoseError, DiagnoseSettings};
+
+/// The model inputs of `trial` and the segmentation of its motion (the mean envelope marks
+/// the relaxed cycle).
+pub(crate) fn prepare(
+    trial: &Trial,
+    settings: &DiagnoseSettings,
+) -> Result<(TrialInputs, Segmentation), DiagnoseError> {
+    let inputs = model_inputs(trial, &settings.input_options)?;
+    let act: Vec<f64> = (0..inputs.len())
+        .map(|i| {
+            Muscle::ALL
+                .iter()
+                .map(|m| inputs.envelope(*m)[i])
+                .sum::<f64>()
+                / 3.0
+        })
+        .collect();
+    let seg = Segmentation::new(inputs.angle(), inputs.fs(), Some(&act)).map_err(|reason| {
+        DiagnoseError::Segmentation {
+            recording: "trial",
+            reason,
+        }
+    })?;
+    Ok((inputs, seg))
+}
+
+/// The fitting context of the trial: the torque with the dynamometer's systematic part
+/// subtracted, the noise model that whitens it and the cross-validation folds, with the
+/// simulations spent.
+///
+/// With an unloaded run the noise model is that run's (docs/dynamometer.md); without one, a
+/// baseline fitted under white noise leaves a residual from which the model is fitted, its
+/// offset set to zero (a dynamometer offset cannot be told from the `torque_offset` effect).
+pub(crate) fn trial_context(
+    trial: &Trial,
+    unloaded: Option<&Unloaded>,
+    inputs: TrialInputs,
+    seg: Segmentation,
+    settings: &DiagnoseSettings,
+) -> Result<(Context, usize), DiagnoseError> {
+    let n = inputs.len();
+    let fs = inputs.fs();
+    let times: Vec<f64> = (0..n).map(|i| i as f64 / fs).collect();
+    let nominal = nominal_muscles();
+    let mut evaluations = 0;
+    let lm = settings.lm;
+    let cv_lm = LevenbergMarquardtSettings {
+        max_iterations: settings.cv_iterations,
+        ..settings.lm
+    };
+    let make_ctx = |y: Vec<f64>, noise: TrialNoiseModel| -> Context {
+        let plan = noise.plan(n, None);
+        let folds = settings
+            .cv_folds
+            .held_out_masks(n, fs, &seg.cycle)
+            .into_iter()
+            .map(|held| {
+                let train: Vec<bool> = held.iter().map(|h| !h).collect();
+                let p: WhitenPlan = noise.plan(n, Some(&train));
+                (held, p)
+            })
+            .collect();
+        Context {
+            inputs: inputs.clone(),
+            y,
+            noise,
+            seg: seg.clone(),
+            plan,
+            folds,
+            lm,
+            cv_lm,
+            extended_extra_starts: settings.extended_extra_starts,
+            start_seed: settings.start_seed,
+        }
+    };
+    let (noise, y) = match unloaded {
+        Some(u) => {
+            let fu = u.sample_rate_hz();
+            if (fu - fs).abs() > 1e-6 * fs || fu.is_nan() {
+                return Err(DiagnoseError::Unloaded {
+                    reason: format!("sampled at {fu} Hz but the trial at {fs} Hz"),
+                });
+            }
+            let correction = experiment::DynamometerCorrection::from_unloaded(u).map_err(|e| {
+                DiagnoseError::Unloaded {
+                    reason: e.to_string(),
+                }
+            })?;
+            let noise = TrialNoiseModel::from_correction(
+                &correction,
+                NoiseModelSource::Unloaded,
+                u.torque_nm.len(),
+            );
+            let sys = noise.systematic(&times, &seg.events);
+            let y: Vec<f64> = trial
+                .torque_nm
+                .iter()
+                .zip(&sys)
+                .map(|(a, b)| a - b)
+                .collect();
+            (noise, y)
+        }
+        None => {
+            // preliminary white-noise baseline, then the noise model from its residual
+            let pre_noise = TrialNoiseModel {
+                source: NoiseModelSource::TrialResidual,
+                offset_nm: 0.0,
+                transient: Transient::none(),
+                phi: 0.0,
+                sd_ar_nm: 0.0,
+                sd_white_nm: 1.0,
+                remainder_rms_nm: 0.0,
+                level_dof: f64::INFINITY,
+            };
+            let ctx0 = make_ctx(trial.torque_nm.clone(), pre_noise);
+            let f0 = ctx0.fit(&[], &nominal, false)?;
+            evaluations += f0.evaluations;
+            let res: Vec<f64> = trial
+                .torque_nm
+                .iter()
+                .zip(&f0.pred)
+                .map(|(a, b)| a - b)
+                .collect();
+            let correction = experiment::DynamometerCorrection::fit(&res, fs, &seg.events, false)?;
+            let mut noise = TrialNoiseModel::from_correction(
+                &correction,
+                NoiseModelSource::TrialResidual,
+                res.len(),
+            );
+            noise.offset_nm = 0.0;
+            let sys = noise.systematic(&times, &seg.events);
+            let y: Vec<f64> = trial
+                .torque_nm
+                .iter()
+                .zip(&sys)
+                .map(|(a, b)| a - b)
+                .collect();
+            (noise, y)
+        }
+    };
+    Ok((make_ctx(y, noise), evaluations))
+}

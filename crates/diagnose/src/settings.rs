@@ -1,0 +1,215 @@
+//! Settings of a diagnosis: the decision rule's thresholds and margins, the fits' budgets
+//! and the cross-validation folds (docs/diagnosis.md).
+
+use experiment::InputOptions;
+use muscle_model::EffectKind;
+use numerics::LevenbergMarquardtSettings;
+
+use crate::profile::ProfileSettings;
+use crate::DiagnoseError;
+
+/// Settings of a diagnosis. `Default` is the documented decision rule (docs/diagnosis.md).
+#[derive(Clone, Debug, PartialEq)]
+pub struct DiagnoseSettings {
+    /// Effects considered (those whose inputs exist: `antagonist_coactivation` needs `emg_ta`).
+    pub candidates: Vec<EffectKind>,
+    /// Most effects added.
+    pub max_effects: usize,
+    /// Candidates refitted per round (best evidence first).
+    pub refits_per_round: usize,
+    /// After the forward rounds, with two or more causes: try replacing each cause by another
+    /// effect (drop it, refit, one more forward round) and keep a replacement that lowers the
+    /// BIC by more than the ΔBIC margin without raising the held-out error.
+    pub exchange: bool,
+    /// When no single extension passes in a round, fit the two with the strongest in-sample
+    /// evidence jointly and accept both if the pair passes (effects that only generalise
+    /// together).
+    pub pairs: bool,
+    /// Minimum score statistic for a refit.
+    pub min_score_lm: f64,
+    /// An added effect must lower the held-out deviance ([`CandidateReport::heldout_dev_gain`](crate::CandidateReport::heldout_dev_gain),
+    /// χ² units) by at least this, without raising the held-out RMS.
+    pub min_heldout_dev_gain: f64,
+    /// Held-out margin of the tie rules (near ties, a simpler model named instead): two
+    /// models' held-out RMS differ by less than this share (%) …
+    pub min_heldout_gain_pct: f64,
+    /// … or less than this (N·m), whichever is larger.
+    pub min_heldout_gain_nm: f64,
+    /// ΔBIC must be below this.
+    pub max_delta_bic: f64,
+    /// Cosine above which an extension is confounded with the model's parameters.
+    pub confound_cos: f64,
+    /// Structure evidence (`−log10` of the structure tests' p-value) above which
+    /// `unexplained_structure` is set; 3 = false-alarm rate 10⁻³ per trial on a correct model.
+    pub structure_threshold: f64,
+    /// How the EMG columns become envelopes.
+    pub input_options: InputOptions,
+    /// Levenberg–Marquardt settings of the full fits.
+    pub lm: LevenbergMarquardtSettings,
+    /// Levenberg–Marquardt iterations of a cross-validation refit.
+    pub cv_iterations: usize,
+    /// How the samples are split into cross-validation folds.
+    pub cv_folds: CvFolds,
+    /// Starts of the baseline fit besides the nominal parameters: Latin-hypercube points in
+    /// the identification bounds (docs/model.md) (run in parallel; the lowest whitened cost wins). A single start can
+    /// stop in a local minimum (e.g. sol F0 at its bound), whose misfit then passes for a
+    /// catalogued effect or for unexplained structure.
+    pub baseline_extra_starts: usize,
+    /// Starts of every extended fit besides the current fit and the nominal muscle
+    /// parameters: Latin-hypercube points of the muscle parameters (the effect parameters
+    /// start where the score test puts them). Without them a candidate's refit could stay in
+    /// a worse local minimum than a competitor's and lose to an effect that is not there.
+    pub extended_extra_starts: usize,
+    /// Seed of the Latin-hypercube starts.
+    pub start_seed: u64,
+    /// Profile-likelihood intervals of the final model's parameters (docs/diagnosis.md).
+    pub profile: ProfileSettings,
+}
+
+/// Cross-validation folds of the held-out error.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CvFolds {
+    /// Every cycle (a concentric sweep and the eccentric sweep after it) is held out in turn;
+    /// the holds outside the cycles are never held out.
+    Cycles,
+    /// The trial is cut into consecutive blocks of `block_s` seconds; block `b` belongs to fold
+    /// `b mod folds`, so every fold holds out pieces of every phase.
+    Blocks {
+        /// Block length (s), much longer than the noise's correlation time (30 ms).
+        block_s: f64,
+        /// Number of folds (at least 2).
+        folds: usize,
+    },
+    /// [`CvFolds::Cycles`] when the trial has at least [`MIN_CV_CYCLES`] cycles, else
+    /// [`CvFolds::Blocks`] of 0.5 s in 5 folds. Holding out the only cycle of a one-cycle trial
+    /// (the `seed` protocol, the dissertation's) leaves nothing but holds to fit: the held-out
+    /// error then measures extrapolation from rest to a maximal contraction, not the model.
+    Auto,
+}
+
+/// Fewest cycles for cycle-wise cross-validation under [`CvFolds::Auto`].
+pub const MIN_CV_CYCLES: usize = 3;
+
+impl CvFolds {
+    /// [`CvFolds::Auto`] resolved for a trial with `cycles` cycles (others unchanged).
+    pub fn resolve(&self, cycles: usize) -> CvFolds {
+        match *self {
+            CvFolds::Auto if cycles >= MIN_CV_CYCLES => CvFolds::Cycles,
+            CvFolds::Auto => CvFolds::Blocks {
+                block_s: 0.5,
+                folds: 5,
+            },
+            other => other,
+        }
+    }
+
+    /// A short description, e.g. `3 cycles held out in turn`, `5 folds of 0.5 s blocks`.
+    pub fn describe(&self, cycles: usize) -> String {
+        match self.resolve(cycles) {
+            CvFolds::Blocks { block_s, folds } => format!("{folds} folds of {block_s} s blocks"),
+            _ if cycles == 1 => "the cycle held out".into(),
+            _ => format!("{cycles} cycles held out in turn"),
+        }
+    }
+
+    /// The held-out mask of every fold for `n` samples at `fs` Hz, given the cycle of each
+    /// sample (`None` outside the cycles).
+    pub fn held_out_masks(&self, n: usize, fs: f64, cycle: &[Option<usize>]) -> Vec<Vec<bool>> {
+        let cycles = cycle.iter().flatten().max().map_or(0, |m| m + 1);
+        match self.resolve(cycles) {
+            CvFolds::Auto | CvFolds::Cycles => (0..cycles)
+                .map(|k| cycle.iter().map(|c| *c == Some(k)).collect())
+                .collect(),
+            CvFolds::Blocks { block_s, folds } => {
+                let len = ((block_s * fs).round() as usize).max(1);
+                (0..folds)
+                    .map(|k| (0..n).map(|i| (i / len) % folds == k).collect())
+                    .collect()
+            }
+        }
+    }
+}
+
+impl Default for DiagnoseSettings {
+    fn default() -> Self {
+        DiagnoseSettings {
+            candidates: EffectKind::ALL.to_vec(),
+            max_effects: 3,
+            refits_per_round: 3,
+            exchange: true,
+            pairs: true,
+            min_score_lm: 6.0,
+            min_heldout_dev_gain: 0.0,
+            min_heldout_gain_pct: 2.0,
+            min_heldout_gain_nm: 0.02,
+            max_delta_bic: -10.0,
+            confound_cos: 0.98,
+            structure_threshold: 3.0,
+            input_options: InputOptions::default(),
+            lm: LevenbergMarquardtSettings::default(),
+            cv_iterations: 8,
+            cv_folds: CvFolds::Auto,
+            baseline_extra_starts: 5,
+            extended_extra_starts: 4,
+            start_seed: 0x5eed_d1a9,
+            profile: ProfileSettings::default(),
+        }
+    }
+}
+
+impl DiagnoseSettings {
+    /// Checks the settings the decision rule cannot use (a margin that is not finite, no
+    /// refits, folds that hold nothing out, Levenberg–Marquardt or profile settings that
+    /// cannot iterate) before any simulation.
+    ///
+    /// # Errors
+    /// [`DiagnoseError::Settings`] naming the first offending field.
+    pub fn validate(&self) -> Result<(), DiagnoseError> {
+        let bad = |name: &'static str, reason: &str| {
+            Err(DiagnoseError::Settings {
+                name,
+                reason: reason.into(),
+            })
+        };
+        if self.refits_per_round == 0 {
+            return bad("refits_per_round", "must be at least 1");
+        }
+        if !(self.min_heldout_gain_pct.is_finite() && self.min_heldout_gain_pct >= 0.0) {
+            return bad("min_heldout_gain_pct", "must be finite and ≥ 0");
+        }
+        if !(self.min_heldout_gain_nm.is_finite() && self.min_heldout_gain_nm >= 0.0) {
+            return bad("min_heldout_gain_nm", "must be finite and ≥ 0");
+        }
+        if !self.max_delta_bic.is_finite() {
+            return bad("max_delta_bic", "must be finite");
+        }
+        if !self.min_heldout_dev_gain.is_finite() {
+            return bad("min_heldout_dev_gain", "must be finite");
+        }
+        if !(self.confound_cos > 0.0 && self.confound_cos <= 1.0) {
+            return bad("confound_cos", "must be in (0, 1]");
+        }
+        if let CvFolds::Blocks { block_s, folds } = self.cv_folds {
+            if !(block_s.is_finite() && block_s > 0.0) || folds < 2 {
+                return bad(
+                    "cv_folds",
+                    "blocks need a finite block length > 0 and at least 2 folds",
+                );
+            }
+        }
+        let p = &self.profile;
+        if !(p.level.is_finite() && p.level > 0.0 && p.tol > 0.0 && p.ftol_rel >= 0.0)
+            || p.max_refits == 0
+            || p.lm_iterations == 0
+        {
+            return bad(
+                "profile",
+                "level and tol > 0, ftol_rel ≥ 0, max_refits and lm_iterations ≥ 1",
+            );
+        }
+        if self.lm.max_iterations == 0 || !(self.lm.fd_step > 0.0 && self.lm.fd_step < 0.5) {
+            return bad("lm", "max_iterations ≥ 1 and 0 < fd_step < 0.5");
+        }
+        Ok(())
+    }
+}
