@@ -86,7 +86,7 @@ pub(crate) fn trial_context(
             start_seed: settings.start_seed,
         }
     };
-    let (noise, y) = match unloaded {
+    let noise = match unloaded {
         Some(u) => {
             let fu = u.sample_rate_hz();
             if (fu - fs).abs() > 1e-6 * fs || fu.is_nan() {
@@ -99,19 +99,11 @@ pub(crate) fn trial_context(
                     reason: e.to_string(),
                 }
             })?;
-            let noise = TrialNoiseModel::from_correction(
+            TrialNoiseModel::from_correction(
                 &correction,
                 NoiseModelSource::Unloaded,
                 u.torque_nm.len(),
-            );
-            let sys = noise.systematic(&times, &seg.events);
-            let y: Vec<f64> = trial
-                .torque_nm
-                .iter()
-                .zip(&sys)
-                .map(|(a, b)| a - b)
-                .collect();
-            (noise, y)
+            )
         }
         None => {
             // preliminary white-noise baseline, then the noise model from its residual
@@ -128,12 +120,7 @@ pub(crate) fn trial_context(
             let ctx0 = make_ctx(trial.torque_nm.clone(), pre_noise);
             let f0 = ctx0.fit(&[], &nominal, false)?;
             evaluations += f0.evaluations;
-            let res: Vec<f64> = trial
-                .torque_nm
-                .iter()
-                .zip(&f0.pred)
-                .map(|(a, b)| a - b)
-                .collect();
+            let res = difference(&trial.torque_nm, &f0.pred);
             let correction = experiment::DynamometerCorrection::fit(&res, fs, &seg.events, false)?;
             let mut noise = TrialNoiseModel::from_correction(
                 &correction,
@@ -141,15 +128,15 @@ pub(crate) fn trial_context(
                 res.len(),
             );
             noise.offset_nm = 0.0;
-            let sys = noise.systematic(&times, &seg.events);
-            let y: Vec<f64> = trial
-                .torque_nm
-                .iter()
-                .zip(&sys)
-                .map(|(a, b)| a - b)
-                .collect();
-            (noise, y)
+            noise
         }
     };
+    // the systematic part at the trial's own events is what the fits never see
+    let y = difference(&trial.torque_nm, &noise.systematic(&times, &seg.events));
     Ok((make_ctx(y, noise), evaluations))
+}
+
+/// `a − b`, element by element.
+fn difference(a: &[f64], b: &[f64]) -> Vec<f64> {
+    a.iter().zip(b).map(|(x, y)| x - y).collect()
 }

@@ -185,9 +185,8 @@ pub fn simulate(m: &Ar1White, n: usize, rng: &mut impl rand::Rng) -> Vec<f64> {
         .collect()
 }
 
-/// Precomputed Kalman gains for one mask ([`muscle_model::WhitenPlan`]): whitening is then one
-/// pass per vector.
-pub type WhitenPlan = muscle_model::WhitenPlan;
+/// Precomputed Kalman gains for one mask: whitening is then one pass per vector.
+pub use muscle_model::WhitenPlan;
 
 #[cfg(test)]
 mod tests {
