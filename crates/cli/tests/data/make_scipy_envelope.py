@@ -1,7 +1,7 @@
 """Makes the scipy reference for the CLI envelope test (run once; outputs are committed).
 
 A raw EMG recording that is not one of the fixtures: 1000 Hz, 2.5 s, four channels
-(with emg_ta), different carriers and drives, and the SPEC §2 pipeline computed with
+(with emg_ta), different carriers and drives, and the envelope pipeline of docs/model.md computed with
 scipy (butter(..., output='sos') + sosfiltfilt defaults, rectify, 2 Hz low-pass,
 normalise by the channel maximum, clip to [0, 1]).
 
@@ -46,7 +46,7 @@ with open("external_trial.csv", "w") as f:
         f.write(",".join([repr(float(t[i])), repr(float(round(angle[i], 7))), repr(float(torque[i]))]
                          + [repr(float(raw[c][i])) for c in cols]) + "\n")
 with open("external_envelope_scipy.csv", "w") as f:
-    f.write(f"# scipy {scipy.__version__} SPEC §2 envelopes of external_trial.csv\n")
+    f.write(f"# scipy {scipy.__version__} envelopes (docs/model.md pipeline) of external_trial.csv\n")
     f.write("time_s," + ",".join(cols) + "\n")
     for i in range(n):
         f.write(",".join([repr(float(t[i]))] + [repr(float(env[c][i])) for c in cols]) + "\n")
