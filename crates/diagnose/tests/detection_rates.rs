@@ -47,7 +47,7 @@
 mod common;
 
 use diagnose::scenarios::{headline, hidden_trial};
-use diagnose::{no_observer, run, DiagnoseSettings, Verdict};
+use diagnose::Verdict;
 use muscle_model::EffectKind;
 
 /// Trials per scenario.
@@ -94,13 +94,7 @@ fn detection_rate(kind: Option<EffectKind>, slot: u64, claimed: f64) {
             kind == Some(EffectKind::AntagonistCoactivation) || (kind.is_none() && i % 2 == 1);
         let t = hidden_trial(&kinds, with_ta, seed)
             .unwrap_or_else(|e| panic!("seed {seed}: synthesis failed: {e}"));
-        let d = run(
-            &t.synthetic.trial,
-            Some(&t.synthetic.unloaded),
-            &DiagnoseSettings::default(),
-            &mut no_observer,
-        )
-        .unwrap_or_else(|e| panic!("seed {seed}: diagnosis failed: {e}"));
+        let d = common::diagnose_with_defaults(&t.synthetic.trial, &t.synthetic.unloaded, seed);
         let ok = match kind {
             None => {
                 d.verdict == Verdict::Adequate && d.causes.is_empty() && !d.unexplained_structure

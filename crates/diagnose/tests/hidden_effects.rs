@@ -19,7 +19,7 @@
 mod common;
 
 use diagnose::scenarios::{align_to_fit, headline, hidden_trial, HiddenTrial};
-use diagnose::{no_observer, run, DiagnoseSettings, Diagnosis, Verdict};
+use diagnose::{DiagnoseSettings, Diagnosis, Verdict};
 use muscle_model::EffectKind;
 
 /// The base seed of the fixed trials.
@@ -29,13 +29,7 @@ fn diagnose_hidden(kinds: &[EffectKind], with_ta: bool, offset: u64) -> (HiddenT
     let seed = common::base_seed(BASE) + offset;
     let t = hidden_trial(kinds, with_ta, seed)
         .unwrap_or_else(|e| panic!("seed {seed}: synthesis failed: {e}"));
-    let d = run(
-        &t.synthetic.trial,
-        Some(&t.synthetic.unloaded),
-        &DiagnoseSettings::default(),
-        &mut no_observer,
-    )
-    .unwrap_or_else(|e| panic!("seed {seed}: diagnosis failed: {e}"));
+    let d = common::diagnose_with_defaults(&t.synthetic.trial, &t.synthetic.unloaded, seed);
     check_report(&d, seed);
     (t, d)
 }

@@ -24,7 +24,7 @@ mod common;
 
 use diagnose::analysis::chi2_survival;
 use diagnose::scenarios::hidden_trial;
-use diagnose::{no_observer, run, DiagnoseSettings, Verdict};
+use diagnose::Verdict;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -45,13 +45,7 @@ fn slow_drift_is_flagged_as_unexplained_structure() {
     for (y, ti) in t.synthetic.trial.torque_nm.iter_mut().zip(&times) {
         *y += amp * (std::f64::consts::TAU * ti / period + phase).sin();
     }
-    let d = run(
-        &t.synthetic.trial,
-        Some(&t.synthetic.unloaded),
-        &DiagnoseSettings::default(),
-        &mut no_observer,
-    )
-    .unwrap_or_else(|e| panic!("seed {seed}: diagnosis failed: {e}"));
+    let d = common::diagnose_with_defaults(&t.synthetic.trial, &t.synthetic.unloaded, seed);
     let ra = &d.residual_analysis;
     // one line per run (`-- --nocapture`), for the pass-rate study of docs/diagnosis.md
     let line = format!(

@@ -4,6 +4,9 @@
 //! clock, a non-negative integer is the base seed itself. Each file has its own default base,
 //! so a plain `cargo test` is reproducible.
 
+use diagnose::{no_observer, run, DiagnoseSettings, Diagnosis};
+use experiment::{Trial, Unloaded};
+
 /// The base seed: `default` unless `SURAE_DIAG_SEEDS` is set.
 ///
 /// # Panics
@@ -28,4 +31,18 @@ pub fn base_seed(default: u64) -> u64 {
             panic!("SURAE_DIAG_SEEDS={s:?} is neither `fresh` nor a non-negative integer")
         }
     }
+}
+
+/// The diagnosis with default settings of a synthetic trial and its unloaded run.
+///
+/// # Panics
+/// When the diagnosis fails, naming the seed the trial was made from.
+pub fn diagnose_with_defaults(trial: &Trial, unloaded: &Unloaded, seed: u64) -> Diagnosis {
+    run(
+        trial,
+        Some(unloaded),
+        &DiagnoseSettings::default(),
+        &mut no_observer,
+    )
+    .unwrap_or_else(|e| panic!("seed {seed}: diagnosis failed: {e}"))
 }
