@@ -50,7 +50,22 @@ pub struct TrialInputs {
     acceleration: Vec<f64>,
     env: [Vec<f64>; 3],
     env_ta: Option<Vec<f64>>,
+    knee: Option<Vec<f64>>,
+    channels: Vec<(String, Vec<f64>)>,
+    geometry: Vec<(String, GeometrySeries)>,
     memo: Arc<TrialMemo>,
+}
+
+/// A muscle's musculotendon length and signed ankle moment arm at the trial's samples, from
+/// the user's own musculoskeletal model (OpenSim's MuscleAnalysis, CEINMS's `lmt.txt` and
+/// `<joint>Ma.txt`), used instead of the length polynomial. Between samples both are
+/// interpolated linearly in time.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GeometrySeries {
+    /// Musculotendon length (m).
+    pub lmt_m: Vec<f64>,
+    /// Ankle moment arm (m; > 0 plantarflexion).
+    pub moment_arm_m: Vec<f64>,
 }
 
 impl TrialInputs {
@@ -129,8 +144,88 @@ impl TrialInputs {
             acceleration,
             env,
             env_ta,
+            knee: None,
+            channels: Vec::new(),
+            geometry: Vec::new(),
             memo: Arc::default(),
         })
+    }
+
+    /// The same inputs with a knee flexion angle at every sample (rad; 0 extended, > 0
+    /// flexed). Without it the knee is extended.
+    pub fn with_knee_angle(mut self, knee_rad: Vec<f64>) -> Result<Self, ModelError> {
+        check_finite(&knee_rad, self.len(), "knee angle")?;
+        self.knee = Some(knee_rad);
+        Ok(self.renewed())
+    }
+
+    /// The same inputs with the normalised envelope of a further muscle `name` (a fixed muscle
+    /// of the model; `ta` is also the antagonist effect's channel). Values are clamped to
+    /// `[0, 1]`; a second envelope of the same name replaces the first.
+    pub fn with_envelope(mut self, name: &str, mut env: Vec<f64>) -> Result<Self, ModelError> {
+        check_env(&mut env, self.len(), &format!("envelope {name}"))?;
+        if name == "ta" {
+            self.env_ta = Some(env);
+        } else if let Some(slot) = self.channels.iter_mut().find(|(n, _)| n == name) {
+            slot.1 = env;
+        } else {
+            self.channels.push((name.to_string(), env));
+        }
+        Ok(self.renewed())
+    }
+
+    /// The same inputs with muscle `name`'s geometry given as series at the samples (for any
+    /// muscle, identified or fixed; its length polynomial and knee term are then unused).
+    pub fn with_geometry(mut self, name: &str, series: GeometrySeries) -> Result<Self, ModelError> {
+        let n = self.len();
+        check_finite(&series.lmt_m, n, &format!("musculotendon length of {name}"))?;
+        check_finite(&series.moment_arm_m, n, &format!("moment arm of {name}"))?;
+        if let Some(i) = series.lmt_m.iter().position(|&l| l <= 0.0) {
+            return Err(ModelError::input(
+                format!("musculotendon length of {name}"),
+                format!("{} m at sample {i} is not positive", series.lmt_m[i]),
+            ));
+        }
+        if let Some(slot) = self.geometry.iter_mut().find(|(m, _)| m == name) {
+            slot.1 = series;
+        } else {
+            self.geometry.push((name.to_string(), series));
+        }
+        Ok(self.renewed())
+    }
+
+    /// A new cache identity: what was derived from the earlier inputs no longer holds.
+    fn renewed(mut self) -> Self {
+        self.uid = NEXT_UID.fetch_add(1, Ordering::Relaxed);
+        self.memo = Arc::default();
+        self
+    }
+
+    /// Knee flexion at the samples (rad), if given.
+    pub fn knee_angle(&self) -> Option<&[f64]> {
+        self.knee.as_deref()
+    }
+
+    /// Normalised envelope of the muscle called `name` (`sol`, `gm`, `gl`, `ta` or a fixed
+    /// muscle), if the trial has it.
+    pub fn envelope_named(&self, name: &str) -> Option<&[f64]> {
+        match Muscle::from_name(name) {
+            Some(m) => Some(&self.env[m.index()]),
+            None if name == "ta" => self.env_ta.as_deref(),
+            None => self
+                .channels
+                .iter()
+                .find(|(n, _)| n == name)
+                .map(|(_, e)| e.as_slice()),
+        }
+    }
+
+    /// Muscle `name`'s geometry series, if the trial gives one.
+    pub fn geometry(&self, name: &str) -> Option<&GeometrySeries> {
+        self.geometry
+            .iter()
+            .find(|(m, _)| m == name)
+            .map(|(_, g)| g)
     }
 
     /// Identity of these inputs for caches (equal for clones, distinct for separately built
@@ -270,12 +365,32 @@ impl PartialEq for TrialInputs {
             && self.acceleration == o.acceleration
             && self.env == o.env
             && self.env_ta == o.env_ta
+            && self.knee == o.knee
+            && self.channels == o.channels
+            && self.geometry == o.geometry
     }
 }
 
 #[inline]
 fn lerp(v: &[f64], (i, s): (usize, f64)) -> f64 {
     v[i] + s * (v[i + 1] - v[i])
+}
+
+fn check_finite(v: &[f64], n: usize, what: &str) -> Result<(), ModelError> {
+    if v.len() != n {
+        return Err(ModelError::Length {
+            what: what.to_string(),
+            expected: n,
+            got: v.len(),
+        });
+    }
+    match v.iter().position(|x| !x.is_finite()) {
+        Some(i) => Err(ModelError::input(
+            what,
+            format!("non-finite value at sample {i}"),
+        )),
+        None => Ok(()),
+    }
 }
 
 fn check_env(e: &mut [f64], n: usize, what: &str) -> Result<(), ModelError> {

@@ -60,11 +60,13 @@ pub mod workspace;
 
 pub use effects::{EffectKind, Effects, ParamSpec};
 pub use error::ModelError;
-pub use inputs::TrialInputs;
+pub use inputs::{GeometrySeries, TrialInputs};
 pub use likelihood::{Ar1Gaussian, GaussianIid, NoiseLikelihood};
 pub use musculotendon::{MuscleUnit, STATE_DIM};
 pub use noise::{Ar1White, MomentFit, WhitenPlan};
-pub use params::{ActivationParams, CurveParams, ModelParams, Muscle, MuscleParams};
+pub use params::{
+    ActivationParams, CurveParams, FixedMuscle, FixedMuscles, ModelParams, Muscle, MuscleParams,
+};
 pub use problem::{MuscleField, ParamId, Problem, ProblemWorkspace};
 pub use sensitivity::{
     sensitivity, SensitivityRank, SensitivityRow, SensitivitySettings, SensitivityTable,

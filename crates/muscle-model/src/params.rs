@@ -62,6 +62,9 @@ pub struct MuscleParams {
     pub vmax_lom_per_s: f64,
     /// Musculotendon length polynomial `c0 + c1 q + c2 q² + c3 q³` (m, q in rad).
     pub lmt_poly_m: [f64; 4],
+    /// Knee moment arm `r_knee` (m): the musculotendon shortens by `r_knee·k` at knee flexion
+    /// `k` (rad). 0.020 m for the gastrocnemii, which cross the knee; 0 for the soleus.
+    pub knee_moment_arm_m: f64,
 }
 
 /// Activation dynamics and nonlinearity parameters.
@@ -151,7 +154,31 @@ impl MuscleParams {
             alpha_deg,
             vmax_lom_per_s: 10.0,
             lmt_poly_m,
+            knee_moment_arm_m: match m {
+                Muscle::Sol => 0.0,
+                Muscle::Gm | Muscle::Gl => KNEE_MOMENT_ARM_M,
+            },
         }
+    }
+
+    /// A muscle whose values must all be given (NaN until set; validation names the first
+    /// missing one). `vmax` defaults to 10 LOM/s and the knee moment arm to 0.
+    fn unset() -> Self {
+        MuscleParams {
+            fom_n: f64::NAN,
+            lom_m: f64::NAN,
+            lst_m: f64::NAN,
+            alpha_deg: f64::NAN,
+            vmax_lom_per_s: 10.0,
+            lmt_poly_m: [f64::NAN; 4],
+            knee_moment_arm_m: 0.0,
+        }
+    }
+
+    /// `true` when no length polynomial is given (every coefficient NaN): the muscle's
+    /// musculotendon length and moment arm must come with each trial as series.
+    pub fn geometry_from_trial(&self) -> bool {
+        self.lmt_poly_m.iter().all(|c| c.is_nan())
     }
 
     /// Musculotendon length `LMT(q)` (m).
@@ -166,15 +193,30 @@ impl MuscleParams {
         crate::geometry::moment_arm(&self.lmt_poly_m, q)
     }
 
-    fn validate(&self, m: Muscle) -> Result<(), ModelError> {
-        let key = |k: &str| format!("muscles.{}.{k}", m.name());
+    fn validate(&self, name: &str) -> Result<(), ModelError> {
+        let key = |k: &str| format!("muscles.{name}.{k}");
+        let r = self.knee_moment_arm_m;
+        if !(r.is_finite() && r.abs() <= 0.1) {
+            return Err(ModelError::invalid(
+                key("knee_moment_arm_m"),
+                format!("{r} m is outside [-0.1, 0.1] m"),
+            ));
+        }
         for (k, v) in [
             ("fom_n", self.fom_n),
             ("lom_m", self.lom_m),
             ("lst_m", self.lst_m),
+            ("alpha_deg", self.alpha_deg),
             ("vmax_lom_per_s", self.vmax_lom_per_s),
         ] {
-            if !(v.is_finite() && v > 0.0) {
+            if v.is_nan() {
+                return Err(ModelError::invalid(
+                    key(k),
+                    "is missing (a muscle other than sol, gm and gl needs fom_n, lom_m, lst_m \
+                     and alpha_deg)",
+                ));
+            }
+            if k != "alpha_deg" && !(v.is_finite() && v > 0.0) {
                 return Err(ModelError::invalid(
                     key(k),
                     format!("{v} must be positive and finite"),
@@ -187,6 +229,10 @@ impl MuscleParams {
                 key("alpha_deg"),
                 format!("{a} is outside [0, 60) degrees"),
             ));
+        }
+        if self.geometry_from_trial() {
+            // the musculotendon length and moment arm come with each trial
+            return Ok(());
         }
         for (i, c) in self.lmt_poly_m.iter().enumerate() {
             if !c.is_finite() {
@@ -234,6 +280,96 @@ impl MuscleParams {
     }
 }
 
+/// Knee moment arm of the gastrocnemii (m; gait2392's, rounded).
+pub const KNEE_MOMENT_ARM_M: f64 = 0.020;
+
+/// Largest number of fixed (not identified) muscles a model carries besides sol, gm and gl.
+pub const MAX_FIXED_MUSCLES: usize = 12;
+
+/// A muscle crossing the ankle whose parameters are fixed (not identified), driven by the EMG
+/// envelope of the same name (e.g. `ta`). A dorsiflexor has a negative moment arm.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FixedMuscle {
+    /// Name of the muscle and of its envelope channel (interned: the parameters stay `Copy`).
+    pub name: &'static str,
+    /// Its parameters.
+    pub params: MuscleParams,
+}
+
+/// The fixed muscles of a model, in the order given (at most [`MAX_FIXED_MUSCLES`]; kept
+/// inline so that [`ModelParams`] stays `Copy` and cheap to pass to every evaluation).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct FixedMuscles {
+    len: usize,
+    items: [Option<FixedMuscle>; MAX_FIXED_MUSCLES],
+}
+
+impl FixedMuscles {
+    /// Number of fixed muscles.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// `true` when the model is the triceps surae alone.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// The fixed muscles in order.
+    pub fn iter(&self) -> impl Iterator<Item = &FixedMuscle> + '_ {
+        self.items[..self.len].iter().flatten()
+    }
+
+    /// The fixed muscle called `name`.
+    pub fn get(&self, name: &str) -> Option<&FixedMuscle> {
+        self.iter().find(|f| f.name == name)
+    }
+
+    /// Adds muscle `name` or replaces its parameters.
+    pub fn insert(&mut self, name: &str, params: MuscleParams) -> Result<(), ModelError> {
+        if Muscle::from_name(name).is_some() {
+            return Err(ModelError::invalid(
+                format!("muscles.{name}"),
+                "is identified, not a fixed muscle",
+            ));
+        }
+        if let Some(slot) = self.items[..self.len]
+            .iter_mut()
+            .flatten()
+            .find(|f| f.name == name)
+        {
+            slot.params = params;
+            return Ok(());
+        }
+        if self.len == MAX_FIXED_MUSCLES {
+            return Err(ModelError::invalid(
+                format!("muscles.{name}"),
+                format!("at most {MAX_FIXED_MUSCLES} fixed muscles besides sol, gm and gl"),
+            ));
+        }
+        self.items[self.len] = Some(FixedMuscle {
+            name: intern(name),
+            params,
+        });
+        self.len += 1;
+        Ok(())
+    }
+}
+
+/// A `'static` copy of `name`, made once per distinct name (muscle names are few).
+fn intern(name: &str) -> &'static str {
+    use std::collections::BTreeSet;
+    use std::sync::Mutex;
+    static NAMES: Mutex<BTreeSet<&'static str>> = Mutex::new(BTreeSet::new());
+    let mut names = NAMES.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(s) = names.get(name) {
+        return s;
+    }
+    let s: &'static str = Box::leak(name.to_owned().into_boxed_str());
+    names.insert(s);
+    s
+}
+
 /// Largest accepted maximum isometric force (N).
 pub const MAX_FOM_N: f64 = 20_000.0;
 /// Largest accepted optimal fibre length or tendon slack length (m).
@@ -260,6 +396,8 @@ fn positive(key: &str, v: f64) -> Result<(), ModelError> {
 pub struct ModelParams {
     /// Per muscle, indexed by [`Muscle::index`] (`sol`, `gm`, `gl`).
     pub muscles: [MuscleParams; 3],
+    /// Further muscles crossing the ankle, with fixed parameters.
+    pub fixed: FixedMuscles,
     /// Activation parameters.
     pub activation: ActivationParams,
     /// Curve parameters.
@@ -272,14 +410,49 @@ impl Default for ModelParams {
     }
 }
 
-const MUSCLE_KEYS: [&str; 6] = [
+const MUSCLE_KEYS: [&str; 7] = [
     "fom_n",
     "lom_m",
     "lst_m",
     "alpha_deg",
     "vmax_lom_per_s",
     "lmt_poly_m",
+    "knee_moment_arm_m",
 ];
+
+fn merge_muscle(
+    mp: &mut MuscleParams,
+    fields: &Map<String, Value>,
+    prefix: &str,
+) -> Result<(), ModelError> {
+    for (fk, fv) in fields {
+        let key = format!("{prefix}.{fk}");
+        match fk.as_str() {
+            "fom_n" => mp.fom_n = number(fv, &key)?,
+            "lom_m" => mp.lom_m = number(fv, &key)?,
+            "lst_m" => mp.lst_m = number(fv, &key)?,
+            "alpha_deg" => mp.alpha_deg = number(fv, &key)?,
+            "vmax_lom_per_s" => mp.vmax_lom_per_s = number(fv, &key)?,
+            "knee_moment_arm_m" => mp.knee_moment_arm_m = number(fv, &key)?,
+            "lmt_poly_m" => {
+                let arr = fv
+                    .as_array()
+                    .ok_or_else(|| ModelError::invalid(&key, "expected an array of 4 numbers"))?;
+                if arr.len() != 4 {
+                    return Err(ModelError::invalid(
+                        &key,
+                        format!("expected 4 coefficients, got {}", arr.len()),
+                    ));
+                }
+                for (i, c) in arr.iter().enumerate() {
+                    mp.lmt_poly_m[i] = number(c, &format!("{key}[{i}]"))?;
+                }
+            }
+            _ => return Err(unknown(&key, &MUSCLE_KEYS)),
+        }
+    }
+    Ok(())
+}
 const ACTIVATION_KEYS: [&str; 3] = ["tau_act_s", "tau_deact_s", "shape_a"];
 const CURVE_KEYS: [&str; 7] = ["af", "flen", "gamma", "kpe", "e0m", "e0t", "damping"];
 
@@ -288,6 +461,7 @@ impl ModelParams {
     pub fn nominal() -> Self {
         ModelParams {
             muscles: Muscle::ALL.map(MuscleParams::nominal),
+            fixed: FixedMuscles::default(),
             activation: ActivationParams::default(),
             curves: CurveParams::default(),
         }
@@ -328,36 +502,19 @@ impl ModelParams {
                 "muscles" => {
                     let ms = as_object(val, "muscles")?;
                     for (mk, mv) in ms {
-                        let m = Muscle::from_name(mk).ok_or_else(|| ModelError::UnknownKey {
-                            key: format!("muscles.{mk}"),
-                            expected: "sol, gm, gl".into(),
-                        })?;
                         let prefix = format!("muscles.{mk}");
                         let fields = as_object(mv, &prefix)?;
-                        let mp = &mut out.muscles[m.index()];
-                        for (fk, fv) in fields {
-                            let key = format!("{prefix}.{fk}");
-                            match fk.as_str() {
-                                "fom_n" => mp.fom_n = number(fv, &key)?,
-                                "lom_m" => mp.lom_m = number(fv, &key)?,
-                                "lst_m" => mp.lst_m = number(fv, &key)?,
-                                "alpha_deg" => mp.alpha_deg = number(fv, &key)?,
-                                "vmax_lom_per_s" => mp.vmax_lom_per_s = number(fv, &key)?,
-                                "lmt_poly_m" => {
-                                    let arr = fv.as_array().ok_or_else(|| {
-                                        ModelError::invalid(&key, "expected an array of 4 numbers")
-                                    })?;
-                                    if arr.len() != 4 {
-                                        return Err(ModelError::invalid(
-                                            &key,
-                                            format!("expected 4 coefficients, got {}", arr.len()),
-                                        ));
-                                    }
-                                    for (i, c) in arr.iter().enumerate() {
-                                        mp.lmt_poly_m[i] = number(c, &format!("{key}[{i}]"))?;
-                                    }
-                                }
-                                _ => return Err(unknown(&key, &MUSCLE_KEYS)),
+                        match Muscle::from_name(mk) {
+                            Some(m) => merge_muscle(&mut out.muscles[m.index()], fields, &prefix)?,
+                            None => {
+                                // a further muscle: merged over its earlier values, else every
+                                // value but vmax and the knee moment arm must be given
+                                let mut mp = match out.fixed.get(mk) {
+                                    Some(f) => f.params,
+                                    None => MuscleParams::unset(),
+                                };
+                                merge_muscle(&mut mp, fields, &prefix)?;
+                                out.fixed.insert(mk, mp)?;
                             }
                         }
                     }
@@ -405,7 +562,10 @@ impl ModelParams {
     /// damping `β` are positive; `α0 ∈ [0°, 60°)`; `A ∈ [0, 0.12]`; `Flen ∈ [1, 10]`.
     pub fn validate(&self) -> Result<(), ModelError> {
         for m in Muscle::ALL {
-            self.muscles[m.index()].validate(m)?;
+            self.muscles[m.index()].validate(m.name())?;
+        }
+        for f in self.fixed.iter() {
+            f.params.validate(f.name)?;
         }
         for (k, v) in [
             ("activation.tau_act_s", self.activation.tau_act_s),
@@ -465,11 +625,20 @@ impl ModelParams {
 
 impl Serialize for ModelParams {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        #[derive(Serialize)]
-        struct Muscles<'a> {
-            sol: &'a MuscleParams,
-            gm: &'a MuscleParams,
-            gl: &'a MuscleParams,
+        use serde::ser::SerializeMap;
+        /// sol, gm, gl, then the fixed muscles in their order.
+        struct Muscles<'a>(&'a ModelParams);
+        impl Serialize for Muscles<'_> {
+            fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+                let mut map = s.serialize_map(Some(3 + self.0.fixed.len()))?;
+                for m in Muscle::ALL {
+                    map.serialize_entry(m.name(), &self.0.muscles[m.index()])?;
+                }
+                for f in self.0.fixed.iter() {
+                    map.serialize_entry(f.name, &f.params)?;
+                }
+                map.end()
+            }
         }
         #[derive(Serialize)]
         struct Out<'a> {
@@ -478,11 +647,7 @@ impl Serialize for ModelParams {
             curves: &'a CurveParams,
         }
         Out {
-            muscles: Muscles {
-                sol: &self.muscles[0],
-                gm: &self.muscles[1],
-                gl: &self.muscles[2],
-            },
+            muscles: Muscles(self),
             activation: &self.activation,
             curves: &self.curves,
         }

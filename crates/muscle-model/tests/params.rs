@@ -48,7 +48,11 @@ fn partial_document_merges_over_nominal() {
 fn errors_name_the_key() {
     let cases = [
         (r#"{"muscles": {"sol": {"lst": 0.25}}}"#, "muscles.sol.lst"),
-        (r#"{"muscles": {"ta": {"lst_m": 0.25}}}"#, "muscles.ta"),
+        // a muscle other than sol, gm, gl is a fixed muscle and must give all its values
+        (
+            r#"{"muscles": {"ta": {"lst_m": 0.25}}}"#,
+            "muscles.ta.fom_n",
+        ),
         (r#"{"muscle": {}}"#, "muscle"),
         (r#"{"curves": {"beta": 0.1}}"#, "curves.beta"),
         (r#"{"activation": {"tau": 0.1}}"#, "activation.tau"),
@@ -269,4 +273,32 @@ fn non_physiological_values_are_errors_naming_the_key() {
     )
     .unwrap();
     assert_eq!(p.muscle(muscle_model::Muscle::Sol).fom_n, 5000.0);
+}
+
+#[test]
+fn a_further_muscle_is_fixed_and_round_trips() {
+    let doc = r#"{"muscles": {"ta": {"fom_n": 905, "lom_m": 0.098, "lst_m": 0.223,
+        "alpha_deg": 5, "lmt_poly_m": [0.33, -0.04, 0, 0]}}}"#;
+    let p = ModelParams::from_json_str(doc).unwrap();
+    assert_eq!(p.fixed.len(), 1);
+    let ta = p.fixed.get("ta").unwrap();
+    assert_eq!(ta.params.fom_n, 905.0);
+    assert_eq!(ta.params.knee_moment_arm_m, 0.0);
+    assert_eq!(ta.params.vmax_lom_per_s, 10.0);
+    // the identified muscles keep their nominal values, the gastrocnemii cross the knee
+    assert_eq!(p.muscles, ModelParams::nominal().muscles);
+    assert_eq!(p.muscles[1].knee_moment_arm_m, 0.020);
+    let back = ModelParams::from_json_str(&serde_json::to_string(&p).unwrap()).unwrap();
+    assert_eq!(back, p);
+    // a fixed muscle without a polynomial takes its geometry from each trial
+    let series = ModelParams::from_json_str(
+        r#"{"muscles": {"perlong": {"fom_n": 943, "lom_m": 0.049, "lst_m": 0.345, "alpha_deg": 10}}}"#,
+    )
+    .unwrap();
+    assert!(series
+        .fixed
+        .get("perlong")
+        .unwrap()
+        .params
+        .geometry_from_trial());
 }
