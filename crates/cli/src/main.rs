@@ -6,15 +6,8 @@
 //! summary, and exits 0 on success, 2 on bad input (one line naming the file,
 //! line and column), 1 on an internal failure.
 
-mod bundled;
-mod commands;
-mod error;
-mod figures;
-mod output;
-mod progress;
-
 use clap::{Parser, Subcommand};
-use std::path::PathBuf;
+use cli::commands;
 
 /// Triceps-surae muscle parameters from an isokinetic dynamometer test with EMG.
 #[derive(Parser, Debug)]
@@ -72,7 +65,7 @@ fn main() {
     };
     match result {
         Ok(()) => {
-            for w in WARNINGS.lock().map(|w| w.clone()).unwrap_or_default() {
+            for w in cli::take_warnings() {
                 eprintln!("warning: {w}");
             }
         }
@@ -82,19 +75,4 @@ fn main() {
             std::process::exit(f.exit_code());
         }
     }
-}
-
-/// Warnings collected during a command, printed after it succeeds.
-static WARNINGS: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
-
-/// Records a warning for the end of a successful run.
-pub fn warn(msg: String) {
-    if let Ok(mut w) = WARNINGS.lock() {
-        w.push(msg);
-    }
-}
-
-/// Default output folder of a command.
-fn default_out(command: &str) -> PathBuf {
-    PathBuf::from("out").join(command)
 }
