@@ -55,6 +55,17 @@ pub enum NumericsError {
         /// Index of the first failing pivot.
         pivot: usize,
     },
+    /// Sample times that are empty, not finite or not strictly increasing, or a requested
+    /// time that is not finite ([`crate::interpolate`]).
+    #[error("{which}[{index}]: {reason}")]
+    BadTimes {
+        /// Which times (`sample times` or `requested times`).
+        which: &'static str,
+        /// Index of the first offending time.
+        index: usize,
+        /// What is wrong with it.
+        reason: &'static str,
+    },
 }
 
 impl NumericsError {

@@ -4,6 +4,7 @@
 //!   finite-difference Jacobian (the polish of the annealing fits, the diagnosis's fits);
 //! * [`mod@nelder_mead`]: a bounded Nelder–Mead with restarts, on any [`Objective`];
 //! * [`cholesky`]: the dense Cholesky factorisation and its triangular solves;
+//! * [`interpolate`]: linear resampling of a time series onto other times;
 //! * [`latin_hypercube`]: Latin-hypercube designs from a caller's random stream;
 //! * [`special`]: the normal distribution, the gamma function and the χ², F and incomplete
 //!   gamma / beta functions built on it.
@@ -26,6 +27,7 @@
 
 pub mod cholesky;
 mod error;
+pub mod interpolate;
 pub mod latin_hypercube;
 pub mod lm;
 pub mod nelder_mead;
