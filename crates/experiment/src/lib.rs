@@ -21,6 +21,8 @@
 //! * [`seeds`]: every random part is a `ChaCha8Rng` on its own stream of one seed.
 //! * [`mod@model_inputs`]: a trial → the model's inputs (angle in rad, envelopes of docs/model.md, section 1).
 //! * [`synth`]: a whole synthetic experiment (trial, unloaded run, truth) from one seed.
+//! * [`ceinms`]: a CEINMS trial folder and subject XML as the model's inputs and parameters
+//!   (docs/real-data.md).
 //!
 //! ```
 //! use experiment::{
@@ -44,6 +46,7 @@
 //! # Ok::<(), experiment::ExperimentError>(())
 //! ```
 
+pub mod ceinms;
 pub mod correction;
 pub mod dynamometer;
 pub mod emg;
@@ -56,6 +59,10 @@ pub mod seeds;
 pub mod synth;
 pub mod transient;
 
+pub use ceinms::{
+    ceinms_model_params, ceinms_model_trial, ceinms_trial_dirs, least_squares, moment_fit,
+    read_ceinms_trial, surae_muscle_name, CeinmsModelTrial, CeinmsSubjectParams, CEINMS_IDENTIFIED,
+};
 pub use correction::{
     fit_ar1_white, CorrectedTorque, DynamometerCorrection, DynamometerReport, TransientReport,
 };
