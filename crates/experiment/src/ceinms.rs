@@ -248,8 +248,8 @@ fn model_error(name: &str, e: muscle_model::ModelError) -> ExperimentError {
 /// # Errors
 /// [`ErrorKind::MissingColumn`] naming the file and column when `emg.txt` lacks `sol_r`,
 /// `gasmed_r`, `gaslat_r` or a fixed muscle's channel; [`ErrorKind::NonUniformTime`] for an
-/// EMG clock that is not uniform; [`ErrorKind::TooShort`] when the files share fewer than 2
-/// EMG samples; [`ErrorKind::OutOfRange`] for a length that is not positive.
+/// EMG clock that is not uniform; [`ErrorKind::TooShort`] when fewer than 2 EMG samples fall
+/// within the span of the torque file and the geometry; [`ErrorKind::OutOfRange`] for a length that is not positive.
 pub fn ceinms_model_trial(folder: &CeinmsTrialFolder) -> Result<CeinmsModelTrial> {
     let name = folder
         .dir
@@ -315,10 +315,23 @@ pub fn ceinms_model_trial(folder: &CeinmsTrialFolder) -> Result<CeinmsModelTrial
         folder.torque.time[0] - 0.5 / fs,
         folder.torque.time[folder.torque.len() - 1] + 0.5 / fs,
     );
-    let weights = grid
+    let weights: Vec<f64> = grid
         .iter()
         .map(|&t| if t >= ta && t <= tb { 1.0 } else { 0.0 })
         .collect();
+    let measured = weights.iter().filter(|&&w| w > 0.0).count();
+    if measured < 2 {
+        return Err(ExperimentError::File {
+            path: folder.dir.display().to_string(),
+            kind: ErrorKind::TooShort,
+            reason: format!(
+                "{measured} EMG samples fall within the torque file's {:.4}–{:.4} s: at least 2 \
+                 are needed",
+                folder.torque.time[0],
+                folder.torque.time[folder.torque.len() - 1]
+            ),
+        });
+    }
     Ok(CeinmsModelTrial {
         name,
         inputs,
