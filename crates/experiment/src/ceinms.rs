@@ -249,7 +249,8 @@ fn model_error(name: &str, e: muscle_model::ModelError) -> ExperimentError {
 /// [`ErrorKind::MissingColumn`] naming the file and column when `emg.txt` lacks `sol_r`,
 /// `gasmed_r`, `gaslat_r` or a fixed muscle's channel; [`ErrorKind::NonUniformTime`] for an
 /// EMG clock that is not uniform; [`ErrorKind::TooShort`] when fewer than 2 EMG samples fall
-/// within the span of the torque file and the geometry; [`ErrorKind::OutOfRange`] for a length that is not positive.
+/// within the span of the torque file and the geometry; [`ErrorKind::OutOfRange`] for a
+/// length that is not positive.
 pub fn ceinms_model_trial(folder: &CeinmsTrialFolder) -> Result<CeinmsModelTrial> {
     let name = folder
         .dir
