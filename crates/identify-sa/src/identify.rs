@@ -5,7 +5,9 @@ use std::collections::BTreeMap;
 use std::ops::ControlFlow;
 use std::time::Instant;
 
-use muscle_model::{ModelParams, ParamId, Problem, ProblemWorkspace};
+use muscle_model::{
+    ModelParams, ParamId, Problem, ProblemSet, ProblemSetWorkspace, ProblemWorkspace,
+};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -45,6 +47,37 @@ impl Objective for ProblemObjective<'_> {
     }
     fn cost(&mut self, x: &[f64]) -> Option<f64> {
         self.problem.sse_with(x, &mut self.ws).ok()
+    }
+}
+
+/// A [`ProblemSet`] seen as an [`Objective`]: the sum of its trials' weighted squared torque
+/// errors, [`ProblemSet::sse_with`]; a failed simulation is `None` (a rejected move).
+#[derive(Debug)]
+pub struct ProblemSetObjective<'a> {
+    set: &'a ProblemSet,
+    ws: ProblemSetWorkspace,
+}
+
+impl<'a> ProblemSetObjective<'a> {
+    /// Wrap a set (allocates one workspace per trial).
+    #[must_use]
+    pub fn new(set: &'a ProblemSet) -> Self {
+        Self {
+            set,
+            ws: ProblemSetWorkspace::new(set),
+        }
+    }
+}
+
+impl Objective for ProblemSetObjective<'_> {
+    fn dim(&self) -> usize {
+        self.set.dim()
+    }
+    fn bounds(&self) -> &[(f64, f64)] {
+        self.set.bounds()
+    }
+    fn cost(&mut self, x: &[f64]) -> Option<f64> {
+        self.set.sse_with(x, &mut self.ws).ok()
     }
 }
 
@@ -261,6 +294,10 @@ pub struct Identification {
     pub sse: f64,
     /// RMS torque error `sqrt(SSE/Σw)` at `x` against the problem's measured torque (N·m).
     pub rms_nm: f64,
+    /// Each trial's RMS torque error at `x` (N·m), in the set's order (one value for a single
+    /// trial).
+    #[serde(default)]
+    pub trial_rms_nm: Vec<f64>,
     /// Objective evaluations (simulations) over every chain and polish.
     pub evaluations: u64,
     /// Wall-clock time of the whole identification (s).
@@ -339,17 +376,31 @@ pub fn identify<B: IdentifyObserver + ?Sized>(
     settings: &SaIdentifySettings,
     observer: &B,
 ) -> Result<Identification, Error> {
+    identify_set(&ProblemSet::single(problem.clone()), settings, observer)
+}
+
+/// [`identify`] over several trials of one subject: the cost is the sum of the trials' costs
+/// ([`ProblemSet::sse_with`]) and the polish works on their residuals one after the other. A
+/// set of one trial gives exactly what [`identify`] gives.
+///
+/// # Errors
+/// As [`identify`].
+pub fn identify_set<B: IdentifyObserver + ?Sized>(
+    set: &ProblemSet,
+    settings: &SaIdentifySettings,
+    observer: &B,
+) -> Result<Identification, Error> {
     let settings = settings.validate()?;
     let start = Instant::now();
-    let base: Vec<f64> = problem
+    let base: Vec<f64> = set
         .base_vector()
         .iter()
-        .zip(problem.bounds())
+        .zip(set.bounds())
         .map(|(&v, &(lo, hi))| v.clamp(lo, hi))
         .collect();
     let chains: Vec<Result<ChainSummary, Error>> = (0..settings.chains)
         .into_par_iter()
-        .map(|k| run_chain(problem, &settings, k, &base, observer))
+        .map(|k| run_chain(set, &settings, k, &base, observer))
         .collect();
     let chains = chains.into_iter().collect::<Result<Vec<_>, _>>()?;
     let mut best = 0usize;
@@ -360,24 +411,18 @@ pub fn identify<B: IdentifyObserver + ?Sized>(
     }
     let x = chains[best].x.clone();
     let sse = chains[best].cost;
-    let weight_sum = problem
-        .weights()
-        .map_or(problem.inputs().len() as f64, |w| w.iter().sum());
     let evaluations = chains
         .iter()
         .map(|c| c.annealing_evaluations + c.polish_evaluations)
         .sum();
+    let trial_rms_nm = set.rms_per_trial(&x)?;
     Ok(Identification {
-        free: problem.free().to_vec(),
-        params: problem
-            .names()
-            .iter()
-            .cloned()
-            .zip(x.iter().copied())
-            .collect(),
+        free: set.free().to_vec(),
+        params: set.names().iter().cloned().zip(x.iter().copied()).collect(),
         x,
         sse,
-        rms_nm: (sse / weight_sum).sqrt(),
+        rms_nm: (sse / set.weight_sum()).sqrt(),
+        trial_rms_nm,
         evaluations,
         wall_s: start.elapsed().as_secs_f64(),
         best_chain: best as u32,
@@ -386,7 +431,7 @@ pub fn identify<B: IdentifyObserver + ?Sized>(
 }
 
 fn run_chain<B: IdentifyObserver + ?Sized>(
-    problem: &Problem,
+    set: &ProblemSet,
     settings: &SaIdentifySettings,
     k: u32,
     base: &[f64],
@@ -394,7 +439,7 @@ fn run_chain<B: IdentifyObserver + ?Sized>(
 ) -> Result<ChainSummary, Error> {
     let seed = chain_seed(settings.seed, k);
     let s = settings.annealer.with_seed(seed);
-    let mut objective = ProblemObjective::new(problem);
+    let mut objective = ProblemSetObjective::new(set);
     let x0 = if k == 0 { Some(base) } else { None };
     let out = run(&mut objective, x0, &s, &mut |p: &AnnealProgress| {
         observer.observe(&IdentifyEvent::Chain {
@@ -402,20 +447,14 @@ fn run_chain<B: IdentifyObserver + ?Sized>(
             progress: *p,
         })
     })?;
-    let lm = levenberg_marquardt_polish(
-        problem,
-        &out.x,
-        out.cost,
-        &settings.polish,
-        |it, cost, ev| {
-            let _ = observer.observe(&IdentifyEvent::Polish {
-                chain: k,
-                iteration: it,
-                cost,
-                evaluations: ev,
-            });
-        },
-    );
+    let lm = levenberg_marquardt_polish(set, &out.x, out.cost, &settings.polish, |it, cost, ev| {
+        let _ = observer.observe(&IdentifyEvent::Polish {
+            chain: k,
+            iteration: it,
+            cost,
+            evaluations: ev,
+        });
+    });
     Ok(ChainSummary {
         seed,
         annealing_cost: out.annealing_cost,
@@ -443,21 +482,21 @@ struct LmResult {
     iterations: u32,
 }
 
-/// The weighted residual `√wᵢ·(measuredᵢ − predictedᵢ)` of a problem, whose sum of squares is
-/// the cost the annealer minimised; one simulation workspace per thread.
+/// The weighted residual `√wᵢ·(measuredᵢ − predictedᵢ)` of every trial of a set, whose sum of
+/// squares is the cost the annealer minimised; one set of simulation workspaces per thread.
 struct WeightedResiduals<'a> {
-    problem: &'a Problem,
+    set: &'a ProblemSet,
     sqrt_w: Option<Vec<f64>>,
 }
 
 impl Residuals for WeightedResiduals<'_> {
-    type Workspace = ProblemWorkspace;
-    fn workspace(&self) -> ProblemWorkspace {
-        ProblemWorkspace::new()
+    type Workspace = ProblemSetWorkspace;
+    fn workspace(&self) -> ProblemSetWorkspace {
+        ProblemSetWorkspace::new(self.set)
     }
-    fn residuals(&self, x: &[f64], ws: &mut ProblemWorkspace, out: &mut Vec<f64>) -> bool {
-        out.resize(self.problem.inputs().len(), 0.0);
-        if self.problem.residuals_with(x, ws, out).is_err() {
+    fn residuals(&self, x: &[f64], ws: &mut ProblemSetWorkspace, out: &mut Vec<f64>) -> bool {
+        out.resize(self.set.samples(), 0.0);
+        if self.set.residuals_with(x, ws, out).is_err() {
             return false;
         }
         if let Some(sw) = &self.sqrt_w {
@@ -473,7 +512,7 @@ impl Residuals for WeightedResiduals<'_> {
 /// annealer's best point `x0` (cost `f0`). The point and cost are `x0` and `f0` unless a step
 /// was accepted, so a polish that gains nothing returns the annealer's result unchanged.
 fn levenberg_marquardt_polish(
-    problem: &Problem,
+    set: &ProblemSet,
     x0: &[f64],
     f0: f64,
     s: &LevenbergMarquardtSettings,
@@ -490,12 +529,12 @@ fn levenberg_marquardt_polish(
         return unchanged;
     }
     let residuals = WeightedResiduals {
-        problem,
-        sqrt_w: problem
+        set,
+        sqrt_w: set
             .weights()
             .map(|ws| ws.iter().map(|v| v.sqrt()).collect()),
     };
-    let fit = levenberg_marquardt(&residuals, x0, problem.bounds(), s, |p| {
+    let fit = levenberg_marquardt(&residuals, x0, set.bounds(), s, |p| {
         report(p.iteration as u32, p.cost, p.evaluations as u64);
     });
     match fit {

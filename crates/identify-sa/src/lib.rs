@@ -181,8 +181,9 @@ pub use annealer::{reflect_into_unit, AnnealStopReason, Annealer, StageRecord};
 pub use error::Error;
 pub use executor::{run, AnnealPhase, AnnealProgress, NoObserver, Observer, Outcome};
 pub use identify::{
-    chain_seed, errors_pct, identify, prepare_trial, truth_values, ChainSummary, Identification,
-    IdentifyEvent, IdentifyObserver, PreparedTrial, ProblemObjective, SaIdentifySettings,
+    chain_seed, errors_pct, identify, identify_set, prepare_trial, truth_values, ChainSummary,
+    Identification, IdentifyEvent, IdentifyObserver, PreparedTrial, ProblemObjective,
+    ProblemSetObjective, SaIdentifySettings,
 };
 /// Nelder–Mead and the objective trait live in `numerics`; they are part of this crate's API.
 pub use numerics::{nelder_mead, FnObjective, NelderMeadOutcome, NelderMeadSettings, Objective};

@@ -51,6 +51,7 @@ pub mod musculotendon;
 pub mod noise;
 pub mod params;
 pub mod problem;
+pub mod problem_set;
 pub mod sensitivity;
 pub mod settings;
 pub mod simulate;
@@ -68,6 +69,7 @@ pub use params::{
     ActivationParams, CurveParams, FixedMuscle, FixedMuscles, ModelParams, Muscle, MuscleParams,
 };
 pub use problem::{MuscleField, ParamId, Problem, ProblemWorkspace};
+pub use problem_set::{ProblemSet, ProblemSetWorkspace};
 pub use sensitivity::{
     sensitivity, SensitivityRank, SensitivityRow, SensitivitySettings, SensitivityTable,
 };

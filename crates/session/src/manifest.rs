@@ -1,0 +1,219 @@
+//! The session manifest: a JSON file naming the trials of one subject that share one set of
+//! muscle parameters (`docs/formats.md`, "Session manifest").
+//!
+//! ```json
+//! {"subject": "S01",
+//!  "params": "model.json",
+//!  "trials": [
+//!    {"name": "knee0_30", "trial": "iso30_knee0.csv", "unloaded": "unloaded30.csv"},
+//!    {"name": "knee90_30", "trial": "iso30_knee90.csv", "knee_angle_deg": 90},
+//!    {"name": "walk", "recording": "walk_ceinms_folder"}]}
+//! ```
+//!
+//! Paths are relative to the manifest's folder, never to the working directory. Every key is
+//! checked: an unknown key, a trial with both or neither of `trial` and `recording`, two
+//! trials of the same name or a knee angle outside [0°, 150°] is an error naming the key.
+
+use crate::SessionError;
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Largest accepted constant knee flexion (degrees).
+pub const MAX_KNEE_ANGLE_DEG: f64 = 150.0;
+
+/// A parsed session manifest with its paths resolved against the manifest's folder.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SessionManifest {
+    /// The manifest file itself.
+    pub path: PathBuf,
+    /// The subject's name, if given.
+    pub subject: Option<String>,
+    /// The model parameters: a parameters JSON, an OpenSim `.osim` model or a CEINMS subject
+    /// XML; nominal parameters when absent.
+    pub params: Option<PathBuf>,
+    /// Names of sol, gm and gl in an `.osim` model when they are not gait2392's.
+    pub osim_muscles: BTreeMap<String, String>,
+    /// Maximal voluntary contraction trials (EMG normalisation).
+    pub mvc: Vec<PathBuf>,
+    /// The effects JSON whose effects every trial's model carries, if given.
+    pub effects: Option<PathBuf>,
+    /// The parameters identified (`sol.lst_m`, `activation.shape_a`, …); the 9 of LST, F0 and
+    /// α0 of sol, gm and gl when absent.
+    pub free: Option<Vec<String>>,
+    /// The trials, in the manifest's order.
+    pub trials: Vec<SessionTrialEntry>,
+}
+
+/// One trial of a session.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SessionTrialEntry {
+    /// The trial's name (unique in the session).
+    pub name: String,
+    /// Where its data are.
+    pub source: TrialSource,
+    /// Its unloaded run, if recorded.
+    pub unloaded: Option<PathBuf>,
+    /// A constant knee flexion (degrees) for a trial file without a `knee_angle_deg` column.
+    pub knee_angle_deg: Option<f64>,
+}
+
+/// Where a trial's data are.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum TrialSource {
+    /// A trial CSV (`docs/formats.md`).
+    Csv(PathBuf),
+    /// A recording in another format: a CEINMS trial folder.
+    Recording(PathBuf),
+}
+
+impl TrialSource {
+    /// The path, whatever the kind.
+    pub fn path(&self) -> &Path {
+        match self {
+            TrialSource::Csv(p) | TrialSource::Recording(p) => p,
+        }
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawManifest {
+    subject: Option<String>,
+    params: Option<String>,
+    #[serde(default)]
+    osim_muscles: BTreeMap<String, String>,
+    #[serde(default)]
+    mvc: Vec<String>,
+    effects: Option<String>,
+    free: Option<Vec<String>>,
+    trials: Vec<RawTrial>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawTrial {
+    name: String,
+    trial: Option<String>,
+    recording: Option<String>,
+    unloaded: Option<String>,
+    knee_angle_deg: Option<f64>,
+}
+
+/// Reads and checks a session manifest.
+///
+/// # Errors
+/// An unreadable file, invalid JSON or an unknown key (with line and column), or an
+/// unacceptable value naming its key.
+pub fn read_session_manifest(path: &Path) -> Result<SessionManifest, SessionError> {
+    let text = std::fs::read_to_string(path).map_err(|e| SessionError::Io {
+        path: path.display().to_string(),
+        reason: e.to_string(),
+    })?;
+    parse_session_manifest(&text, path)
+}
+
+/// Parses manifest `text` as if read from `path` (paths resolve against its folder).
+///
+/// # Errors
+/// As [`read_session_manifest`].
+pub fn parse_session_manifest(text: &str, path: &Path) -> Result<SessionManifest, SessionError> {
+    let name = path.display().to_string();
+    let raw: RawManifest = serde_json::from_str(text).map_err(|e| SessionError::Syntax {
+        path: name.clone(),
+        line: e.line(),
+        column: e.column(),
+        reason: e
+            .to_string()
+            .split(" at line ")
+            .next()
+            .unwrap_or("")
+            .to_string(),
+    })?;
+    let invalid = |key: String, reason: String| SessionError::Invalid {
+        path: name.clone(),
+        key,
+        reason,
+    };
+    let dir = path.parent().unwrap_or(Path::new(""));
+    let resolve = |p: &str| dir.join(p);
+    if raw.trials.is_empty() {
+        return Err(invalid("trials".into(), "lists no trial".into()));
+    }
+    for (k, v) in &raw.osim_muscles {
+        if !matches!(k.as_str(), "sol" | "gm" | "gl") {
+            return Err(invalid(
+                format!("osim_muscles.{k}"),
+                "only sol, gm and gl are renamed".into(),
+            ));
+        }
+        if v.is_empty() {
+            return Err(invalid(format!("osim_muscles.{k}"), "is empty".into()));
+        }
+    }
+    if let Some(free) = &raw.free {
+        if free.is_empty() {
+            return Err(invalid("free".into(), "lists no parameter".into()));
+        }
+        for (i, f) in free.iter().enumerate() {
+            muscle_model::ParamId::parse(f)
+                .map_err(|e| invalid(format!("free[{i}]"), e.to_string()))?;
+            if free[..i].contains(f) {
+                return Err(invalid(
+                    format!("free[{i}]"),
+                    format!("{f} is listed twice"),
+                ));
+            }
+        }
+    }
+    let mut trials = Vec::with_capacity(raw.trials.len());
+    for (i, t) in raw.trials.into_iter().enumerate() {
+        let key = |k: &str| format!("trials[{i}].{k}");
+        if t.name.trim().is_empty() {
+            return Err(invalid(key("name"), "is empty".into()));
+        }
+        if trials.iter().any(|o: &SessionTrialEntry| o.name == t.name) {
+            return Err(invalid(key("name"), format!("{} names two trials", t.name)));
+        }
+        let source = match (t.trial, t.recording) {
+            (Some(p), None) => TrialSource::Csv(resolve(&p)),
+            (None, Some(p)) => TrialSource::Recording(resolve(&p)),
+            (Some(_), Some(_)) => {
+                return Err(invalid(
+                    key("trial"),
+                    "give either trial or recording, not both".into(),
+                ))
+            }
+            (None, None) => {
+                return Err(invalid(
+                    key("trial"),
+                    "missing: give a trial CSV (trial) or a recording (recording)".into(),
+                ))
+            }
+        };
+        if let Some(k) = t.knee_angle_deg {
+            if !(k.is_finite() && (0.0..=MAX_KNEE_ANGLE_DEG).contains(&k)) {
+                return Err(invalid(
+                    key("knee_angle_deg"),
+                    format!("{k}° is outside [0°, {MAX_KNEE_ANGLE_DEG}°] (0 = extended)"),
+                ));
+            }
+        }
+        trials.push(SessionTrialEntry {
+            name: t.name,
+            source,
+            unloaded: t.unloaded.as_deref().map(resolve),
+            knee_angle_deg: t.knee_angle_deg,
+        });
+    }
+    Ok(SessionManifest {
+        path: path.to_path_buf(),
+        subject: raw.subject,
+        params: raw.params.as_deref().map(resolve),
+        osim_muscles: raw.osim_muscles,
+        mvc: raw.mvc.iter().map(|p| resolve(p)).collect(),
+        effects: raw.effects.as_deref().map(resolve),
+        free: raw.free,
+        trials,
+    })
+}
