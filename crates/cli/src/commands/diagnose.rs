@@ -69,8 +69,10 @@ pub fn run(args: DiagnoseArgs) -> CmdResult {
         .unwrap_or_else(|| crate::default_out("diagnose"));
     let out = OutDir::prepare(&out_dir, &inputs_read, PLANNED)?;
 
-    let mut settings = DiagnoseSettings::default();
-    settings.input_options = args.knee.input_options(args.emg_is_envelope);
+    let settings = DiagnoseSettings {
+        input_options: args.knee.input_options(args.emg_is_envelope),
+        ..DiagnoseSettings::default()
+    };
     let show = args.report.show();
     let progress = ProgressDisplay::new(show, 0, "diag");
     let mut observer = |p: &diagnose::DiagnosisProgress| {
