@@ -8,8 +8,9 @@
 //! flexed they are shortened and at a mechanical disadvantage; in maximal plantarflexion their
 //! surface EMG falls with knee flexion while the soleus's stays the same (Cresswell et al. 1995;
 //! Miaki et al. 1999; Arampatzis et al. 2006), by roughly 20–50 % at 90°. 0.7 is inside that
-//! range. The cosine keeps the drive nearly unchanged over the first 30° and puts most of the
-//! loss between 45° and 90°, where those studies find most of it. The factor changes only the
+//! range. Those studies measured only a few knee angles; the cosine between them is a choice
+//! that keeps the drive nearly unchanged over the first 30° and puts most of the loss between
+//! 45° and 90°. The factor changes only the
 //! EMG the synthetic subject produces: the model reads its envelope like any other, so with
 //! each channel normalised by its own trial maximum the model's input is unchanged, and the
 //! lower drive shows where envelopes are normalised by an MVC or across several trials.
