@@ -10,6 +10,7 @@
 //! | `seed` | `seed` | nominal parameters, no effect | 2016 |
 //! | `offnominal` | `seed` | the 9 identified parameters off nominal ([`OFF_NOMINAL`]), no effect | 2018 |
 //! | `relaxed2` | `relaxed+2` | nominal parameters, no effect | 2017 |
+//! | `knee90` | `knee90` (the seed motion, knee flexed 90°) | nominal parameters, no effect | 2019 |
 //! | `<effect>` (9 folders, named as the effects) | `relaxed+2` | nominal parameters + that effect | 3001…3009 |
 //!
 //! The effect magnitudes ([`EFFECTS`]) are moderate, physiologically plausible values, each
@@ -42,6 +43,12 @@ const SEED_SEED: u64 = 2016;
 const SEED_RELAXED2: u64 = 2017;
 /// Seed of `fixtures/offnominal`.
 const SEED_OFFNOMINAL: u64 = 2018;
+/// Seed of `fixtures/knee90`.
+const SEED_KNEE90: u64 = 2019;
+/// Knee flexion of `fixtures/knee90` (degrees): the usual knee-flexed test position, in which
+/// the gastrocnemii are shortened and their drive is lowest
+/// (`experiment::gastrocnemius_drive_factor`).
+const KNEE90_DEG: f64 = 90.0;
 
 /// The truth of `fixtures/offnominal`: each identified parameter times its factor.
 ///
@@ -171,6 +178,16 @@ fn fixtures() -> Result<Vec<Fixture>> {
             description: "relaxed+2 protocol, nominal parameters, no effect".into(),
             params_text: "nominal parameters",
         },
+        Fixture {
+            name: "knee90".into(),
+            config: SynthConfig::new(Protocol::Seed, SEED_KNEE90).with_knee_angle_deg(KNEE90_DEG),
+            description: format!(
+                "seed protocol with the knee flexed {KNEE90_DEG}° (knee_angle_deg column; the \
+                 gastrocnemii's EMG drive ×{}), nominal parameters, no effect",
+                experiment::gastrocnemius_drive_factor(KNEE90_DEG)
+            ),
+            params_text: "nominal parameters",
+        },
     ];
     for (i, e) in EFFECTS.iter().enumerate() {
         let mut effects = Effects::none();
@@ -210,7 +227,7 @@ fn render(f: &Fixture) -> Result<Vec<(String, String)>> {
     let effects = serde_json::to_string(&sorted_json(&f.config.effects.to_json_value()))?;
     trial.comments = vec![format!(
         " surae synthetic trial `{}` made by `{GENERATOR}`: protocol {}, seed {}, {}, effects {effects}; truth in truth.json",
-        f.name, f.config.protocol, f.config.seed, f.params_text
+        f.name, f.config.synth_protocol(), f.config.seed, f.params_text
     )];
     let mut unloaded = syn.unloaded;
     unloaded.comments = vec![format!(
@@ -242,7 +259,10 @@ fn readme(list: &[Fixture]) -> String {
     for f in list {
         s.push_str(&format!(
             "| `{}` | `{}` | {} | {} |\n",
-            f.name, f.config.protocol, f.config.seed, f.description
+            f.name,
+            f.config.synth_protocol(),
+            f.config.seed,
+            f.description
         ));
     }
     s

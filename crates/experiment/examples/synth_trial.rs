@@ -6,8 +6,12 @@
 //! `/tmp/r8/trial.csv` and `/tmp/r8/unloaded.csv`: nominal muscle parameters, the given
 //! effects (`{}` for none), nominal dynamometer error and synthetic EMG, all from `SEED`.
 //! Then `surae diagnose --trial /tmp/r8/trial.csv --unloaded /tmp/r8/unloaded.csv`.
+//!
+//! `PROTOCOL` may hold the knee flexed: `knee90` (the seed motion at 90° of knee flexion) or
+//! `relaxed+2@knee60`; the trial then has a `knee_angle_deg` column and the gastrocnemii's EMG
+//! drive is lowered (docs/formats.md, "Synthetic trials").
 
-use experiment::{synthesize, Protocol, SynthConfig};
+use experiment::{synthesize, SynthConfig, SynthProtocol};
 use muscle_model::{Effects, ModelParams};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -15,9 +19,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let [protocol, seed, effects, out] = args.as_slice() else {
         return Err("usage: synth_trial PROTOCOL SEED EFFECTS_JSON OUT_DIR".into());
     };
-    let protocol: Protocol = protocol.parse()?;
+    let protocol: SynthProtocol = protocol.parse()?;
     let effects = Effects::from_json_str(effects)?;
-    let cfg = SynthConfig::new(protocol, seed.parse()?)
+    let cfg = SynthConfig::for_protocol(protocol, seed.parse()?)
         .with_params(ModelParams::nominal())
         .with_effects(effects);
     let s = synthesize(&cfg)?;

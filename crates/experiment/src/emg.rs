@@ -1,4 +1,19 @@
 //! Synthetic raw EMG (docs/formats.md, "Synthetic trials"): band-limited Gaussian carrier × drive `d(t)` per channel.
+//!
+//! **Knee flexion.** In a trial with the knee flexed by `k`, the gastrocnemii's active drive
+//! (their concentric and eccentric levels, not the rest level) is multiplied by
+//! `f(k) = 1 − (1 − f90)·(1 − cos k)`, `k` clamped to `[0°, 90°]`, `f90` =
+//! [`GASTROCNEMIUS_DRIVE_AT_90_DEG`] = 0.7: `f` = 1 at 0°, 0.96 at 30°, 0.85 at 60°, 0.7 at 90°;
+//! the soleus's drive is unchanged. Why: the gastrocnemii cross the knee, and with the knee
+//! flexed they are shortened and at a mechanical disadvantage; in maximal plantarflexion their
+//! surface EMG falls with knee flexion while the soleus's stays the same (Cresswell et al. 1995;
+//! Miaki et al. 1999; Arampatzis et al. 2006), by roughly 20–50 % at 90°. 0.7 is inside that
+//! range. Those studies measured only a few knee angles; the cosine between them is a choice
+//! that keeps the drive nearly unchanged over the first 30° and puts most of the loss between
+//! 45° and 90°. The factor changes only the
+//! EMG the synthetic subject produces: the model reads its envelope like any other, so with
+//! each channel normalised by its own trial maximum the model's input is unchanged, and the
+//! lower drive shows where envelopes are normalised by an MVC or across several trials.
 
 use rand::Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -49,6 +64,23 @@ impl EmgMuscle {
     fn index(self) -> u8 {
         self as u8
     }
+}
+
+/// The gastrocnemii's drive at 90° of knee flexion, as a fraction of the extended knee's (see
+/// the module documentation).
+pub const GASTROCNEMIUS_DRIVE_AT_90_DEG: f64 = 0.7;
+
+/// The factor on the gastrocnemii's active drive at knee flexion `knee_angle_deg` (degrees):
+/// `1 − (1 − 0.7)·(1 − cos k)` with `k` clamped to `[0°, 90°]`; exactly 1 for an extended (or
+/// hyperextended) knee.
+#[must_use]
+pub fn gastrocnemius_drive_factor(knee_angle_deg: f64) -> f64 {
+    if knee_angle_deg >= 90.0 {
+        // exactly f90 (cos of the rounded π/2 is 6e-17, not 0)
+        return GASTROCNEMIUS_DRIVE_AT_90_DEG;
+    }
+    let k = knee_angle_deg.clamp(0.0, 90.0).to_radians();
+    1.0 - (1.0 - GASTROCNEMIUS_DRIVE_AT_90_DEG) * (1.0 - k.cos())
 }
 
 /// Parameters of the synthetic EMG. `Default` is the fixtures' choice.
@@ -208,6 +240,7 @@ impl SyntheticEmg {
             emg_gm: get(EmgMuscle::Gm)?,
             emg_gl: get(EmgMuscle::Gl)?,
             emg_ta: self.channel(EmgMuscle::Ta).map(|c| c.raw.clone()),
+            emg_other: Vec::new(),
             knee_angle_deg: None,
             comments: Vec::new(),
             ignored_columns: Vec::new(),
@@ -396,7 +429,8 @@ fn carrier<R: Rng>(n: usize, fs: f64, band: [f64; 2], r: &mut R) -> Vec<f64> {
 /// ramps (smoothstep) to `concentric_level` during that hold, changes to
 /// `eccentric_ratio·concentric_level` around each concentric→eccentric reversal (and back),
 /// and relaxes to rest within `relax_s` after the motion stops; relaxed cycles stay at rest.
-/// Each channel has its own wobble phases and carrier (own RNG streams of `seed`).
+/// Each channel has its own wobble phases and carrier (own RNG streams of `seed`). The knee is
+/// extended ([`synthetic_emg_at_knee`] for a flexed one).
 ///
 /// # Errors
 /// Invalid settings or an empty trace.
@@ -405,7 +439,30 @@ pub fn synthetic_emg(
     settings: &EmgSettings,
     seed: u64,
 ) -> Result<SyntheticEmg> {
+    synthetic_emg_at_knee(trace, settings, seed, 0.0)
+}
+
+/// [`synthetic_emg`] with the knee flexed by `knee_angle_deg` (degrees) throughout: the
+/// gastrocnemii's active levels are multiplied by [`gastrocnemius_drive_factor`]. At 0° the
+/// result is [`synthetic_emg`]'s, bit for bit.
+///
+/// # Errors
+/// As [`synthetic_emg`], and a knee angle outside [`crate::KNEE_RANGE_DEG`].
+pub fn synthetic_emg_at_knee(
+    trace: &ProtocolTrace,
+    settings: &EmgSettings,
+    seed: u64,
+    knee_angle_deg: f64,
+) -> Result<SyntheticEmg> {
     settings.validate(trace.sample_rate_hz)?;
+    let (lo, hi) = crate::KNEE_RANGE_DEG;
+    if !(knee_angle_deg.is_finite() && (lo..=hi).contains(&knee_angle_deg)) {
+        return Err(ExperimentError::invalid(
+            "knee angle",
+            ErrorKind::InvalidSettings,
+            format!("{knee_angle_deg}° is outside the knee's range [{lo}, {hi}] degrees"),
+        ));
+    }
     if trace.is_empty() {
         return Err(ExperimentError::invalid(
             "protocol trace",
@@ -417,6 +474,14 @@ pub fn synthetic_emg(
         rest: settings.rest_level,
         concentric: settings.concentric_level,
         eccentric: settings.concentric_level * settings.eccentric_ratio,
+    };
+    let f = gastrocnemius_drive_factor(knee_angle_deg);
+    // never below rest: the drive stays in [rest, 1]
+    let gastrocnemii = Levels {
+        rest: settings.rest_level,
+        concentric: (settings.concentric_level * f).max(settings.rest_level),
+        eccentric: (settings.concentric_level * f * settings.eccentric_ratio)
+            .max(settings.rest_level),
     };
     let ta = Levels {
         rest: settings.ta_rest_level,
@@ -431,7 +496,11 @@ pub fn synthetic_emg(
     let channels = muscles
         .iter()
         .map(|&m| {
-            let lv = if m == EmgMuscle::Ta { ta } else { triceps };
+            let lv = match m {
+                EmgMuscle::Ta => ta,
+                EmgMuscle::Gm | EmgMuscle::Gl => gastrocnemii,
+                EmgMuscle::Sol => triceps,
+            };
             let d = drive(
                 trace,
                 lv,

@@ -53,6 +53,9 @@ pub enum ErrorKind {
     InvalidProtocol,
     /// Settings out of their valid range.
     InvalidSettings,
+    /// Two sources of one quantity disagree (a trial's knee-angle column and a constant knee
+    /// angle given with it).
+    Conflict,
 }
 
 /// Every error of this crate. `Display` is always one line:

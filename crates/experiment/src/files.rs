@@ -14,8 +14,8 @@ mod writer;
 
 pub use number::{format_f64, write_f64};
 pub use records::{
-    ReadOptions, Trial, Unloaded, DEFAULT_MIN_DURATION_S, DEFAULT_TIME_TOLERANCE, TRIAL_OPTIONAL,
-    TRIAL_REQUIRED, UNLOADED_REQUIRED,
+    ReadOptions, Trial, Unloaded, DEFAULT_MIN_DURATION_S, DEFAULT_TIME_TOLERANCE, EMG_PREFIX,
+    TRIAL_OPTIONAL, TRIAL_REQUIRED, UNLOADED_REQUIRED,
 };
 pub use trial::{parse_trial, parse_trial_bytes, parse_trial_with, read_trial};
 pub use unloaded::{parse_unloaded, parse_unloaded_bytes, parse_unloaded_with, read_unloaded};

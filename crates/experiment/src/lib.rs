@@ -3,7 +3,8 @@
 //!
 //! * [`files`]: trial / unloaded CSV reading with validation (every error is one line naming
 //!   the file, the line and the column) and round-trip-exact, atomic writing.
-//! * [`protocol`]: `seed`, `relaxed+N`, `cycles+N` sampled at 2048 Hz. A sweep of range
+//! * [`protocol`]: `seed`, `relaxed+N`, `cycles+N` sampled at 2048 Hz; a synthetic trial's
+//!   protocol may hold the knee flexed ([`SynthProtocol`]: `knee90`, `relaxed+2@knee90`). A sweep of range
 //!   `D = 35°` at speed `v = 30 °/s` with ramps of `t_r = 0.05 s` (acceleration `a = v/t_r`)
 //!   lasts `T = D/v + t_r`; its displacement at time `τ` is `½aτ²` (τ < t_r),
 //!   `½a t_r² + v(τ − t_r)` (cruise) and `D − ½a(T − τ)²` (last ramp).
@@ -17,7 +18,8 @@
 //!   run (offset, damped-sinusoid transient, AR(1)+white random part) and subtracted from a
 //!   trial at its own events (`docs/dynamometer.md`).
 //! * [`emg`]: raw EMG `x_c(t) = g_c·d_c(t)·c_c(t)`, `c_c` unit-RMS Gaussian noise
-//!   band-limited to 20–450 Hz, `d_c ∈ [rest, 1]` the drive.
+//!   band-limited to 20–450 Hz, `d_c ∈ [rest, 1]` the drive; with the knee flexed by `k` the
+//!   gastrocnemii's active drive is `f(k) = 1 − 0.3·(1 − cos k)` times the extended knee's.
 //! * [`seeds`]: every random part is a `ChaCha8Rng` on its own stream of one seed.
 //! * [`mod@model_inputs`]: a trial → the model's inputs (angle in rad, envelopes of docs/model.md, section 1).
 //! * [`synth`]: a whole synthetic experiment (trial, unloaded run, truth) from one seed.
@@ -70,7 +72,10 @@ pub use dynamometer::{
     dynamometer_error, quantise, quantise_in_place, random_error, random_error_with,
     systematic_error, systematic_error_at, unloaded_run, DynamometerSettings, Recording,
 };
-pub use emg::{synthetic_emg, EmgChannel, EmgMuscle, EmgSettings, SyntheticEmg};
+pub use emg::{
+    gastrocnemius_drive_factor, synthetic_emg, synthetic_emg_at_knee, EmgChannel, EmgMuscle,
+    EmgSettings, SyntheticEmg, GASTROCNEMIUS_DRIVE_AT_90_DEG,
+};
 pub use error::{ErrorKind, ExperimentError, Result};
 pub use events::{detect_events, detect_events_with, EventSettings};
 pub use files::{
@@ -78,8 +83,12 @@ pub use files::{
     parse_unloaded, parse_unloaded_bytes, parse_unloaded_with, read_trial, read_unloaded,
     write_f64, write_trial, write_unloaded, ReadOptions, Trial, Unloaded,
 };
-pub use model_inputs::{model_inputs, model_inputs_named, InputOptions};
-pub use protocol::{Events, MotionPhase, MotionSettings, Protocol, ProtocolTrace, Segment};
+pub use model_inputs::{
+    model_inputs, model_inputs_named, InputOptions, KNEE_AGREEMENT_DEG, KNEE_RANGE_DEG,
+};
+pub use protocol::{
+    Events, MotionPhase, MotionSettings, Protocol, ProtocolTrace, Segment, SynthProtocol,
+};
 pub use seeds::{rng, Stream};
 pub use synth::{random_params, round_decimals, sorted_json, synthesize, SynthConfig, Synthetic};
 pub use transient::{Transient, TRANSIENT_MIN_EVIDENCE};

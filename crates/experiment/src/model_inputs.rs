@@ -5,19 +5,25 @@
 //! that a fixture's "true" torque is computed from exactly what a user's program reads:
 //!
 //! * angle: `q = ankle_angle_deg · π/180` (rad, dorsiflexion > 0);
-//! * each EMG channel (`emg_sol`, `emg_gm`, `emg_gl`, and `emg_ta` when present): band-pass
-//!   10–350 Hz zero-phase, `|·|`, low-pass 2 Hz zero-phase (crate `signal`,
-//!   [`EnvelopeSettings::default`]), then divided by the channel's trial maximum or by a
-//!   user-given MVC reference, and clamped to `[0, 1]`;
+//! * each EMG channel (`emg_sol`, `emg_gm`, `emg_gl`, and `emg_ta` and every further
+//!   `emg_<name>` when present): band-pass 10–350 Hz zero-phase, `|·|`, low-pass 2 Hz
+//!   zero-phase (crate `signal`, [`EnvelopeSettings::default`]), then divided by the channel's
+//!   trial maximum or by a user-given MVC reference (sol, gm, gl, ta), and clamped to `[0, 1]`;
+//!   a further channel becomes the envelope named `<name>` of the inputs, which drives the
+//!   model's fixed muscle of that name;
 //! * with [`InputOptions::emg_is_envelope`] the columns are taken as envelopes already: no
-//!   filtering, only the optional MVC division and the clamp to `[0, 1]`.
+//!   filtering, only the optional MVC division and the clamp to `[0, 1]`;
+//! * knee flexion: `k = knee_angle_deg · π/180` from the trial's column, or the constant
+//!   [`InputOptions::knee_angle_deg`] at every sample when the trial has no column (a trial
+//!   with both must agree within [`KNEE_AGREEMENT_DEG`] at every sample); with neither the
+//!   inputs carry no knee angle, which the model takes as the extended knee.
 
 use muscle_model::TrialInputs;
 use signal::{normalise, EnvelopeFilter, EnvelopeSettings, Normalisation, SignalError};
 
 use crate::emg::EmgMuscle;
 use crate::error::{ErrorKind, ExperimentError, Result};
-use crate::files::Trial;
+use crate::files::{Trial, EMG_PREFIX};
 
 /// How to turn the EMG columns into normalised envelopes. `Default`: raw EMG, every channel
 /// normalised by its trial maximum.
@@ -29,7 +35,17 @@ pub struct InputOptions {
     /// The EMG columns already hold envelopes in `[0, 1]`: skip the filters, just divide by
     /// the MVC reference when one is given and clamp to `[0, 1]`.
     pub emg_is_envelope: bool,
+    /// Constant knee flexion (degrees; 0 extended, > 0 flexed) of a trial recorded without a
+    /// `knee_angle_deg` column; within [`KNEE_RANGE_DEG`].
+    pub knee_angle_deg: Option<f64>,
 }
+
+/// The knee angles accepted (degrees), the same range the trial reader accepts in the column.
+pub const KNEE_RANGE_DEG: (f64, f64) = (-30.0, 180.0);
+
+/// How far a trial's knee-angle column may be from a constant knee angle given with it
+/// (degrees): a column that holds the same constant, written with fewer digits, agrees.
+pub const KNEE_AGREEMENT_DEG: f64 = 1e-6;
 
 impl InputOptions {
     /// The MVC reference of one channel, if any.
@@ -44,94 +60,92 @@ impl InputOptions {
         self.mvc[m as usize] = Some(mvc);
         self
     }
-}
 
-/// 1-based index of an EMG column in the canonical (written) column order.
-fn canonical_column(m: EmgMuscle) -> usize {
-    match m {
-        EmgMuscle::Sol => 4,
-        EmgMuscle::Gm => 5,
-        EmgMuscle::Gl => 6,
-        EmgMuscle::Ta => 7,
+    /// The same options with a constant knee angle (degrees) for a trial without a knee column.
+    #[must_use]
+    pub fn with_knee_angle_deg(mut self, deg: f64) -> Self {
+        self.knee_angle_deg = Some(deg);
+        self
     }
 }
 
-fn column_error(path: &str, m: EmgMuscle, kind: ErrorKind, reason: String) -> ExperimentError {
-    ExperimentError::Column {
-        path: path.to_string(),
-        column: canonical_column(m),
-        name: m.column().to_string(),
-        kind,
-        reason,
+/// A column of the trial as errors name it: the file, its 1-based index in the canonical
+/// (written) column order and its name.
+struct ColumnRef<'a> {
+    path: &'a str,
+    column: usize,
+    name: String,
+}
+
+impl ColumnRef<'_> {
+    fn error(&self, kind: ErrorKind, reason: String) -> ExperimentError {
+        ExperimentError::Column {
+            path: self.path.to_string(),
+            column: self.column,
+            name: self.name.clone(),
+            kind,
+            reason,
+        }
+    }
+
+    fn signal_error(&self, e: &SignalError) -> ExperimentError {
+        let kind = match e {
+            SignalError::NonPositiveMaximum { .. } => ErrorKind::ZeroChannel,
+            SignalError::SignalTooShort { .. } => ErrorKind::TooShort,
+            SignalError::NonFiniteSample { .. } => ErrorKind::NotFinite,
+            _ => ErrorKind::InvalidSettings,
+        };
+        self.error(kind, format!("cannot make the EMG envelope: {e}"))
     }
 }
 
-fn signal_error(path: &str, m: EmgMuscle, e: &SignalError) -> ExperimentError {
-    let kind = match e {
-        SignalError::NonPositiveMaximum { .. } => ErrorKind::ZeroChannel,
-        SignalError::SignalTooShort { .. } => ErrorKind::TooShort,
-        SignalError::NonFiniteSample { .. } => ErrorKind::NotFinite,
-        _ => ErrorKind::InvalidSettings,
-    };
-    column_error(path, m, kind, format!("cannot make the EMG envelope: {e}"))
-}
-
-/// One channel → normalised envelope.
+/// One channel → normalised envelope; `mvc` its MVC reference, if any.
 fn channel_envelope(
     raw: &[f64],
-    m: EmgMuscle,
+    col: &ColumnRef<'_>,
+    mvc: Option<f64>,
     filter: Option<&EnvelopeFilter>,
-    opts: &InputOptions,
-    path: &str,
 ) -> Result<Vec<f64>> {
     if let Some(i) = raw.iter().position(|x| !x.is_finite()) {
-        return Err(column_error(
-            path,
-            m,
+        return Err(col.error(
             ErrorKind::NotFinite,
             format!("sample {i} is not a finite number"),
         ));
     }
     if raw.iter().all(|&x| x == 0.0) {
-        return Err(column_error(
-            path,
-            m,
+        return Err(col.error(
             ErrorKind::ZeroChannel,
             "EMG channel is all zeros (disconnected electrode?)".into(),
         ));
     }
-    let mvc = opts.mvc_of(m);
     match filter {
         Some(f) => {
-            let mut env = f.envelope(raw).map_err(|e| signal_error(path, m, &e))?;
+            let mut env = f.envelope(raw).map_err(|e| col.signal_error(&e))?;
             // A constant (DC-only) or slowly drifting channel has nothing in the
             // 10–350 Hz band: normalising its numerical noise would fake activity.
             let raw_amp = raw.iter().fold(0.0f64, |a, x| a.max(x.abs()));
             let env_max = env.iter().fold(0.0f64, |a, x| a.max(*x));
             if env_max.is_nan() || env_max <= 1e-9 * raw_amp {
-                return Err(column_error(
-                    path,
-                    m,
+                return Err(col.error(
                     ErrorKind::ZeroChannel,
                     "no EMG activity in the 10–350 Hz band (a constant or drifting channel?)"
                         .into(),
                 ));
             }
             let reference = mvc.map_or(Normalisation::TrialMax, Normalisation::Mvc);
-            normalise(&mut env, reference).map_err(|e| signal_error(path, m, &e))?;
+            normalise(&mut env, reference).map_err(|e| col.signal_error(&e))?;
             Ok(env)
         }
         None => {
             let mut env = raw.to_vec();
             match mvc {
-                Some(v) => normalise(&mut env, Normalisation::Mvc(v))
-                    .map_err(|e| signal_error(path, m, &e))?,
+                Some(v) => {
+                    normalise(&mut env, Normalisation::Mvc(v)).map_err(|e| col.signal_error(&e))?;
+                }
                 None => env.iter_mut().for_each(|x| *x = x.clamp(0.0, 1.0)),
             }
             if env.iter().all(|&x| x == 0.0) {
-                return Err(column_error(
-                    path,
-                    m,
+                return Err(col.error(
                     ErrorKind::ZeroChannel,
                     "envelope is zero everywhere after clamping to [0, 1]".into(),
                 ));
@@ -147,13 +161,16 @@ fn channel_envelope(
 /// # Errors
 /// A trial with fewer than 2 samples or non-uniform time; an EMG column that is all zeros
 /// ([`ErrorKind::ZeroChannel`]), too short for the zero-phase filters ([`ErrorKind::TooShort`])
-/// or not finite, each as an [`ExperimentError::Column`] naming the column; an invalid MVC.
+/// or not finite, each as an [`ExperimentError::Column`] naming the column; an invalid MVC; a
+/// constant knee angle outside [`KNEE_RANGE_DEG`], or one that disagrees with the trial's
+/// knee-angle column ([`ErrorKind::Conflict`]).
 pub fn model_inputs(trial: &Trial, opts: &InputOptions) -> Result<TrialInputs> {
     model_inputs_named(trial, opts, "<trial>")
 }
 
 /// [`model_inputs`] with the file name used in error messages. Column indices in errors are
-/// those of the canonical column order (`emg_sol` 4, `emg_gm` 5, `emg_gl` 6, `emg_ta` 7).
+/// those of the canonical column order (`emg_sol` 4, `emg_gm` 5, `emg_gl` 6, `emg_ta` 7, then
+/// the further EMG channels and `knee_angle_deg`).
 ///
 /// # Errors
 /// As [`model_inputs`].
@@ -180,32 +197,107 @@ pub fn model_inputs_named(trial: &Trial, opts: &InputOptions, path: &str) -> Res
             })?,
         )
     };
+    // 1-based indices in the canonical column order: the six required columns, then
+    // emg_ta, the further EMG channels and knee_angle_deg, each when present
+    let ta_cols = usize::from(trial.emg_ta.is_some());
+    let emg_ref = |m: EmgMuscle| ColumnRef {
+        path,
+        column: match m {
+            EmgMuscle::Sol => 4,
+            EmgMuscle::Gm => 5,
+            EmgMuscle::Gl => 6,
+            EmgMuscle::Ta => 7,
+        },
+        name: m.column().to_string(),
+    };
     let mut env: [Vec<f64>; 3] = Default::default();
     for (slot, (m, raw)) in env.iter_mut().zip([
         (EmgMuscle::Sol, &trial.emg_sol),
         (EmgMuscle::Gm, &trial.emg_gm),
         (EmgMuscle::Gl, &trial.emg_gl),
     ]) {
-        *slot = channel_envelope(raw, m, filter.as_ref(), opts, path)?;
+        *slot = channel_envelope(raw, &emg_ref(m), opts.mvc_of(m), filter.as_ref())?;
     }
     let env_ta = match &trial.emg_ta {
         Some(raw) => Some(channel_envelope(
             raw,
-            EmgMuscle::Ta,
+            &emg_ref(EmgMuscle::Ta),
+            opts.mvc_of(EmgMuscle::Ta),
             filter.as_ref(),
-            opts,
-            path,
         )?),
         None => None,
     };
+    let mut others = Vec::with_capacity(trial.emg_other.len());
+    for (i, (name, raw)) in trial.emg_other.iter().enumerate() {
+        let col = ColumnRef {
+            path,
+            column: 7 + ta_cols + i,
+            name: format!("{EMG_PREFIX}{name}"),
+        };
+        others.push((name, channel_envelope(raw, &col, None, filter.as_ref())?));
+    }
+    let knee_col = ColumnRef {
+        path,
+        column: 7 + ta_cols + trial.emg_other.len(),
+        name: "knee_angle_deg".into(),
+    };
+    let knee = knee_angle_rad(trial, opts, &knee_col)?;
     let angle: Vec<f64> = trial
         .ankle_angle_deg
         .iter()
         .map(|d| d.to_radians())
         .collect();
-    TrialInputs::new(fs, trial.time_s[0], angle, env, env_ta).map_err(|e| ExperimentError::File {
+    let invalid = |e: muscle_model::ModelError| ExperimentError::File {
         path: path.to_string(),
         kind: ErrorKind::InvalidSettings,
         reason: format!("invalid model inputs: {e}"),
-    })
+    };
+    let mut inputs = TrialInputs::new(fs, trial.time_s[0], angle, env, env_ta).map_err(invalid)?;
+    for (name, env) in others {
+        inputs = inputs.with_envelope(name, env).map_err(invalid)?;
+    }
+    if let Some(k) = knee {
+        inputs = inputs.with_knee_angle(k).map_err(invalid)?;
+    }
+    Ok(inputs)
+}
+
+/// The knee flexion of the inputs (rad): the trial's column, else the constant of the options,
+/// else none (the extended knee).
+fn knee_angle_rad(
+    trial: &Trial,
+    opts: &InputOptions,
+    col: &ColumnRef<'_>,
+) -> Result<Option<Vec<f64>>> {
+    let (lo, hi) = KNEE_RANGE_DEG;
+    if let Some(c) = opts.knee_angle_deg {
+        if !(c.is_finite() && (lo..=hi).contains(&c)) {
+            return Err(ExperimentError::invalid(
+                "constant knee angle",
+                ErrorKind::InvalidSettings,
+                format!("{c}° is outside the knee's range [{lo}, {hi}] degrees"),
+            ));
+        }
+    }
+    match (&trial.knee_angle_deg, opts.knee_angle_deg) {
+        (Some(column), Some(c)) => {
+            if let Some((i, k)) = column
+                .iter()
+                .enumerate()
+                .find(|(_, k)| (*k - c).abs() > KNEE_AGREEMENT_DEG)
+            {
+                return Err(col.error(
+                    ErrorKind::Conflict,
+                    format!(
+                        "the trial's knee angle ({k}° at sample {i}) differs from the constant \
+                         knee angle {c}° given with it; give one or the other"
+                    ),
+                ));
+            }
+            Ok(Some(column.iter().map(|d| d.to_radians()).collect()))
+        }
+        (Some(column), None) => Ok(Some(column.iter().map(|d| d.to_radians()).collect())),
+        (None, Some(c)) => Ok(Some(vec![c.to_radians(); trial.len()])),
+        (None, None) => Ok(None),
+    }
 }

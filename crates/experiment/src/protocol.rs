@@ -393,3 +393,79 @@ impl ProtocolTrace {
         self.segments.last().map_or(0.0, |s| s.end_s)
     }
 }
+
+/// The protocol of a synthetic trial: a motion ([`Protocol`]) with the knee held at a constant
+/// flexion (degrees; 0 extended).
+///
+/// Written `<protocol>` for the extended knee, `knee<DEG>` for the seed motion with the knee
+/// flexed by `DEG` (`knee90`), and `<protocol>@knee<DEG>` otherwise (`relaxed+2@knee90`);
+/// `seed@knee<DEG>` is also read.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SynthProtocol {
+    /// The motion and when the subject pushes.
+    pub protocol: Protocol,
+    /// Knee flexion throughout the trial (degrees; 0 extended, > 0 flexed).
+    pub knee_angle_deg: f64,
+}
+
+impl From<Protocol> for SynthProtocol {
+    fn from(protocol: Protocol) -> Self {
+        Self {
+            protocol,
+            knee_angle_deg: 0.0,
+        }
+    }
+}
+
+impl fmt::Display for SynthProtocol {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let k = self.knee_angle_deg;
+        match self.protocol {
+            _ if k == 0.0 => write!(f, "{}", self.protocol),
+            Protocol::Seed => write!(f, "knee{k}"),
+            p => write!(f, "{p}@knee{k}"),
+        }
+    }
+}
+
+impl FromStr for SynthProtocol {
+    type Err = ExperimentError;
+    fn from_str(s: &str) -> Result<Self> {
+        let s = s.trim();
+        let (motion, knee) = match s.split_once('@') {
+            Some((m, k)) => (m.trim(), Some(k.trim())),
+            None if s.starts_with("knee") => ("seed", Some(s)),
+            None => (s, None),
+        };
+        let protocol: Protocol = motion.parse()?;
+        let knee_angle_deg = match knee {
+            None => 0.0,
+            Some(k) => parse_knee(k, s)?,
+        };
+        Ok(Self {
+            protocol,
+            knee_angle_deg,
+        })
+    }
+}
+
+/// `knee<DEG>` → DEG, a finite angle inside the knee's range.
+fn parse_knee(k: &str, whole: &str) -> Result<f64> {
+    let bad =
+        |reason: String| ExperimentError::invalid("protocol", ErrorKind::InvalidProtocol, reason);
+    let deg: f64 = k
+        .strip_prefix("knee")
+        .and_then(|d| d.trim().parse().ok())
+        .ok_or_else(|| {
+            bad(format!(
+                "'{whole}': the knee angle is written 'knee<degrees>', e.g. 'knee90' or 'seed@knee90'"
+            ))
+        })?;
+    let (lo, hi) = crate::KNEE_RANGE_DEG;
+    if !(deg.is_finite() && (lo..=hi).contains(&deg)) {
+        return Err(bad(format!(
+            "'{whole}': the knee angle must be within [{lo}, {hi}] degrees"
+        )));
+    }
+    Ok(deg)
+}

@@ -4,13 +4,16 @@
 //! identification and diagnosis tests use to make trials with known (random) parameters:
 //!
 //! 1. sample the protocol ([`Protocol::trace`]);
-//! 2. synthesise raw EMG ([`synthetic_emg`]; `emg_ta` too when the effects need it);
+//! 2. synthesise raw EMG ([`synthetic_emg_at_knee`] at the configured knee angle, which lowers
+//!    the gastrocnemii's drive when the knee is flexed; `emg_ta` too when the effects need it
+//!    or the true model has a fixed muscle `ta`, which that channel then drives);
 //! 3. round every raw EMG sample to `emg_decimals` decimals (`k / 10^d`, so the file holds
 //!    at most `d` decimals: short lines, small fixtures; the default 4 decimals = 1e-4 in the
 //!    EMG unit, a rounding noise of 3e-5 RMS against a rest-level RMS of 3e-3 to 1e-2, which
 //!    changes the normalised envelopes by well under 1 %) and the angle to `angle_decimals` decimals of a
 //!    degree (7: 1e-7°);
-//! 4. build the [`Trial`] (torque zeros) and turn it into model inputs with
+//! 4. build the [`Trial`] (torque zeros; a `knee_angle_deg` column holding the knee angle when
+//!    it is not 0) and turn it into model inputs with
 //!    [`model_inputs`], so the truth is computed from exactly what a user's program reads;
 //! 5. simulate the true parameters and effects ([`muscle_model::simulate()`]);
 //! 6. add the dynamometer error ([`dynamometer_error`], [`Recording::Trial`] streams of the
@@ -42,11 +45,11 @@ use serde_json::{json, Map, Value};
 use crate::dynamometer::{
     dynamometer_error, quantise_in_place, unloaded_run, DynamometerSettings, Recording,
 };
-use crate::emg::{synthetic_emg, EmgSettings};
+use crate::emg::{synthetic_emg_at_knee, EmgSettings};
 use crate::error::{ErrorKind, ExperimentError, Result};
 use crate::files::{Trial, Unloaded};
 use crate::model_inputs::{model_inputs, InputOptions};
-use crate::protocol::Protocol;
+use crate::protocol::{Protocol, SynthProtocol};
 
 /// Decimals of the raw EMG columns written by the synthesis (1e-4 in the EMG unit).
 pub const DEFAULT_EMG_DECIMALS: u32 = 4;
@@ -58,7 +61,12 @@ pub const DEFAULT_ANGLE_DECIMALS: u32 = 7;
 pub struct SynthConfig {
     /// The protocol of the trial (the unloaded run is always [`Protocol::unloaded`]).
     pub protocol: Protocol,
-    /// The true model parameters.
+    /// Knee flexion throughout the trial (degrees; 0 extended). When it is not 0 the trial has
+    /// a `knee_angle_deg` column and the gastrocnemii's drive is lowered
+    /// ([`crate::gastrocnemius_drive_factor`]).
+    pub knee_angle_deg: f64,
+    /// The true model parameters. Besides sol, gm and gl they may hold one fixed muscle, `ta`
+    /// (with its length polynomial), driven by the synthetic `emg_ta`.
     pub params: ModelParams,
     /// The true model extensions (docs/formats.md, "Effects JSON").
     pub effects: Effects,
@@ -84,6 +92,7 @@ impl SynthConfig {
     pub fn new(protocol: Protocol, seed: u64) -> Self {
         Self {
             protocol,
+            knee_angle_deg: 0.0,
             params: ModelParams::nominal(),
             effects: Effects::none(),
             dynamometer: DynamometerSettings::default(),
@@ -92,6 +101,29 @@ impl SynthConfig {
             emg_decimals: DEFAULT_EMG_DECIMALS,
             angle_decimals: DEFAULT_ANGLE_DECIMALS,
             sim: SimSettings::tight(),
+        }
+    }
+
+    /// A configuration for a protocol with its knee angle (otherwise as [`SynthConfig::new`]).
+    #[must_use]
+    pub fn for_protocol(protocol: SynthProtocol, seed: u64) -> Self {
+        Self::new(protocol.protocol, seed).with_knee_angle_deg(protocol.knee_angle_deg)
+    }
+
+    /// The same configuration with the knee flexed by `deg` degrees throughout.
+    #[must_use]
+    pub fn with_knee_angle_deg(mut self, deg: f64) -> Self {
+        self.knee_angle_deg = deg;
+        self
+    }
+
+    /// The protocol with its knee angle (`knee90`, `relaxed+2@knee90`, or the bare protocol for
+    /// the extended knee).
+    #[must_use]
+    pub fn synth_protocol(&self) -> SynthProtocol {
+        SynthProtocol {
+            protocol: self.protocol,
+            knee_angle_deg: self.knee_angle_deg,
         }
     }
 
@@ -109,11 +141,12 @@ impl SynthConfig {
         self
     }
 
-    /// The EMG settings actually used: `include_ta` forced on when the effects need `emg_ta`.
+    /// The EMG settings actually used: `include_ta` forced on when the effects need `emg_ta` or
+    /// the true model has a fixed muscle `ta`.
     #[must_use]
     pub fn effective_emg(&self) -> EmgSettings {
         let mut e = self.emg;
-        if needs_ta(&self.effects) {
+        if needs_ta(&self.effects) || self.params.fixed.get("ta").is_some() {
             e.include_ta = true;
         }
         e
@@ -122,10 +155,11 @@ impl SynthConfig {
     /// The truth as JSON (keys sorted at every level):
     /// `{"angle_decimals", "dynamometer", "effects", "emg", "emg_decimals", "params",
     /// "protocol", "seed", "sim"}` with `params` the full parameters JSON and
-    /// `effects` the effects JSON (both in docs/formats.md).
+    /// `effects` the effects JSON (both in docs/formats.md); `"knee_angle_deg"` too when the
+    /// knee is flexed (absent for the extended knee).
     #[must_use]
     pub fn truth_json(&self) -> Value {
-        let v = json!({
+        let mut v = json!({
             "params": self.params.to_json_value(),
             "effects": self.effects.to_json_value(),
             "protocol": self.protocol.to_string(),
@@ -136,6 +170,11 @@ impl SynthConfig {
             "angle_decimals": self.angle_decimals,
             "sim": serde_json::to_value(self.sim).unwrap_or(Value::Null),
         });
+        if self.knee_angle_deg != 0.0 {
+            if let Value::Object(m) = &mut v {
+                m.insert("knee_angle_deg".into(), json!(self.knee_angle_deg));
+            }
+        }
         sorted_json(&v)
     }
 }
@@ -185,8 +224,9 @@ pub fn synthesize(cfg: &SynthConfig) -> Result<Synthetic> {
             "emg_decimals and angle_decimals must be at most 15",
         ));
     }
+    check_fixed_muscles(&cfg.params)?;
     let trace = cfg.protocol.trace()?;
-    let emg = synthetic_emg(&trace, &cfg.effective_emg(), cfg.seed)?;
+    let emg = synthetic_emg_at_knee(&trace, &cfg.effective_emg(), cfg.seed, cfg.knee_angle_deg)?;
     let mut emg = emg;
     for ch in &mut emg.channels {
         for x in &mut ch.raw {
@@ -196,6 +236,9 @@ pub fn synthesize(cfg: &SynthConfig) -> Result<Synthetic> {
     let mut trial = emg.to_trial(&trace, vec![0.0; trace.len()])?;
     for a in &mut trial.ankle_angle_deg {
         *a = round_decimals(*a, cfg.angle_decimals);
+    }
+    if cfg.knee_angle_deg != 0.0 {
+        trial.knee_angle_deg = Some(vec![cfg.knee_angle_deg; trial.len()]);
     }
     let inputs = model_inputs(&trial, &InputOptions::default())?;
     let out = simulate(&inputs, &cfg.params, &cfg.effects, &cfg.sim).map_err(|e| {
@@ -224,6 +267,30 @@ pub fn synthesize(cfg: &SynthConfig) -> Result<Synthetic> {
         inputs,
         truth_json: cfg.truth_json(),
     })
+}
+
+/// The synthetic subject has EMG for sol, gm, gl and ta only, and a synthetic trial carries no
+/// geometry series: a fixed muscle must be `ta` with a length polynomial.
+fn check_fixed_muscles(params: &ModelParams) -> Result<()> {
+    for f in params.fixed.iter() {
+        let reason = if f.name != "ta" {
+            format!(
+                "fixed muscle '{}': the synthetic subject has EMG for sol, gm, gl and ta only",
+                f.name
+            )
+        } else if f.params.geometry_from_trial() {
+            "fixed muscle 'ta' needs its lmt_poly_m: a synthetic trial has no geometry series"
+                .to_string()
+        } else {
+            continue;
+        };
+        return Err(ExperimentError::invalid(
+            "true model",
+            ErrorKind::InvalidSettings,
+            reason,
+        ));
+    }
+    Ok(())
 }
 
 /// Draws the 9 identified parameters (LST, F0, α0 of each muscle) uniformly inside

@@ -568,6 +568,7 @@ fn awkward_trial() -> Trial {
         emg_gm: col(1.0),
         emg_gl: col(1.0),
         emg_ta: Some(ta),
+        emg_other: vec![("perlong".into(), col(0.5))],
         knee_angle_deg: Some(vec![0.0; n]),
         comments: vec![" generated".into(), "seed=11, a, b".into()],
         ignored_columns: Vec::new(),

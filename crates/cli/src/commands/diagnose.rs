@@ -36,6 +36,8 @@ pub struct DiagnoseArgs {
     /// The EMG columns are already normalised envelopes in [0, 1].
     #[arg(long)]
     pub emg_is_envelope: bool,
+    #[command(flatten)]
+    pub knee: super::KneeArgs,
     /// Output folder (default `out/diagnose`).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -52,6 +54,7 @@ pub fn run(args: DiagnoseArgs) -> CmdResult {
     }
     let model_args = ModelArgs {
         emg_is_envelope: args.emg_is_envelope,
+        knee: args.knee,
         ..ModelArgs::default()
     };
     // validates the inputs with messages that name the file
@@ -66,8 +69,10 @@ pub fn run(args: DiagnoseArgs) -> CmdResult {
         .unwrap_or_else(|| crate::default_out("diagnose"));
     let out = OutDir::prepare(&out_dir, &inputs_read, PLANNED)?;
 
-    let mut settings = DiagnoseSettings::default();
-    settings.input_options.emg_is_envelope = args.emg_is_envelope;
+    let settings = DiagnoseSettings {
+        input_options: args.knee.input_options(args.emg_is_envelope),
+        ..DiagnoseSettings::default()
+    };
     let show = args.report.show();
     let progress = ProgressDisplay::new(show, 0, "diag");
     let mut observer = |p: &diagnose::DiagnosisProgress| {

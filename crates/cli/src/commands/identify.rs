@@ -151,10 +151,7 @@ pub fn prepare(
     }
     // validates the EMG columns with messages that name the file
     trial_inputs(&loaded, model)?;
-    let opts = experiment::InputOptions {
-        emg_is_envelope: model.emg_is_envelope,
-        ..experiment::InputOptions::default()
-    };
+    let opts = model.knee.input_options(model.emg_is_envelope);
     let unloaded_name = unloaded.as_ref().map(|(_, n)| n.clone());
     let prep = identify_sa::prepare_trial(&loaded.trial, unloaded.as_ref().map(|(u, _)| u), &opts)
         .map_err(|e| match &unloaded_name {

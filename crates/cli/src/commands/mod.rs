@@ -111,6 +111,30 @@ pub struct ModelArgs {
     /// EMG filtering of docs/model.md).
     #[arg(long)]
     pub emg_is_envelope: bool,
+    #[command(flatten)]
+    pub knee: KneeArgs,
+}
+
+/// The knee angle of a trial recorded without a `knee_angle_deg` column.
+#[derive(clap::Args, Debug, Clone, Copy, Default)]
+pub struct KneeArgs {
+    /// Constant knee flexion of the trial, in degrees (0 extended, 90 flexed), when the
+    /// file has no `knee_angle_deg` column; a file whose column holds other values is an
+    /// error. Without either the knee is extended.
+    #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
+    pub knee_angle_deg: Option<f64>,
+}
+
+impl KneeArgs {
+    /// The reader's options for the EMG given as raw signals or as envelopes, with this knee
+    /// angle.
+    pub fn input_options(&self, emg_is_envelope: bool) -> experiment::InputOptions {
+        experiment::InputOptions {
+            emg_is_envelope,
+            knee_angle_deg: self.knee_angle_deg,
+            ..experiment::InputOptions::default()
+        }
+    }
 }
 
 pub fn read_text(path: &Path) -> CmdResult<String> {
@@ -173,15 +197,21 @@ pub fn load_model_config(
     Ok((params, effects, read))
 }
 
-/// The model inputs of a loaded trial (angle in rad, normalised envelopes).
+/// The model inputs of a loaded trial (angle in rad, normalised envelopes, knee angle from
+/// the file or `--knee-angle-deg`).
 pub fn trial_inputs(
     loaded: &LoadedTrial,
     args: &ModelArgs,
 ) -> CmdResult<muscle_model::TrialInputs> {
-    let opts = experiment::InputOptions {
-        emg_is_envelope: args.emg_is_envelope,
-        ..experiment::InputOptions::default()
-    };
+    if let Some(k) = args.knee.knee_angle_deg {
+        let (lo, hi) = experiment::KNEE_RANGE_DEG;
+        if !(k.is_finite() && (lo..=hi).contains(&k)) {
+            return Err(Failure::bad(format!(
+                "--knee-angle-deg: {k} is outside the knee's range [{lo}, {hi}] degrees"
+            )));
+        }
+    }
+    let opts = args.knee.input_options(args.emg_is_envelope);
     experiment::model_inputs_named(&loaded.trial, &opts, &loaded.name).map_err(|e| {
         let msg = e.to_string();
         // errors from a bundled trial are ours, not the user's

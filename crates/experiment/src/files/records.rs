@@ -14,6 +14,9 @@ pub const TRIAL_REQUIRED: [&str; 6] = [
 ];
 /// Optional columns of a trial file, in the order they are written (after the required ones).
 pub const TRIAL_OPTIONAL: [&str; 2] = ["emg_ta", "knee_angle_deg"];
+/// Prefix of the EMG columns; `emg_<name>` for a muscle other than sol, gm, gl and ta is read
+/// into [`Trial::emg_other`].
+pub const EMG_PREFIX: &str = "emg_";
 /// Required columns of an unloaded-run file (it has no optional ones).
 pub const UNLOADED_REQUIRED: [&str; 3] = ["time_s", "ankle_angle_deg", "torque_nm"];
 
@@ -59,6 +62,11 @@ pub struct Trial {
     pub emg_gl: Vec<f64>,
     /// Raw EMG of tibialis anterior, if recorded.
     pub emg_ta: Option<Vec<f64>>,
+    /// Raw EMG of further muscles (`emg_<name>` columns other than sol, gm, gl and ta), as
+    /// `(name, samples)` with the name after `emg_` (e.g. `perlong`), in file order. A fixed
+    /// muscle of the model with that name is driven by its envelope.
+    #[serde(default)]
+    pub emg_other: Vec<(String, Vec<f64>)>,
     /// Knee angle in degrees (0 = extended), if recorded.
     pub knee_angle_deg: Option<Vec<f64>>,
     /// Text of the `#` comment lines (after the `#`), in file order; written at the top.
@@ -110,18 +118,31 @@ impl Trial {
     pub fn sample_rate_hz(&self) -> f64 {
         1.0 / self.dt()
     }
-    /// The EMG columns present, as `(column name, samples)`: sol, gm, gl, then ta if present.
+    /// The EMG columns present, as `(column name, samples)`: sol, gm, gl, then ta if present,
+    /// then the further channels ([`Trial::emg_other`]) in their order.
     #[must_use]
-    pub fn emg_channels(&self) -> Vec<(&'static str, &[f64])> {
-        let mut v: Vec<(&'static str, &[f64])> = vec![
-            ("emg_sol", &self.emg_sol),
-            ("emg_gm", &self.emg_gm),
-            ("emg_gl", &self.emg_gl),
+    pub fn emg_channels(&self) -> Vec<(String, &[f64])> {
+        let mut v: Vec<(String, &[f64])> = vec![
+            ("emg_sol".into(), &self.emg_sol),
+            ("emg_gm".into(), &self.emg_gm),
+            ("emg_gl".into(), &self.emg_gl),
         ];
         if let Some(ta) = &self.emg_ta {
-            v.push(("emg_ta", ta));
+            v.push(("emg_ta".into(), ta));
+        }
+        for (name, raw) in &self.emg_other {
+            v.push((format!("{EMG_PREFIX}{name}"), raw));
         }
         v
+    }
+
+    /// Raw EMG of the further muscle `name` (the name after `emg_`), if recorded.
+    #[must_use]
+    pub fn emg_named(&self, name: &str) -> Option<&[f64]> {
+        self.emg_other
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| v.as_slice())
     }
 }
 

@@ -14,6 +14,9 @@ pub(super) struct Table {
     pub(super) columns: Vec<Option<Vec<f64>>>,
     /// 1-based field index of each known column in the header (0 if absent).
     pub(super) field_of: Vec<usize>,
+    /// Columns named `<prefix><name>` (see [`parse_table`]), in header order: the full column
+    /// name, its 1-based field index and its values.
+    pub(super) extra: Vec<(String, usize, Vec<f64>)>,
     pub(super) comments: Vec<String>,
     pub(super) ignored: Vec<String>,
 }
@@ -61,16 +64,30 @@ pub(super) fn decode<'a>(bytes: &'a [u8], path: &str) -> Result<&'a str> {
     }
 }
 
+/// `true` for a name usable after an extra-column prefix: a lower-case letter, then lower-case
+/// letters, digits and `_` (the muscle names of the parameters JSON).
+pub(super) fn is_channel_name(s: &str) -> bool {
+    let mut chars = s.chars();
+    chars.next().is_some_and(|c| c.is_ascii_lowercase())
+        && chars.all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_')
+}
+
+/// Reads a table whose columns are `required`, then `optional`, then, when `extra_prefix` is
+/// given, any number of further columns named `<extra_prefix><name>` ([`is_channel_name`]);
+/// every other column is ignored.
 #[allow(clippy::too_many_lines)]
 pub(super) fn parse_table(
     text: &str,
     path: &str,
     required: &[&str],
     optional: &[&str],
+    extra_prefix: Option<&str>,
     opts: &ReadOptions,
 ) -> Result<Table> {
     let text = text.strip_prefix('\u{FEFF}').unwrap_or(text);
     let known: Vec<&str> = required.iter().chain(optional.iter()).copied().collect();
+    // names of every read column: the known ones, then the extra ones in header order
+    let mut all: Vec<String> = known.iter().map(|k| (*k).to_string()).collect();
     let time_idx = known.iter().position(|&k| k == "time_s");
     let p = || path.to_string();
 
@@ -144,7 +161,10 @@ pub(super) fn parse_table(
                             reason: "empty column name in the header".into(),
                         });
                     }
-                    if let Some(k) = known.iter().position(|&k| k == name) {
+                    let extra = extra_prefix
+                        .and_then(|pre| name.strip_prefix(pre))
+                        .is_some_and(is_channel_name);
+                    if let Some(k) = all.iter().position(|k| k == name) {
                         if field_of[k] != 0 {
                             return Err(ExperimentError::Cell {
                                 path: p(),
@@ -172,6 +192,29 @@ pub(super) fn parse_table(
                             kind: ErrorKind::MisspelledColumn,
                             reason: format!(
                                 "column {} looks like '{k}'; column names are exact and lower case",
+                                quote(name)
+                            ),
+                        });
+                    } else if extra {
+                        all.push(name.clone());
+                        field_of.push(col);
+                        values.push(Vec::new());
+                        field_map.push(Some(all.len() - 1));
+                    } else if let Some(prefix) = extra_prefix.filter(|pre| {
+                        let n = normalise_name(name);
+                        n.starts_with(pre) && n.len() > pre.len()
+                    }) {
+                        // a channel the user meant to supply, misnamed: ignoring it would
+                        // quietly drop it
+                        return Err(ExperimentError::Cell {
+                            path: p(),
+                            line: lineno,
+                            column: col,
+                            name: name.clone(),
+                            kind: ErrorKind::MisspelledColumn,
+                            reason: format!(
+                                "column {} looks like a channel '{prefix}<name>'; the name after \
+                                 '{prefix}' is lower case: letters, digits and '_', starting with a letter",
                                 quote(name)
                             ),
                         });
@@ -237,7 +280,7 @@ pub(super) fn parse_table(
                         path: p(),
                         line: lineno,
                         column: j + 1,
-                        name: known[k].to_string(),
+                        name: all[k].clone(),
                         kind,
                         reason,
                     };
@@ -256,7 +299,7 @@ pub(super) fn parse_table(
                             format!("{} is not a finite number", quote(cell)),
                         ));
                     }
-                    if let Some((lo, hi)) = plausible_range(known[k]) {
+                    if let Some((lo, hi)) = plausible_range(&all[k]) {
                         if !(lo..=hi).contains(&v) {
                             return Err(cell_err(
                                 ErrorKind::OutOfRange,
@@ -376,6 +419,14 @@ pub(super) fn parse_table(
         }
     }
 
+    let extra_values = values.split_off(known.len());
+    let extra = all
+        .split_off(known.len())
+        .into_iter()
+        .zip(field_of.split_off(known.len()))
+        .zip(extra_values)
+        .map(|((name, col), v)| (name, col, v))
+        .collect();
     let columns = values
         .into_iter()
         .enumerate()
@@ -384,6 +435,7 @@ pub(super) fn parse_table(
     Ok(Table {
         columns,
         field_of,
+        extra,
         comments,
         ignored,
     })

@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use super::records::{ReadOptions, Trial, TRIAL_OPTIONAL, TRIAL_REQUIRED};
+use super::records::{ReadOptions, Trial, EMG_PREFIX, TRIAL_OPTIONAL, TRIAL_REQUIRED};
 use super::table::{decode, parse_table, read_bytes, Table};
 use crate::error::{ErrorKind, ExperimentError, Result};
 
@@ -24,6 +24,17 @@ fn check_not_all_zero(table: &Table, known: &[&str], path: &str) -> Result<()> {
             }
         }
     }
+    for (name, column, col) in &table.extra {
+        if col.iter().all(|&x| x == 0.0) {
+            return Err(ExperimentError::Column {
+                path: path.to_string(),
+                column: *column,
+                name: name.clone(),
+                kind: ErrorKind::ZeroChannel,
+                reason: "EMG channel is all zeros (disconnected electrode?)".into(),
+            });
+        }
+    }
     Ok(())
 }
 
@@ -40,13 +51,30 @@ pub fn parse_trial(text: &str, name: &str) -> Result<Trial> {
 /// # Errors
 /// As [`parse_trial`].
 pub fn parse_trial_with(text: &str, name: &str, opts: &ReadOptions) -> Result<Trial> {
-    let mut t = parse_table(text, name, &TRIAL_REQUIRED, &TRIAL_OPTIONAL, opts)?;
+    let mut t = parse_table(
+        text,
+        name,
+        &TRIAL_REQUIRED,
+        &TRIAL_OPTIONAL,
+        Some(EMG_PREFIX),
+        opts,
+    )?;
     let known: Vec<&str> = TRIAL_REQUIRED
         .iter()
         .chain(TRIAL_OPTIONAL.iter())
         .copied()
         .collect();
     check_not_all_zero(&t, &known, name)?;
+    let emg_other = std::mem::take(&mut t.extra)
+        .into_iter()
+        .map(|(column, _, v)| {
+            let name = column
+                .strip_prefix(EMG_PREFIX)
+                .unwrap_or(&column)
+                .to_string();
+            (name, v)
+        })
+        .collect();
     let mut take = |k: usize| t.columns[k].take();
     let req = |c: Option<Vec<f64>>| c.unwrap_or_default();
     Ok(Trial {
@@ -57,6 +85,7 @@ pub fn parse_trial_with(text: &str, name: &str, opts: &ReadOptions) -> Result<Tr
         emg_gm: req(take(4)),
         emg_gl: req(take(5)),
         emg_ta: take(6),
+        emg_other,
         knee_angle_deg: take(7),
         comments: t.comments,
         ignored_columns: t.ignored,

@@ -19,7 +19,7 @@ pub fn parse_unloaded(text: &str, name: &str) -> Result<Unloaded> {
 /// # Errors
 /// As [`super::parse_trial`].
 pub fn parse_unloaded_with(text: &str, name: &str, opts: &ReadOptions) -> Result<Unloaded> {
-    let mut t = parse_table(text, name, &UNLOADED_REQUIRED, &[], opts)?;
+    let mut t = parse_table(text, name, &UNLOADED_REQUIRED, &[], None, opts)?;
     let mut take = |k: usize| t.columns[k].take().unwrap_or_default();
     Ok(Unloaded {
         time_s: take(0),

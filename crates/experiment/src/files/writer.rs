@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use super::number::write_f64;
-use super::records::{Trial, Unloaded, TRIAL_REQUIRED, UNLOADED_REQUIRED};
+use super::records::{Trial, Unloaded, EMG_PREFIX, TRIAL_REQUIRED, UNLOADED_REQUIRED};
 use super::trial::parse_trial;
 use super::unloaded::parse_unloaded;
 use crate::error::{ErrorKind, ExperimentError, Result};
@@ -63,6 +63,11 @@ fn format_rows(out: &mut String, comments: &[String], names: &[&str], cols: &[&[
 
 fn format_trial_named(trial: &Trial, path: &str) -> Result<String> {
     check_comments(&trial.comments, path)?;
+    let other: Vec<String> = trial
+        .emg_other
+        .iter()
+        .map(|(n, _)| format!("{EMG_PREFIX}{n}"))
+        .collect();
     let mut names: Vec<&str> = TRIAL_REQUIRED.to_vec();
     let mut cols: Vec<&[f64]> = vec![
         &trial.time_s,
@@ -75,6 +80,10 @@ fn format_trial_named(trial: &Trial, path: &str) -> Result<String> {
     if let Some(ta) = &trial.emg_ta {
         names.push("emg_ta");
         cols.push(ta);
+    }
+    for (name, (_, raw)) in other.iter().zip(&trial.emg_other) {
+        names.push(name);
+        cols.push(raw);
     }
     if let Some(k) = &trial.knee_angle_deg {
         names.push("knee_angle_deg");
@@ -93,7 +102,8 @@ fn format_trial_named(trial: &Trial, path: &str) -> Result<String> {
 }
 
 /// The CSV text [`write_trial`] writes: comments as `#text`, canonical column order
-/// (required, then `emg_ta`, `knee_angle_deg` if present), `\n` line ends, [`write_f64`] numbers.
+/// (required, then `emg_ta`, the further `emg_<name>` columns in their order and
+/// `knee_angle_deg`, each if present), `\n` line ends, [`write_f64`] numbers.
 ///
 /// # Errors
 /// Columns of different lengths, or anything the reader would reject.
