@@ -1,8 +1,8 @@
 """ArviZ reads the chains of `surae identify --method mcmc` on the bundled trial.
 
 `arviz.from_cmdstan` on `chains/chain_<k>.csv` must give the posterior means of
-`identify.json` to 1e-9 and `arviz.rhat` within 0.002 of its R-hat, for every
-parameter. The `surae` binary comes from `SURAE_BIN`, else `target/release/surae`
+`identify.json` to 1e-9, `arviz.rhat` within 0.002 of its R-hat and `arviz.ess`
+(bulk, tail) equal to its ESS to rounding, for every parameter. The `surae` binary comes from `SURAE_BIN`, else `target/release/surae`
 under the repository root; without either the test fails (build it first with
 `cargo build --release -p cli`).
 """
@@ -51,6 +51,8 @@ def test_from_cmdstan_means_and_rhat_match_identify_json(mcmc_run):
     assert post.sizes["chain"] == len(chains)
     assert post.sizes["draw"] == doc["sampling_iterations"]
     rhat = az.rhat(idata)
+    ess_bulk = az.ess(idata, method="bulk")
+    ess_tail = az.ess(idata, method="tail")
     worst_mean, worst_rhat = 0.0, 0.0
     for name, reported in doc["posterior"].items():
         var = name.replace(".", "_")
@@ -60,6 +62,10 @@ def test_from_cmdstan_means_and_rhat_match_identify_json(mcmc_run):
         r = float(rhat[var])
         worst_rhat = max(worst_rhat, abs(r - reported["rhat"]))
         assert abs(r - reported["rhat"]) <= 0.002, (name, r, reported["rhat"])
+        # the same rank-normalised ESS estimators: equal to rounding
+        for ess, key in ((ess_bulk, "ess_bulk"), (ess_tail, "ess_tail")):
+            e = float(ess[var])
+            assert abs(e - reported[key]) <= 1e-9 * reported[key], (name, key, e)
     print(f"largest |mean difference| {worst_mean:.3g}, largest |R-hat difference| {worst_rhat:.3g}")
     # lp__ is a sampler statistic, the per-trial log-likelihood its own group
     assert "lp" in idata.sample_stats
@@ -68,3 +74,48 @@ def test_from_cmdstan_means_and_rhat_match_identify_json(mcmc_run):
     ll = idata.log_likelihood["log_lik"].values[..., 0]
     diff = lp - ll
     assert abs(diff.max() - diff.min()) < 1e-6  # the constant log prior density
+
+
+def test_opensim_reads_the_sto_and_identified_osim(tmp_path):
+    """OpenSim's own Python package, where it installs (`pip install opensim`), reads
+    `simulate --out x.sto` and the `identified.osim` of an identification."""
+    osim = pytest.importorskip("opensim", reason="the opensim package is not installed")
+    import numpy as np
+
+    exe = str(surae_bin())
+    subprocess.run([exe, "simulate", "--out", str(tmp_path / "sim.csv")], check=True)
+    subprocess.run([exe, "simulate", "--out", str(tmp_path / "sim.sto")], check=True)
+    csv = np.genfromtxt(tmp_path / "sim.csv", delimiter=",", names=True)
+    table = osim.TimeSeriesTable(str(tmp_path / "sim.sto"))
+    assert table.getNumRows() == len(csv)
+    assert table.getTableMetaDataAsString("inDegrees") == "yes"
+    time = np.array(table.getIndependentColumn())
+    assert np.max(np.abs(time - csv["time_s"])) <= 1e-9
+    columns = {
+        "ankle_angle_r": csv["ankle_angle_deg"],
+        "torque_nm": csv["torque_nm"],
+        "torque_sol_nm": csv["torque_sol_nm"],
+        "ankle_angle_r_moment": -csv["torque_nm"],
+    }
+    for label, expected in columns.items():
+        got = table.getDependentColumn(label).to_numpy()
+        assert np.max(np.abs(got - expected)) <= 1e-9, label
+
+    model_file = REPO / "crates" / "opensim-files" / "tests" / "data" / "leg6.osim"
+    out = tmp_path / "sa"
+    subprocess.run(
+        [exe, "identify", "--method", "sa", "--quiet", "--params", str(model_file),
+         "--out", str(out)],
+        check=True,
+    )
+    params = json.loads((out / "identify.json").read_text())["params"]
+    model = osim.Model(str(out / "identified.osim"))
+    muscles = model.getMuscles()
+    for key, name in (("sol", "soleus_r"), ("gm", "med_gas_r"), ("gl", "lat_gas_r")):
+        m = muscles.get(name)
+        assert m.getMaxIsometricForce() == params[f"{key}.fom_n"]
+        assert m.getTendonSlackLength() == params[f"{key}.lst_m"]
+        assert abs(np.degrees(m.getPennationAngleAtOptimalFiberLength())
+                   - params[f"{key}.alpha_deg"]) < 1e-9
+    # a muscle surae does not identify keeps the model's value
+    assert muscles.get("tib_ant_r").getMaxIsometricForce() == 905.0
