@@ -63,6 +63,11 @@
 //! `width/√12`; `identifiable` means `sd < prior_sd/2`. The pooled correlation
 //! matrix and the pairs sorted by `|r|` show which parameters trade off.
 //!
+//! # Chains for other tools ([`cmdstan`])
+//!
+//! [`write_cmdstan_chain`] writes one chain's kept draws in CmdStan's CSV layout (`lp__`, the
+//! parameters with `_` for `.`, `log_lik.1`), which `arviz.from_cmdstan` reads.
+//!
 //! # Identification of the muscle model ([`identify()`])
 //!
 //! The posterior of a [`muscle_model::Problem`] under a uniform prior on its bounds and the
@@ -103,6 +108,7 @@
 //! assert!((result.correlation[0][1] - rho).abs() < 0.05);
 //! ```
 
+pub mod cmdstan;
 pub mod diagnostics;
 pub mod identify;
 pub mod mixture;
@@ -114,6 +120,7 @@ mod settings;
 mod summary;
 mod target;
 
+pub use cmdstan::write_cmdstan_chain;
 pub use mixture::{ComponentSpec, MixtureProposal};
 pub use sampler::{
     run, run_with_observer, run_with_proposal, ChainPhase, ChainProgress, ChainStopReason,

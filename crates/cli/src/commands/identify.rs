@@ -1,6 +1,8 @@
 //! `surae identify`: fit LST, F0 and α0 of the three muscles (docs/results.md) by
 //! simulated annealing or MCMC.
 
+mod other_tools;
+
 use super::{load_model_config, load_trial, load_unloaded, trial_inputs, LoadedTrial, ModelArgs};
 use crate::error::{CmdResult, Failure};
 use crate::figures::{self, FigureSet};
@@ -33,6 +35,8 @@ impl Method {
 const PLANNED: &[&str] = &[
     "identify.json",
     "chains.csv",
+    "chains",
+    "identified.osim",
     "torque_fit.svg",
     "residual_vs_time.svg",
     "residual_vs_angle.svg",
@@ -263,6 +267,13 @@ pub fn run(args: IdentifyArgs) -> CmdResult {
         m.write_chains_csv(&mut csv).map_err(Failure::internal)?;
         files.push(out.write("chains.csv", &csv)?);
     }
+    // files for ArviZ and OpenSim, reported on a line of their own
+    let chain_files = match &mcmc {
+        Some(m) => other_tools::write_chains(&out, m, args.seed, &prep.loaded.name)?,
+        None => Vec::new(),
+    };
+    let osim =
+        other_tools::write_identified_osim(&out, &args.model, prep.problem.base_params(), &doc)?;
     files.extend(write_figures(
         &out,
         &prep,
@@ -300,6 +311,19 @@ pub fn run(args: IdentifyArgs) -> CmdResult {
             files.len(),
             out_dir.display()
         ));
+        if !chain_files.is_empty() {
+            say(&format!(
+                "wrote {} chains in CmdStan's CSV layout in {} (arviz.from_cmdstan)",
+                chain_files.len(),
+                out.path("chains").display()
+            ));
+        }
+        if let Some(p) = &osim {
+            say(&format!(
+                "wrote {} (the model with the identified F0, LST and α0)",
+                p.display()
+            ));
+        }
     }
     Ok(())
 }

@@ -101,9 +101,14 @@ pub fn out_file(out: Option<&Path>, command: &str, default_file: &str) -> PathBu
 /// Model options shared by the commands that simulate.
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct ModelArgs {
-    /// Parameters JSON (docs/formats.md; any subset, the rest is nominal).
+    /// Parameters JSON (docs/formats.md; any subset, the rest is nominal), or an OpenSim
+    /// model (`.osim`) whose soleus and gastrocnemii give F0, LOM, LST, α0 and vmax.
     #[arg(long)]
     pub params: Option<PathBuf>,
+    /// With an `.osim` `--params`: the model's names of sol, gm and gl when they are not
+    /// gait2392's `soleus_r`, `med_gas_r`, `lat_gas_r` (e.g. `sol=soleus_l,gm=med_gas_l`).
+    #[arg(long, value_delimiter = ',', value_name = "MUSCLE=NAME")]
+    pub osim_muscles: Vec<String>,
     /// Effects JSON (effects and their parameters in docs/formats.md): `{"<effect>": {"<param>": value}}`.
     #[arg(long)]
     pub effects: Option<PathBuf>,
@@ -175,7 +180,19 @@ pub fn load_model_config(
     Vec<PathBuf>,
 )> {
     let mut read = Vec::new();
+    let names = osim_names(args)?;
     let params = match &args.params {
+        Some(p) if is_osim(p) => {
+            let text = read_text(p)?;
+            read.push(p.clone());
+            opensim_files::osim_params(
+                &text,
+                &p.display().to_string(),
+                &names,
+                &muscle_model::ModelParams::nominal(),
+            )
+            .map_err(Failure::bad)?
+        }
         Some(p) => {
             let value = read_json(p)?;
             read.push(p.clone());
@@ -195,6 +212,32 @@ pub fn load_model_config(
         None => muscle_model::Effects::none(),
     };
     Ok((params, effects, read))
+}
+
+/// Whether `path` names an OpenSim model (`.osim`).
+pub fn is_osim(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("osim"))
+}
+
+/// The `--osim-muscles` map (gait2392's names for those not given); an error when it is
+/// given without an `.osim` `--params`.
+pub fn osim_names(args: &ModelArgs) -> CmdResult<opensim_files::OsimMuscleNames> {
+    if !args.osim_muscles.is_empty() && !args.params.as_deref().is_some_and(is_osim) {
+        return Err(Failure::bad(
+            "--osim-muscles applies to an OpenSim model given as --params model.osim",
+        ));
+    }
+    let mut pairs = Vec::new();
+    for item in &args.osim_muscles {
+        let (k, v) = item.split_once('=').ok_or_else(|| {
+            Failure::bad(format!(
+                "--osim-muscles `{item}`: expected MUSCLE=NAME, e.g. sol=soleus_l"
+            ))
+        })?;
+        pairs.push((k.trim(), v.trim()));
+    }
+    opensim_files::OsimMuscleNames::renamed(pairs).map_err(Failure::bad)
 }
 
 /// The model inputs of a loaded trial (angle in rad, normalised envelopes, knee angle from

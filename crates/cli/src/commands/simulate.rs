@@ -1,4 +1,9 @@
 //! `surae simulate`: the model's torque for a trial (docs/model.md; effects in docs/formats.md).
+//!
+//! The output is a CSV, or an OpenSim storage file when `--out` ends in `.sto` (columns in
+//! docs/formats.md): the same columns with OpenSim's names for time and angle, plus
+//! `ankle_angle_r_moment = −torque_nm`, since OpenSim's ankle moment is positive towards
+//! dorsiflexion and surae's torque towards plantarflexion.
 
 use super::{load_model_config, load_trial, out_file, trial_inputs, ModelArgs};
 use crate::error::{CmdResult, Failure};
@@ -14,20 +19,14 @@ pub struct SimulateArgs {
     pub trial: Option<PathBuf>,
     #[command(flatten)]
     pub model: ModelArgs,
-    /// Output: a `.csv` file, or a folder to write `simulate.csv` into
-    /// (default `out/simulate/simulate.csv`).
+    /// Output: a `.csv` file, an OpenSim storage file (`.sto`), or a folder to write
+    /// `simulate.csv` into (default `out/simulate/simulate.csv`).
     #[arg(long)]
     pub out: Option<PathBuf>,
 }
 
-/// Runs the command.
-pub fn run(args: SimulateArgs) -> CmdResult {
-    let (params, effects, cfg_inputs) = load_model_config(&args.model)?;
-    let loaded = load_trial(args.trial.as_deref())?;
-    let inputs = trial_inputs(&loaded, &args.model)?;
-    let sim = simulate(&inputs, &params, &effects, &SimSettings::default())
-        .map_err(|e| Failure::bad(format!("{}: simulation failed: {e}", loaded.name)))?;
-    let trial = &loaded.trial;
+/// The CSV: `time_s, ankle_angle_deg, torque_nm, torque_<muscle>_nm`.
+fn csv_text(trial: &experiment::Trial, sim: &muscle_model::SimOutput) -> String {
     let mut text = String::with_capacity(trial.len() * 100);
     text.push_str("time_s,ankle_angle_deg,torque_nm,torque_sol_nm,torque_gm_nm,torque_gl_nm\n");
     for i in 0..trial.len() {
@@ -42,7 +41,55 @@ pub fn run(args: SimulateArgs) -> CmdResult {
         }
         text.push('\n');
     }
-    let target = out_file(args.out.as_deref(), "simulate", "simulate.csv");
+    text
+}
+
+/// The OpenSim storage file: `time`, `ankle_angle_r` (degrees), the CSV's torque columns and
+/// `ankle_angle_r_moment` in OpenSim's sign.
+fn sto_text(trial: &experiment::Trial, sim: &muscle_model::SimOutput) -> CmdResult<String> {
+    let mut labels: Vec<String> = ["time", "ankle_angle_r", "torque_nm"]
+        .map(String::from)
+        .to_vec();
+    let mut columns = vec![
+        trial.time_s.clone(),
+        trial.ankle_angle_deg.clone(),
+        sim.torque.clone(),
+    ];
+    for m in Muscle::ALL {
+        labels.push(format!("torque_{}_nm", m.name()));
+        columns.push(sim.torque_muscle[m.index()].clone());
+    }
+    labels.push("ankle_angle_r_moment".into());
+    columns.push(sim.torque.iter().map(|t| -t).collect());
+    opensim_files::write_sto(&opensim_files::StoTable {
+        name: "surae_simulate".into(),
+        version: 1,
+        in_degrees: Some(true),
+        labels,
+        columns,
+    })
+    .map_err(Failure::internal)
+}
+
+/// Runs the command.
+pub fn run(args: SimulateArgs) -> CmdResult {
+    let (params, effects, cfg_inputs) = load_model_config(&args.model)?;
+    let loaded = load_trial(args.trial.as_deref())?;
+    let inputs = trial_inputs(&loaded, &args.model)?;
+    let sim = simulate(&inputs, &params, &effects, &SimSettings::default())
+        .map_err(|e| Failure::bad(format!("{}: simulation failed: {e}", loaded.name)))?;
+    let trial = &loaded.trial;
+    let sto = args
+        .out
+        .as_deref()
+        .filter(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("sto")));
+    let (target, text) = match sto {
+        Some(p) => (p.to_path_buf(), sto_text(trial, &sim)?),
+        None => (
+            out_file(args.out.as_deref(), "simulate", "simulate.csv"),
+            csv_text(trial, &sim),
+        ),
+    };
     let mut inputs_paths: Vec<PathBuf> = loaded.path.iter().cloned().collect();
     inputs_paths.extend(cfg_inputs);
     let inputs_paths: Vec<PathBuf> = inputs_paths

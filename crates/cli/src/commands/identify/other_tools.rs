@@ -1,0 +1,65 @@
+//! The identification's results in other tools' formats: the chains for ArviZ (CmdStan CSV,
+//! `chains/chain_<k>.csv`, k from 1) and the identified values in a copy of the user's
+//! OpenSim model (`identified.osim`). Formats in docs/formats.md.
+
+use super::super::{is_osim, osim_names, read_text, ModelArgs};
+use crate::error::{CmdResult, Failure};
+use crate::output::OutDir;
+use muscle_model::{ModelParams, ParamId};
+use serde_json::Value;
+use std::path::PathBuf;
+
+/// Writes one CmdStan-format CSV per chain into `chains/`.
+pub(super) fn write_chains(
+    out: &OutDir,
+    m: &identify_mcmc::McmcIdentification,
+    seed: u64,
+    trial: &str,
+) -> CmdResult<Vec<PathBuf>> {
+    let description = [
+        "surae identify --method mcmc: random-walk Metropolis-Hastings with mode jumps (not NUTS)",
+        &format!("trial = {trial}"),
+        "lp__ = log uniform prior on the bounds + log_lik.1; log_lik.1 = log-likelihood of the trial",
+    ];
+    let mut files = Vec::new();
+    for c in 0..m.run.log_density.len() {
+        let mut csv = Vec::new();
+        identify_mcmc::write_cmdstan_chain(m, c, seed, &description, &mut csv)
+            .map_err(Failure::internal)?;
+        files.push(out.write(&format!("chains/chain_{}.csv", c + 1), &csv)?);
+    }
+    Ok(files)
+}
+
+/// With an `.osim` `--params`, writes `identified.osim`: the model with the identified F0, LST
+/// and α0 of sol, gm and gl (`doc["params"]`), nothing else changed. `None` otherwise.
+pub(super) fn write_identified_osim(
+    out: &OutDir,
+    model: &ModelArgs,
+    base: &ModelParams,
+    doc: &Value,
+) -> CmdResult<Option<PathBuf>> {
+    let Some(path) = model.params.as_deref().filter(|p| is_osim(p)) else {
+        return Ok(None);
+    };
+    let mut params = *base;
+    let mut effects = muscle_model::Effects::none();
+    if let Some(map) = doc["params"].as_object() {
+        for (name, v) in map {
+            let id = ParamId::parse(name).map_err(Failure::internal)?;
+            let v = v
+                .as_f64()
+                .ok_or_else(|| Failure::internal(format!("{name} is not a number")))?;
+            id.set(&mut params, &mut effects, v);
+        }
+    }
+    let text = read_text(path)?;
+    let edited = opensim_files::write_identified_osim(
+        &text,
+        &path.display().to_string(),
+        &osim_names(model)?,
+        &params,
+    )
+    .map_err(Failure::bad)?;
+    Ok(Some(out.write("identified.osim", edited.as_bytes())?))
+}
