@@ -19,6 +19,19 @@ def test_identify_sa_equals_the_cli(cli, tmp_path):
     assert got["method"] == "sa" and len(got["params"]) == 9
 
 
+def test_identify_mcmc_equals_the_cli(cli, tmp_path):
+    # capped so the test takes seconds; the cap is part of both runs
+    r = cli(
+        "identify", "--method", "mcmc", "--max-iterations", "3000", "--quiet",
+        "--out", tmp_path,
+    )
+    assert r.returncode == 0, r.stderr
+    ref = read_json(tmp_path / "identify.json")
+    got = surae.identify(method="mcmc", max_iterations=3000)
+    assert without(got, "wall_s") == without(ref, "wall_s")
+    assert got["stop"] == "CapReached" and len(got["posterior"]) == 9
+
+
 def test_identify_from_dicts_equals_the_cli_on_files(cli, repo, tmp_path):
     seed = repo / "fixtures" / "seed"
     r = cli(
