@@ -197,7 +197,26 @@ where
 }
 
 /// Identifies LST, F0 and α0 of sol, gm and gl, as `surae identify` does, and returns the
-/// `identify.json` it writes as a dict.
+/// `identify.json` it writes as a dict (equal to the command line's but for `wall_s`).
+///
+/// trial: a trial CSV path, or a dict of its columns (time_s, ankle_angle_deg, torque_nm,
+///     emg_sol, emg_gm, emg_gl, optional emg_ta, knee_angle_deg; an fs key is ignored).
+///     None: the bundled trial, with its unloaded run and truth.
+/// unloaded: the unloaded run, a CSV path or a dict (time_s, ankle_angle_deg, torque_nm);
+///     not defaulted when trial is given.
+/// method: "sa" (simulated annealing with a polish) or "mcmc" (Metropolis-Hastings).
+/// seed: seed of every random choice.
+/// truth: true parameters (dict or JSON file); adds errors_pct.
+/// max_iterations: MCMC only, a cap on the iterations per chain.
+/// params, effects: the fixed model, dicts or JSON files (as for simulate).
+/// emg_is_envelope: the EMG columns already hold envelopes in [0, 1].
+/// out: folder keeping identify.json, the figures and report.html (default: a temporary
+///     folder, removed afterwards).
+/// progress: None/False shows nothing; True one line on sys.stderr; a callable is called as
+///     progress(label, position, total, message).
+///
+/// Runs with the GIL released; Ctrl-C stops it, raises KeyboardInterrupt and writes no result.
+/// Bad input raises surae.InputError with the command line's message.
 #[pyfunction]
 #[pyo3(signature = (
     trial=None, unloaded=None, method="sa", seed=42, *, truth=None, max_iterations=None,
@@ -258,7 +277,10 @@ pub fn identify<'py>(
 }
 
 /// What the model gets wrong, as `surae diagnose` finds it; returns the `diagnosis.json` it
-/// writes as a dict.
+/// writes as a dict (equal to the command line's but for `wall_s`).
+///
+/// trial, unloaded, seed, emg_is_envelope, out, progress: as for identify; out keeps
+/// diagnosis.json, the figures and report.html.
 #[pyfunction]
 #[pyo3(signature = (
     trial=None, unloaded=None, seed=42, *, emg_is_envelope=false, out=None, progress=None

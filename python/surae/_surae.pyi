@@ -6,22 +6,32 @@ from typing import Any, Callable, Dict, Literal, Mapping, Optional, Sequence, Un
 import numpy as np
 import numpy.typing as npt
 
-ArrayLike = npt.ArrayLike
-FloatArray = npt.NDArray[np.float64]
-PathLike = Union[str, "os.PathLike[str]"]
-JsonArg = Union[PathLike, Mapping[str, Any]]
-ColumnsArg = Union[PathLike, Mapping[str, ArrayLike]]
-ProgressArg = Union[bool, Callable[[str, int, int, str], Any], None]
+__all__ = [
+    "InputError",
+    "bundled_trial",
+    "bundled_unloaded",
+    "diagnose",
+    "envelope",
+    "identify",
+    "simulate",
+]
+
+_ArrayLike = npt.ArrayLike
+_FloatArray = npt.NDArray[np.float64]
+_PathLike = Union[str, "os.PathLike[str]"]
+_JsonArg = Union[_PathLike, Mapping[str, Any]]
+_ColumnsArg = Union[_PathLike, Mapping[str, _ArrayLike]]
+_ProgressArg = Union[bool, Callable[[str, int, int, str], Any], None]
 
 class InputError(ValueError):
     """Unusable input: the message is the command line's one-line error (file, line and
     column, or key / column name)."""
 
 def envelope(
-    emg: ArrayLike,
+    emg: _ArrayLike,
     fs: float,
     mvc: Union[float, Sequence[float], None] = None,
-) -> FloatArray:
+) -> _FloatArray:
     """Normalised EMG envelope(s) of raw EMG sampled at ``fs`` Hz.
 
     Band-pass 10-350 Hz (zero-phase), rectify, low-pass 2 Hz (zero-phase), divide by the
@@ -36,14 +46,14 @@ def envelope(
     """
 
 def simulate(
-    angle_deg: ArrayLike,
-    emg_envelopes: Union[Mapping[str, ArrayLike], ArrayLike],
+    angle_deg: _ArrayLike,
+    emg_envelopes: Union[Mapping[str, _ArrayLike], _ArrayLike],
     fs: float,
-    params: Optional[JsonArg] = None,
-    effects: Optional[JsonArg] = None,
+    params: Optional[_JsonArg] = None,
+    effects: Optional[_JsonArg] = None,
     *,
     t0: float = 0.0,
-) -> Dict[str, FloatArray]:
+) -> Dict[str, _FloatArray]:
     """The model's joint torque, as ``surae simulate`` computes it.
 
     angle_deg: ankle angle in degrees (dorsiflexion > 0), one value per sample.
@@ -70,18 +80,18 @@ def bundled_unloaded() -> Dict[str, Any]:
     ``torque_nm`` (numpy arrays) and ``fs`` (Hz)."""
 
 def identify(
-    trial: Optional[ColumnsArg] = None,
-    unloaded: Optional[ColumnsArg] = None,
+    trial: Optional[_ColumnsArg] = None,
+    unloaded: Optional[_ColumnsArg] = None,
     method: Literal["sa", "mcmc"] = "sa",
     seed: int = 42,
     *,
-    truth: Optional[JsonArg] = None,
+    truth: Optional[_JsonArg] = None,
     max_iterations: Optional[int] = None,
-    params: Optional[JsonArg] = None,
-    effects: Optional[JsonArg] = None,
+    params: Optional[_JsonArg] = None,
+    effects: Optional[_JsonArg] = None,
     emg_is_envelope: bool = False,
-    out: Optional[PathLike] = None,
-    progress: ProgressArg = False,
+    out: Optional[_PathLike] = None,
+    progress: _ProgressArg = None,
 ) -> Dict[str, Any]:
     """Identify LST, F0 and alpha0 of sol, gm and gl; returns ``identify.json`` as a dict.
 
@@ -102,21 +112,22 @@ def identify(
     emg_is_envelope: the trial's EMG columns already hold envelopes in [0, 1].
     out: folder for ``identify.json``, the figures and ``report.html`` (and the chain files of
         MCMC); by default a temporary folder, removed afterwards.
-    progress: False (default) shows nothing; True writes one line on ``sys.stderr``, updated
-        in place; a callable is called as ``progress(label, position, total, message)``.
+    progress: None (default) or False shows nothing; True writes one line on ``sys.stderr``,
+        updated in place; a callable is called as ``progress(label, position, total,
+        message)``.
 
     The work runs with the GIL released; Ctrl-C stops it and raises KeyboardInterrupt (no
     results are written).
     """
 
 def diagnose(
-    trial: Optional[ColumnsArg] = None,
-    unloaded: Optional[ColumnsArg] = None,
+    trial: Optional[_ColumnsArg] = None,
+    unloaded: Optional[_ColumnsArg] = None,
     seed: int = 42,
     *,
     emg_is_envelope: bool = False,
-    out: Optional[PathLike] = None,
-    progress: ProgressArg = False,
+    out: Optional[_PathLike] = None,
+    progress: _ProgressArg = None,
 ) -> Dict[str, Any]:
     """What the model gets wrong; returns ``diagnosis.json`` as a dict.
 
