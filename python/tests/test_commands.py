@@ -98,3 +98,20 @@ def test_ctrl_c_raises_keyboard_interrupt_and_writes_nothing(tmp_path):
         surae.diagnose(out=tmp_path / "d", progress=cb)
     assert not (tmp_path / "d" / "diagnosis.json").exists()
     assert "verdict" in surae.diagnose()
+
+
+def test_command_line_warnings_become_python_warnings(repo, tmp_path):
+    lines = (repo / "fixtures" / "seed" / "trial.csv").read_text().splitlines()
+    out = []
+    for line in lines:
+        if line.startswith("#"):
+            out.append(line)
+        elif line.startswith("time_s"):
+            out.append(line + ",foo")
+        else:
+            out.append(line + ",1")
+    trial = tmp_path / "trial.csv"
+    trial.write_text("\n".join(out) + "\n")
+    with pytest.warns(UserWarning, match="ignored unknown columns: foo"):
+        d = surae.diagnose(trial, surae.bundled_unloaded())
+    assert d["trial"] == str(trial)
