@@ -10,6 +10,9 @@ pub enum Failure {
     BadInput(String),
     /// Something went wrong that is not the input's fault (exit code 1).
     Internal(String),
+    /// A front end's [`crate::progress::ProgressObserver`] stopped the run (exit code 130, the
+    /// shell's code for an interrupt); nothing was written.
+    Interrupted,
 }
 
 impl Failure {
@@ -18,6 +21,7 @@ impl Failure {
         match self {
             Failure::BadInput(_) => 2,
             Failure::Internal(_) => 1,
+            Failure::Interrupted => 130,
         }
     }
 
@@ -37,6 +41,7 @@ impl fmt::Display for Failure {
         match self {
             Failure::BadInput(m) => write!(f, "error: {m}"),
             Failure::Internal(m) => write!(f, "internal error: {m}"),
+            Failure::Interrupted => write!(f, "interrupted"),
         }
     }
 }

@@ -77,7 +77,7 @@ pub fn run(args: DiagnoseArgs) -> CmdResult {
     let progress = ProgressDisplay::new(show, 0, "diag");
     let mut observer = |p: &diagnose::DiagnosisProgress| {
         progress.message(format!("{} ({} simulations)", p.message, p.evaluations));
-        std::ops::ControlFlow::Continue(())
+        progress.flow()
     };
     let d = diagnose::run(
         &loaded.trial,
@@ -86,6 +86,9 @@ pub fn run(args: DiagnoseArgs) -> CmdResult {
         &mut observer,
     )
     .map_err(|e| {
+        if progress.stop_requested() {
+            return Failure::Interrupted;
+        }
         let names = match &unloaded {
             Some((_, n)) => format!("{} / {n}", loaded.name),
             None => loaded.name.clone(),

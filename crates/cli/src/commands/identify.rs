@@ -346,11 +346,14 @@ fn run_sa(prep: &Prepared, seed: u64, show: bool) -> CmdResult<Outcome> {
     let progress = ProgressDisplay::new(show, total, "SA");
     let observer = |ev: &identify_sa::IdentifyEvent| {
         progress.on_sa_event(ev);
-        std::ops::ControlFlow::Continue(())
+        progress.flow()
     };
     let fit = identify_sa::identify(&prep.problem, &settings, &observer)
         .map_err(|e| Failure::bad(format!("{}: identification failed: {e}", prep.loaded.name)))?;
     progress.finish();
+    if progress.stop_requested() {
+        return Err(Failure::Interrupted);
+    }
     let prediction = prep
         .problem
         .predict(&fit.x)
@@ -665,11 +668,14 @@ fn run_mcmc(
                 "{:?}: max R̂ {:.4}, min ESS {:.0}, acceptance {:.2}",
                 p.phase, p.max_rhat, p.min_ess_bulk, p.acceptance_rate
             ));
-            std::ops::ControlFlow::Continue(())
+            progress.flow()
         },
     )
     .map_err(|e| Failure::bad(format!("{}: identification failed: {e}", prep.loaded.name)))?;
     progress.finish();
+    if progress.stop_requested() {
+        return Err(Failure::Interrupted);
+    }
     let mean = m.mean();
     // prediction on the corrected scale, like the SA figures
     let prediction = prep

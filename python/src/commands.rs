@@ -1,0 +1,319 @@
+//! `identify` and `diagnose`: the command line's own code, run into a folder, with the JSON it
+//! wrote returned as a dict. Equality with `surae identify` / `surae diagnose` therefore holds
+//! by construction (apart from `wall_s`, a measured time).
+//!
+//! Inputs given as dicts (a trial or unloaded run as columns, parameters / effects / truth as
+//! JSON objects) are written into a temporary folder in the command line's file formats first;
+//! messages and the result name them `<trial dict>`, `<params dict>`, … instead of the
+//! temporary path. Without `out` the results go to the temporary folder too, which is removed
+//! afterwards.
+
+use crate::bad;
+use crate::convert::{json_arg, json_to_py, path_arg, vec1, JsonArg};
+use crate::run::{run_command, ProgressMode};
+use cli::commands::identify::{IdentifyArgs, Method};
+use cli::commands::{diagnose::DiagnoseArgs, ModelArgs, ReportArgs};
+use cli::error::Failure;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::path::{Path, PathBuf};
+
+/// A temporary folder for dict inputs and default outputs, and the names that replace its
+/// paths in messages and results.
+struct Staging {
+    dir: tempfile::TempDir,
+    renames: Vec<(String, String)>,
+}
+
+impl Staging {
+    fn new() -> PyResult<Self> {
+        let dir = tempfile::Builder::new()
+            .prefix("surae-py-")
+            .tempdir()
+            .map_err(|e| {
+                pyo3::exceptions::PyOSError::new_err(format!("cannot make a temporary folder: {e}"))
+            })?;
+        Ok(Self {
+            dir,
+            renames: Vec::new(),
+        })
+    }
+
+    /// Where a staged file goes; `label` replaces its path in messages.
+    fn file(&mut self, name: &str, label: &str) -> PathBuf {
+        let p = self.dir.path().join(name);
+        self.renames
+            .push((p.display().to_string(), label.to_string()));
+        p
+    }
+
+    fn rename(&self, text: &str) -> String {
+        self.renames
+            .iter()
+            .fold(text.to_string(), |t, (from, to)| t.replace(from, to))
+    }
+
+    fn rename_failure(&self, f: Failure) -> Failure {
+        match f {
+            Failure::BadInput(m) => Failure::BadInput(self.rename(&m)),
+            Failure::Internal(m) => Failure::Internal(self.rename(&m)),
+            Failure::Interrupted => Failure::Interrupted,
+        }
+    }
+
+    /// A JSON argument as a file the command reads.
+    fn json(&mut self, arg: Option<JsonArg>, what: &str) -> PyResult<Option<PathBuf>> {
+        match arg {
+            None => Ok(None),
+            Some(JsonArg::Path(p)) => Ok(Some(p)),
+            Some(JsonArg::Value(v)) => {
+                let p = self.file(&format!("{what}.json"), &format!("<{what} dict>"));
+                let text =
+                    serde_json::to_string_pretty(&v).map_err(|e| bad(format!("{what}: {e}")))?;
+                write(&p, &text)?;
+                Ok(Some(p))
+            }
+        }
+    }
+}
+
+fn write(p: &Path, text: &str) -> PyResult<()> {
+    std::fs::write(p, text).map_err(|e| {
+        pyo3::exceptions::PyOSError::new_err(format!("{}: cannot write: {e}", p.display()))
+    })
+}
+
+/// Columns of a dict, by the names of the file format; `fs` is accepted (and not used: the
+/// time column sets the rate) so that `bundled_trial()`'s dict can be passed back.
+fn columns(
+    d: &Bound<'_, PyDict>,
+    what: &str,
+    required: &[&str],
+    optional: &[&str],
+) -> PyResult<Vec<Option<Vec<f64>>>> {
+    let names: Vec<&str> = required.iter().chain(optional).copied().collect();
+    let mut out: Vec<Option<Vec<f64>>> = vec![None; names.len()];
+    for (k, v) in d.iter() {
+        let key: String = k
+            .extract()
+            .map_err(|_| bad(format!("{what}: keys must be strings")))?;
+        if key == "fs" {
+            continue;
+        }
+        let Some(i) = names.iter().position(|n| *n == key) else {
+            return Err(bad(format!(
+                "{what}: unknown column '{key}' (expected {})",
+                names.join(", ")
+            )));
+        };
+        out[i] = Some(vec1(&v, &format!("{what}['{key}']"))?);
+    }
+    for (i, n) in required.iter().enumerate() {
+        if out[i].is_none() {
+            return Err(bad(format!("{what}: missing column '{n}'")));
+        }
+    }
+    Ok(out)
+}
+
+/// A trial argument: `None` (the bundled trial), a CSV path, or a dict of columns.
+fn trial_arg(obj: Option<&Bound<'_, PyAny>>, staging: &mut Staging) -> PyResult<Option<PathBuf>> {
+    let Some(obj) = obj.filter(|o| !o.is_none()) else {
+        return Ok(None);
+    };
+    let Ok(d) = obj.cast::<PyDict>() else {
+        return path_arg(obj, "trial").map(Some);
+    };
+    let mut c = columns(
+        d,
+        "trial",
+        &experiment::files::TRIAL_REQUIRED,
+        &experiment::files::TRIAL_OPTIONAL,
+    )?
+    .into_iter();
+    let mut next = || c.next().flatten();
+    let trial = experiment::Trial {
+        time_s: next().unwrap_or_default(),
+        ankle_angle_deg: next().unwrap_or_default(),
+        torque_nm: next().unwrap_or_default(),
+        emg_sol: next().unwrap_or_default(),
+        emg_gm: next().unwrap_or_default(),
+        emg_gl: next().unwrap_or_default(),
+        emg_ta: next(),
+        knee_angle_deg: next(),
+        ..experiment::Trial::default()
+    };
+    let p = staging.file("trial.csv", "<trial dict>");
+    experiment::write_trial(&p, &trial).map_err(|e| bad(staging.rename(&e.to_string())))?;
+    Ok(Some(p))
+}
+
+/// An unloaded-run argument: `None`, a CSV path, or a dict of columns.
+fn unloaded_arg(
+    obj: Option<&Bound<'_, PyAny>>,
+    staging: &mut Staging,
+) -> PyResult<Option<PathBuf>> {
+    let Some(obj) = obj.filter(|o| !o.is_none()) else {
+        return Ok(None);
+    };
+    let Ok(d) = obj.cast::<PyDict>() else {
+        return path_arg(obj, "unloaded").map(Some);
+    };
+    let mut c = columns(d, "unloaded", &experiment::files::UNLOADED_REQUIRED, &[])?.into_iter();
+    let mut next = || c.next().flatten().unwrap_or_default();
+    let run = experiment::Unloaded {
+        time_s: next(),
+        ankle_angle_deg: next(),
+        torque_nm: next(),
+        ..experiment::Unloaded::default()
+    };
+    let p = staging.file("unloaded.csv", "<unloaded dict>");
+    experiment::write_unloaded(&p, &run).map_err(|e| bad(staging.rename(&e.to_string())))?;
+    Ok(Some(p))
+}
+
+/// Runs a command that writes `file` into `out` and returns that file as a dict.
+fn run_to_json<'py, F>(
+    py: Python<'py>,
+    staging: Staging,
+    out: PathBuf,
+    file: &str,
+    progress: ProgressMode,
+    command: F,
+) -> PyResult<Bound<'py, PyAny>>
+where
+    F: FnOnce() -> cli::error::CmdResult + Send + 'static,
+{
+    let staging = std::sync::Arc::new(staging);
+    let s = staging.clone();
+    run_command(py, progress, move || {
+        command().map_err(|f| s.rename_failure(f))
+    })?;
+    let path = out.join(file);
+    let text = std::fs::read_to_string(&path).map_err(|e| {
+        pyo3::exceptions::PyOSError::new_err(format!("{}: cannot read: {e}", path.display()))
+    })?;
+    json_to_py(py, &staging.rename(&text))
+}
+
+/// Identifies LST, F0 and α0 of sol, gm and gl, as `surae identify` does, and returns the
+/// `identify.json` it writes as a dict (equal to the command line's but for `wall_s`).
+///
+/// trial: a trial CSV path, or a dict of its columns (time_s, ankle_angle_deg, torque_nm,
+///     emg_sol, emg_gm, emg_gl, optional emg_ta, knee_angle_deg; an fs key is ignored).
+///     None: the bundled trial, with its unloaded run and truth.
+/// unloaded: the unloaded run, a CSV path or a dict (time_s, ankle_angle_deg, torque_nm);
+///     not defaulted when trial is given.
+/// method: "sa" (simulated annealing with a polish) or "mcmc" (Metropolis-Hastings).
+/// seed: seed of every random choice.
+/// truth: true parameters (dict or JSON file); adds errors_pct.
+/// max_iterations: MCMC only, a cap on the iterations per chain.
+/// params, effects: the fixed model, dicts or JSON files (as for simulate).
+/// emg_is_envelope: the EMG columns already hold envelopes in [0, 1].
+/// out: folder keeping identify.json, the figures and report.html (default: a temporary
+///     folder, removed afterwards).
+/// progress: None/False shows nothing; True one line on sys.stderr; a callable is called as
+///     progress(label, position, total, message).
+///
+/// Runs with the GIL released; Ctrl-C stops it, raises KeyboardInterrupt and writes no result.
+/// Bad input raises surae.InputError with the command line's message.
+#[pyfunction]
+#[pyo3(signature = (
+    trial=None, unloaded=None, method="sa", seed=42, *, truth=None, max_iterations=None,
+    params=None, effects=None, emg_is_envelope=false, out=None, progress=None
+))]
+#[allow(clippy::too_many_arguments)]
+pub fn identify<'py>(
+    py: Python<'py>,
+    trial: Option<&Bound<'py, PyAny>>,
+    unloaded: Option<&Bound<'py, PyAny>>,
+    method: &str,
+    seed: u64,
+    truth: Option<&Bound<'py, PyAny>>,
+    max_iterations: Option<usize>,
+    params: Option<&Bound<'py, PyAny>>,
+    effects: Option<&Bound<'py, PyAny>>,
+    emg_is_envelope: bool,
+    out: Option<&Bound<'py, PyAny>>,
+    progress: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let method = match method {
+        "sa" => Method::Sa,
+        "mcmc" => Method::Mcmc,
+        other => return Err(bad(format!("method '{other}': expected 'sa' or 'mcmc'"))),
+    };
+    let progress = ProgressMode::from_arg(progress)?;
+    let mut staging = Staging::new()?;
+    let trial = trial_arg(trial, &mut staging)?;
+    let unloaded = unloaded_arg(unloaded, &mut staging)?;
+    let truth = staging.json(json_arg(truth, "truth")?, "truth")?;
+    let params = staging.json(json_arg(params, "params")?, "params")?;
+    let effects = staging.json(json_arg(effects, "effects")?, "effects")?;
+    let out = match out.filter(|o| !o.is_none()) {
+        Some(o) => path_arg(o, "out")?,
+        None => staging.dir.path().join("out"),
+    };
+    let args = IdentifyArgs {
+        method,
+        trial,
+        unloaded,
+        seed,
+        truth,
+        max_iterations,
+        model: ModelArgs {
+            params,
+            effects,
+            emg_is_envelope,
+        },
+        out: Some(out.clone()),
+        report: ReportArgs {
+            quiet: true,
+            json: false,
+        },
+    };
+    run_to_json(py, staging, out, "identify.json", progress, move || {
+        cli::commands::identify::run(args)
+    })
+}
+
+/// What the model gets wrong, as `surae diagnose` finds it; returns the `diagnosis.json` it
+/// writes as a dict (equal to the command line's but for `wall_s`).
+///
+/// trial, unloaded, seed, emg_is_envelope, out, progress: as for identify; out keeps
+/// diagnosis.json, the figures and report.html.
+#[pyfunction]
+#[pyo3(signature = (
+    trial=None, unloaded=None, seed=42, *, emg_is_envelope=false, out=None, progress=None
+))]
+pub fn diagnose<'py>(
+    py: Python<'py>,
+    trial: Option<&Bound<'py, PyAny>>,
+    unloaded: Option<&Bound<'py, PyAny>>,
+    seed: u64,
+    emg_is_envelope: bool,
+    out: Option<&Bound<'py, PyAny>>,
+    progress: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let progress = ProgressMode::from_arg(progress)?;
+    let mut staging = Staging::new()?;
+    let trial = trial_arg(trial, &mut staging)?;
+    let unloaded = unloaded_arg(unloaded, &mut staging)?;
+    let out = match out.filter(|o| !o.is_none()) {
+        Some(o) => path_arg(o, "out")?,
+        None => staging.dir.path().join("out"),
+    };
+    let args = DiagnoseArgs {
+        trial,
+        unloaded,
+        seed,
+        emg_is_envelope,
+        out: Some(out.clone()),
+        report: ReportArgs {
+            quiet: true,
+            json: false,
+        },
+    };
+    run_to_json(py, staging, out, "diagnosis.json", progress, move || {
+        cli::commands::diagnose::run(args)
+    })
+}

@@ -1,0 +1,58 @@
+//! `surae._surae`: the native part of the `surae` Python package.
+//!
+//! * [`arrays`]: functions on numpy arrays that need no files (`envelope`, `simulate`, the
+//!   bundled trial);
+//! * [`commands`]: `identify` and `diagnose`, which run the command line's own code
+//!   (`cli::commands::*::run`) into a folder and return the JSON it wrote, so a Python result is
+//!   the command line's result by construction;
+//! * [`run`]: runs a command on a worker thread with the GIL released, shows progress, and
+//!   stops it on Ctrl-C (KeyboardInterrupt).
+//!
+//! Bad input raises `surae.InputError` (a `ValueError`) with the command line's one-line
+//! message (without its `error: ` prefix); a failure that is not the input's fault raises
+//! `RuntimeError`.
+
+use pyo3::create_exception;
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+
+mod arrays;
+mod commands;
+mod convert;
+mod run;
+
+create_exception!(
+    surae,
+    InputError,
+    PyValueError,
+    "Unusable input: the message is the command line's one-line error (file, line and column, \
+     or key / column name)."
+);
+
+/// The Python exception for a command's failure.
+pub(crate) fn failure_to_py(f: cli::error::Failure) -> PyErr {
+    match f {
+        cli::error::Failure::BadInput(m) => InputError::new_err(m),
+        cli::error::Failure::Internal(m) => PyRuntimeError::new_err(format!("internal error: {m}")),
+        cli::error::Failure::Interrupted => {
+            pyo3::exceptions::PyKeyboardInterrupt::new_err("interrupted")
+        }
+    }
+}
+
+/// An `InputError` from anything printable.
+pub(crate) fn bad(msg: impl std::fmt::Display) -> PyErr {
+    InputError::new_err(msg.to_string())
+}
+
+#[pymodule]
+fn _surae(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("InputError", m.py().get_type::<InputError>())?;
+    m.add_function(wrap_pyfunction!(arrays::envelope, m)?)?;
+    m.add_function(wrap_pyfunction!(arrays::simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(arrays::bundled_trial, m)?)?;
+    m.add_function(wrap_pyfunction!(arrays::bundled_unloaded, m)?)?;
+    m.add_function(wrap_pyfunction!(commands::identify, m)?)?;
+    m.add_function(wrap_pyfunction!(commands::diagnose, m)?)?;
+    Ok(())
+}

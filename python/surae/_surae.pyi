@@ -1,0 +1,137 @@
+"""Type stubs of the native module ``surae._surae`` (re-exported by ``surae``)."""
+
+import os
+from typing import Any, Callable, Dict, Literal, Mapping, Optional, Sequence, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = [
+    "InputError",
+    "bundled_trial",
+    "bundled_unloaded",
+    "diagnose",
+    "envelope",
+    "identify",
+    "simulate",
+]
+
+_ArrayLike = npt.ArrayLike
+_FloatArray = npt.NDArray[np.float64]
+_PathLike = Union[str, "os.PathLike[str]"]
+_JsonArg = Union[_PathLike, Mapping[str, Any]]
+_ColumnsArg = Union[_PathLike, Mapping[str, _ArrayLike]]
+_ProgressArg = Union[bool, Callable[[str, int, int, str], Any], None]
+
+class InputError(ValueError):
+    """Unusable input: the message is the command line's one-line error (file, line and
+    column, or key / column name)."""
+
+def envelope(
+    emg: _ArrayLike,
+    fs: float,
+    mvc: Union[float, Sequence[float], None] = None,
+) -> _FloatArray:
+    """Normalised EMG envelope(s) of raw EMG sampled at ``fs`` Hz.
+
+    Band-pass 10-350 Hz (zero-phase), rectify, low-pass 2 Hz (zero-phase), divide by the
+    channel's maximum (or by ``mvc``) and clamp to [0, 1]: the columns ``surae envelope``
+    writes.
+
+    emg: one channel (1-D) or several (2-D, shape (channels, samples)); the result has the
+        same shape.
+    fs: sampling rate in Hz.
+    mvc: a reference (one number, or one per channel) dividing the envelope instead of its
+        maximum over the recording, in the raw EMG's unit after filtering and rectification.
+    """
+
+def simulate(
+    angle_deg: _ArrayLike,
+    emg_envelopes: Union[Mapping[str, _ArrayLike], _ArrayLike],
+    fs: float,
+    params: Optional[_JsonArg] = None,
+    effects: Optional[_JsonArg] = None,
+    *,
+    t0: float = 0.0,
+) -> Dict[str, _FloatArray]:
+    """The model's joint torque, as ``surae simulate`` computes it.
+
+    angle_deg: ankle angle in degrees (dorsiflexion > 0), one value per sample.
+    emg_envelopes: normalised envelopes in [0, 1]: a dict with keys ``sol``, ``gm``, ``gl``
+        and optionally ``ta`` (an ``emg_`` prefix is accepted), or an array of shape (3, n)
+        (sol, gm, gl) or (4, n) (sol, gm, gl, ta).
+    fs: sampling rate in Hz.
+    params: model parameters as a dict or a parameters JSON file (any subset; the rest is
+        nominal).
+    effects: effects as a dict or an effects JSON file, ``{"<effect>": {"<param>": value}}``.
+    t0: time of the first sample in seconds.
+
+    Returns a dict of arrays: ``time_s`` (``t0 + i/fs``), ``ankle_angle_deg``, ``torque_nm``,
+    ``torque_sol_nm``, ``torque_gm_nm``, ``torque_gl_nm`` (N·m, plantarflexion > 0).
+    """
+
+def bundled_trial() -> Dict[str, Any]:
+    """The bundled trial (the default of every command) as a dict: the trial file's columns
+    ``time_s``, ``ankle_angle_deg``, ``torque_nm``, ``emg_sol``, ``emg_gm``, ``emg_gl`` (numpy
+    arrays) and ``fs``, its sampling rate in Hz."""
+
+def bundled_unloaded() -> Dict[str, Any]:
+    """The bundled trial's unloaded run as a dict: ``time_s``, ``ankle_angle_deg``,
+    ``torque_nm`` (numpy arrays) and ``fs`` (Hz)."""
+
+def identify(
+    trial: Optional[_ColumnsArg] = None,
+    unloaded: Optional[_ColumnsArg] = None,
+    method: Literal["sa", "mcmc"] = "sa",
+    seed: int = 42,
+    *,
+    truth: Optional[_JsonArg] = None,
+    max_iterations: Optional[int] = None,
+    params: Optional[_JsonArg] = None,
+    effects: Optional[_JsonArg] = None,
+    emg_is_envelope: bool = False,
+    out: Optional[_PathLike] = None,
+    progress: _ProgressArg = None,
+) -> Dict[str, Any]:
+    """Identify LST, F0 and alpha0 of sol, gm and gl; returns ``identify.json`` as a dict.
+
+    Runs the code of ``surae identify`` and returns the JSON it writes, so the values equal
+    the command line's for the same inputs and seed (``wall_s`` is a measured time).
+
+    trial: a trial CSV path, or a dict of its columns (``time_s``, ``ankle_angle_deg``,
+        ``torque_nm``, ``emg_sol``, ``emg_gm``, ``emg_gl``, optional ``emg_ta``,
+        ``knee_angle_deg``; an ``fs`` key is ignored). None: the bundled trial, with its
+        unloaded run and truth.
+    unloaded: the unloaded run, as a CSV path or a dict (``time_s``, ``ankle_angle_deg``,
+        ``torque_nm``). Never defaulted when ``trial`` is given.
+    method: ``"sa"`` (simulated annealing with a polish) or ``"mcmc"`` (Metropolis-Hastings).
+    seed: seed of every random choice.
+    truth: true parameters (dict or JSON file), adds ``errors_pct``.
+    max_iterations: MCMC only, cap on the iterations per chain.
+    params, effects: the fixed model (dicts or JSON files), as for :func:`simulate`.
+    emg_is_envelope: the trial's EMG columns already hold envelopes in [0, 1].
+    out: folder for ``identify.json``, the figures and ``report.html`` (and the chain files of
+        MCMC); by default a temporary folder, removed afterwards.
+    progress: None (default) or False shows nothing; True writes one line on ``sys.stderr``,
+        updated in place; a callable is called as ``progress(label, position, total,
+        message)``.
+
+    The work runs with the GIL released; Ctrl-C stops it and raises KeyboardInterrupt (no
+    results are written).
+    """
+
+def diagnose(
+    trial: Optional[_ColumnsArg] = None,
+    unloaded: Optional[_ColumnsArg] = None,
+    seed: int = 42,
+    *,
+    emg_is_envelope: bool = False,
+    out: Optional[_PathLike] = None,
+    progress: _ProgressArg = None,
+) -> Dict[str, Any]:
+    """What the model gets wrong; returns ``diagnosis.json`` as a dict.
+
+    Runs the code of ``surae diagnose``: residual analysis, the named cause(s), the extended
+    model and its held-out gain. Arguments as for :func:`identify`; ``out`` receives
+    ``diagnosis.json``, the figures and ``report.html``.
+    """

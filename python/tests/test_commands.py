@@ -1,0 +1,117 @@
+"""identify and diagnose against `surae identify` / `surae diagnose`; progress and stopping."""
+
+import os
+import signal
+
+import pytest
+
+import surae
+from conftest import read_json, without
+
+
+def test_identify_sa_equals_the_cli(cli, tmp_path):
+    r = cli("identify", "--method", "sa", "--seed", "42", "--quiet", "--out", tmp_path)
+    assert r.returncode == 0, r.stderr
+    ref = read_json(tmp_path / "identify.json")
+    got = surae.identify(method="sa", seed=42)
+    # everything but the measured wall time, to the last digit of the JSON
+    assert without(got, "wall_s") == without(ref, "wall_s")
+    assert got["method"] == "sa" and len(got["params"]) == 9
+
+
+def test_identify_mcmc_equals_the_cli(cli, tmp_path):
+    # capped so the test takes seconds; the cap is part of both runs
+    r = cli(
+        "identify", "--method", "mcmc", "--max-iterations", "3000", "--quiet",
+        "--out", tmp_path,
+    )
+    assert r.returncode == 0, r.stderr
+    ref = read_json(tmp_path / "identify.json")
+    got = surae.identify(method="mcmc", max_iterations=3000)
+    assert without(got, "wall_s") == without(ref, "wall_s")
+    assert got["stop"] == "CapReached" and len(got["posterior"]) == 9
+
+
+def test_identify_from_dicts_equals_the_cli_on_files(cli, repo, tmp_path):
+    seed = repo / "fixtures" / "seed"
+    r = cli(
+        "identify", "--method", "sa", "--trial", seed / "trial.csv",
+        "--unloaded", seed / "unloaded.csv", "--truth", seed / "truth.json",
+        "--quiet", "--out", tmp_path,
+    )
+    assert r.returncode == 0, r.stderr
+    ref = read_json(tmp_path / "identify.json")
+    truth = read_json(seed / "truth.json")
+    got = surae.identify(
+        surae.bundled_trial(), surae.bundled_unloaded(), "sa", 42, truth=truth
+    )
+    assert got["trial"] == "<trial dict>"
+    assert got["noise"]["unloaded"] == "<unloaded dict>"
+    for key in ["params", "rms_nm", "rms_raw_nm", "evaluations", "sa", "errors_pct", "dynamometer"]:
+        assert got[key] == ref[key], key
+
+
+def test_identify_writes_out_when_asked(tmp_path):
+    got = surae.identify(seed=7, out=tmp_path / "fit")
+    assert read_json(tmp_path / "fit" / "identify.json") == got
+    assert (tmp_path / "fit" / "report.html").stat().st_size > 0
+    assert got["seed"] == 7
+
+
+def test_diagnose_equals_the_cli(cli, tmp_path):
+    r = cli("diagnose", "--quiet", "--out", tmp_path)
+    assert r.returncode == 0, r.stderr
+    ref = read_json(tmp_path / "diagnosis.json")
+    got = surae.diagnose()
+    assert without(got, "wall_s") == without(ref, "wall_s")
+    assert "verdict" in got
+
+
+def test_progress_callback_sees_the_stages():
+    seen = []
+    surae.diagnose(progress=lambda label, pos, total, msg: seen.append((label, msg)))
+    assert seen, "no progress reported"
+    assert all(label == "diag" for label, _ in seen)
+    assert len({msg for _, msg in seen}) >= 2
+
+
+def test_an_exception_in_the_callback_stops_the_run_and_writes_nothing(tmp_path):
+    class Stop(Exception):
+        pass
+
+    def cb(label, pos, total, msg):
+        raise Stop(msg)
+
+    with pytest.raises(Stop):
+        surae.identify(method="sa", out=tmp_path / "x", progress=cb)
+    assert not (tmp_path / "x" / "identify.json").exists()
+    # the module is usable afterwards
+    assert surae.identify(method="sa")["method"] == "sa"
+
+
+def test_ctrl_c_raises_keyboard_interrupt_and_writes_nothing(tmp_path):
+    # SIGINT delivered to this process at the first progress update: what Ctrl-C does
+    def cb(label, pos, total, msg):
+        os.kill(os.getpid(), signal.SIGINT)
+
+    with pytest.raises(KeyboardInterrupt):
+        surae.diagnose(out=tmp_path / "d", progress=cb)
+    assert not (tmp_path / "d" / "diagnosis.json").exists()
+    assert "verdict" in surae.diagnose()
+
+
+def test_command_line_warnings_become_python_warnings(repo, tmp_path):
+    lines = (repo / "fixtures" / "seed" / "trial.csv").read_text().splitlines()
+    out = []
+    for line in lines:
+        if line.startswith("#"):
+            out.append(line)
+        elif line.startswith("time_s"):
+            out.append(line + ",foo")
+        else:
+            out.append(line + ",1")
+    trial = tmp_path / "trial.csv"
+    trial.write_text("\n".join(out) + "\n")
+    with pytest.warns(UserWarning, match="ignored unknown columns: foo"):
+        d = surae.diagnose(trial, surae.bundled_unloaded())
+    assert d["trial"] == str(trial)
