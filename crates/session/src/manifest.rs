@@ -10,6 +10,10 @@
 //!    {"name": "walk", "recording": "walk_ceinms_folder"}]}
 //! ```
 //!
+//! Optional keys: `osim_muscles` (names of sol, gm, gl in an `.osim`), `mvc`, `effects` (an
+//! effects JSON every trial's model carries), `free` (the parameters identified, e.g.
+//! `["sol.lst_m", "activation.shape_a"]`) and `bounds` (`{"sol.fom_n": [2000, 8000]}`).
+//!
 //! Paths are relative to the manifest's folder, never to the working directory. Every key is
 //! checked: an unknown key, a trial with both or neither of `trial` and `recording`, two
 //! trials of the same name or a knee angle outside [0°, 150°] is an error naming the key.
@@ -41,6 +45,8 @@ pub struct SessionManifest {
     /// The parameters identified (`sol.lst_m`, `activation.shape_a`, …); the 9 of LST, F0 and
     /// α0 of sol, gm and gl when absent.
     pub free: Option<Vec<String>>,
+    /// Bounds `[lower, upper]` of free parameters, by name, replacing their defaults.
+    pub bounds: BTreeMap<String, (f64, f64)>,
     /// The trials, in the manifest's order.
     pub trials: Vec<SessionTrialEntry>,
 }
@@ -87,6 +93,8 @@ struct RawManifest {
     mvc: Vec<String>,
     effects: Option<String>,
     free: Option<Vec<String>>,
+    #[serde(default)]
+    bounds: BTreeMap<String, (f64, f64)>,
     trials: Vec<RawTrial>,
 }
 
@@ -166,6 +174,16 @@ pub fn parse_session_manifest(text: &str, path: &Path) -> Result<SessionManifest
             }
         }
     }
+    for (k, &(lo, hi)) in &raw.bounds {
+        muscle_model::ParamId::parse(k)
+            .map_err(|e| invalid(format!("bounds.{k}"), e.to_string()))?;
+        if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+            return Err(invalid(
+                format!("bounds.{k}"),
+                format!("[{lo}, {hi}] is not an interval (lower < upper)"),
+            ));
+        }
+    }
     let mut trials = Vec::with_capacity(raw.trials.len());
     for (i, t) in raw.trials.into_iter().enumerate() {
         let key = |k: &str| format!("trials[{i}].{k}");
@@ -214,6 +232,7 @@ pub fn parse_session_manifest(text: &str, path: &Path) -> Result<SessionManifest
         mvc: raw.mvc.iter().map(|p| resolve(p)).collect(),
         effects: raw.effects.as_deref().map(resolve),
         free: raw.free,
+        bounds: raw.bounds,
         trials,
     })
 }

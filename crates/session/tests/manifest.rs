@@ -14,6 +14,7 @@ fn paths_resolve_against_the_manifest_folder() {
             "osim_muscles": {"sol": "soleus_l"},
             "mvc": ["mvc1.csv"],
             "free": ["sol.lst_m", "activation.shape_a"],
+            "bounds": {"sol.lst_m": [0.2, 0.3]},
             "trials": [
               {"name": "knee0_30", "trial": "iso30.csv", "unloaded": "u30.csv"},
               {"name": "knee90_30", "trial": "iso30_k90.csv", "knee_angle_deg": 90},
@@ -28,6 +29,7 @@ fn paths_resolve_against_the_manifest_folder() {
     assert_eq!(m.osim_muscles["sol"], "soleus_l");
     assert_eq!(m.mvc, vec![Path::new("/data/S01/mvc1.csv").to_path_buf()]);
     assert_eq!(m.free.as_ref().unwrap().len(), 2);
+    assert_eq!(m.bounds["sol.lst_m"], (0.2, 0.3));
     assert_eq!(m.trials.len(), 3);
     assert_eq!(
         m.trials[0].source,
@@ -76,6 +78,14 @@ fn bad_manifests_name_the_key_or_position() {
         (
             r#"{"free": ["sol.lst_m", "sol.lst_m"], "trials": [{"name": "a", "trial": "a.csv"}]}"#,
             "free[1]: sol.lst_m is listed twice",
+        ),
+        (
+            r#"{"bounds": {"sol.fom_n": [5000, 2000]}, "trials": [{"name": "a", "trial": "a.csv"}]}"#,
+            "bounds.sol.fom_n: [5000, 2000] is not an interval",
+        ),
+        (
+            r#"{"bounds": {"sol.f0": [1, 2]}, "trials": [{"name": "a", "trial": "a.csv"}]}"#,
+            "bounds.sol.f0",
         ),
         (
             r#"{"osim_muscles": {"ta": "tib_ant_r"}, "trials": [{"name": "a", "trial": "a.csv"}]}"#,

@@ -1,6 +1,7 @@
 //! `surae identify`: fit LST, F0 and α0 of the three muscles (docs/results.md) by
 //! simulated annealing or MCMC.
 
+mod joint;
 mod other_tools;
 
 use super::{load_model_config, load_trial, load_unloaded, trial_inputs, LoadedTrial, ModelArgs};
@@ -54,8 +55,26 @@ pub struct IdentifyArgs {
     #[arg(long, value_enum)]
     pub method: Method,
     /// Trial CSV (format in docs/formats.md); the bundled seed trial (and its unloaded run) when omitted.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "session")]
     pub trial: Option<PathBuf>,
+    /// Session manifest (docs/formats.md): several trials of one subject identified together
+    /// (`--method sa`), with the session's parameters and free parameters.
+    #[arg(long)]
+    pub session: Option<PathBuf>,
+    /// The parameters to identify, comma-separated (e.g.
+    /// `sol.lst_m,sol.fom_n,activation.shape_a,electromechanical_delay.delay_ms`); default LST,
+    /// F0 and α0 of sol, gm and gl. With --session only.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        requires = "session",
+        value_name = "NAMES"
+    )]
+    pub free: Option<Vec<String>>,
+    /// SA only: number of annealing chains (starts); chain 0 starts from the base values, the
+    /// others from random points. Default 4.
+    #[arg(long, value_name = "N")]
+    pub chains: Option<u32>,
     /// Unloaded run CSV (`time_s, ankle_angle_deg, torque_nm`): its cycle-locked
     /// error is removed from the measured torque and its noise sets the likelihood.
     #[arg(long)]
@@ -218,6 +237,28 @@ pub fn run(args: IdentifyArgs) -> CmdResult {
             "--max-iterations applies to --method mcmc only",
         ));
     }
+    if let Some(c) = args.chains {
+        if args.method != Method::Sa {
+            return Err(Failure::bad("--chains applies to --method sa only"));
+        }
+        if c == 0 {
+            return Err(Failure::bad("--chains: at least 1"));
+        }
+    }
+    if let Some(session) = &args.session {
+        if args.method != Method::Sa {
+            return Err(Failure::bad(
+                "--session: the trials of a session are identified together by --method sa",
+            ));
+        }
+        if args.unloaded.is_some() || args.truth.is_some() {
+            return Err(Failure::bad(
+                "--session: each trial's unloaded run is named in the manifest; --unloaded and \
+                 --truth apply to --trial",
+            ));
+        }
+        return joint::run(&args, session);
+    }
     let prep = prepare(
         args.trial.as_deref(),
         args.unloaded.as_deref(),
@@ -237,7 +278,7 @@ pub fn run(args: IdentifyArgs) -> CmdResult {
         prediction,
         mcmc,
     } = match args.method {
-        Method::Sa => run_sa(&prep, args.seed, show)?,
+        Method::Sa => run_sa(&prep, args.seed, args.chains, show)?,
         Method::Mcmc => run_mcmc(&prep, args.seed, args.max_iterations, show)?,
     };
 
@@ -340,8 +381,11 @@ struct Outcome {
     mcmc: Option<identify_mcmc::McmcIdentification>,
 }
 
-fn run_sa(prep: &Prepared, seed: u64, show: bool) -> CmdResult<Outcome> {
-    let settings = identify_sa::SaIdentifySettings::default().with_seed(seed);
+fn run_sa(prep: &Prepared, seed: u64, chains: Option<u32>, show: bool) -> CmdResult<Outcome> {
+    let mut settings = identify_sa::SaIdentifySettings::default().with_seed(seed);
+    if let Some(c) = chains {
+        settings = settings.with_chains(c);
+    }
     let total = u64::from(settings.chains) * settings.annealer.max_evaluations;
     let progress = ProgressDisplay::new(show, total, "SA");
     let observer = |ev: &identify_sa::IdentifyEvent| {

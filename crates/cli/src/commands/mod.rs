@@ -4,6 +4,7 @@ pub mod diagnose;
 pub mod envelope;
 pub mod identify;
 pub mod sensitivity;
+pub mod session;
 pub mod simulate;
 
 use crate::bundled;

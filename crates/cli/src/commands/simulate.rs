@@ -11,12 +11,20 @@ use crate::output::write_file_checked;
 use muscle_model::{simulate, Muscle, SimSettings};
 use std::path::PathBuf;
 
+mod session_out;
+
 /// Arguments of `surae simulate`.
 #[derive(clap::Args, Debug)]
 pub struct SimulateArgs {
     /// Trial CSV (format in docs/formats.md); the bundled seed trial when omitted.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "session")]
     pub trial: Option<PathBuf>,
+    /// Session manifest (docs/formats.md): the model on each of its trials; `--out` is then a
+    /// folder (one CSV per trial and `simulate.json` with each trial's RMS error and R²).
+    /// `--params` may be an `identify.json`, whose identified values are set over the
+    /// session's parameters.
+    #[arg(long)]
+    pub session: Option<PathBuf>,
     #[command(flatten)]
     pub model: ModelArgs,
     /// Output: a `.csv` file, an OpenSim storage file (`.sto`), or a folder to write
@@ -73,6 +81,9 @@ fn sto_text(trial: &experiment::Trial, sim: &muscle_model::SimOutput) -> CmdResu
 
 /// Runs the command.
 pub fn run(args: SimulateArgs) -> CmdResult {
+    if let Some(session) = &args.session {
+        return session_out::run(&args, session);
+    }
     let (params, effects, cfg_inputs) = load_model_config(&args.model)?;
     let loaded = load_trial(args.trial.as_deref())?;
     let inputs = trial_inputs(&loaded, &args.model)?;

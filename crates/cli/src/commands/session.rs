@@ -1,0 +1,369 @@
+//! `--session`: the trials of one subject read from a session manifest (docs/formats.md,
+//! "Session manifest"), each turned into its identification problem with the session's shared
+//! muscle parameters.
+//!
+//! A trial is a trial CSV (with its unloaded run, whose dynamometer correction is subtracted
+//! from that trial alone, and its knee angle) or a CEINMS trial folder (envelopes, the
+//! subject's own musculotendon lengths and moment arms, and the inverse-dynamics ankle moment,
+//! compared where the moment file has samples). The parameters are a parameters JSON, an
+//! OpenSim `.osim` model or a CEINMS subject XML, whose muscles other than sol, gm and gl
+//! become fixed muscles; `--params` replaces them, or, given an `identify.json`, sets its
+//! identified values over them.
+
+use super::{read_json, read_text, ModelArgs};
+use crate::error::{CmdResult, Failure};
+use experiment::ceinms::CeinmsModelTrial;
+use muscle_model::{Effects, ModelParams, ParamId, Problem, ProblemSet};
+use serde_json::{json, Value};
+use session::{SessionManifest, TrialSource};
+use std::path::{Path, PathBuf};
+
+/// One trial of a session, ready to fit or to predict.
+pub struct SessionTrial {
+    /// The trial's name in the manifest.
+    pub name: String,
+    /// Where it was read from (for messages).
+    pub source: String,
+    /// Its problem: the session's parameters, effects and free parameters on this trial's
+    /// inputs and (corrected) measured torque.
+    pub problem: Problem,
+    /// The measured torque as recorded, on the inputs' grid.
+    pub raw_torque: Vec<f64>,
+    /// The trial's dynamometer correction, when it has an unloaded run.
+    pub correction: Option<experiment::DynamometerCorrection>,
+    /// For a CEINMS trial: the moment file's own times and values, where fits are judged.
+    pub ceinms: Option<CeinmsModelTrial>,
+}
+
+impl SessionTrial {
+    /// The measured torque and a prediction on the inputs' grid, brought to the samples where
+    /// the fit is judged: the moment file's own samples for a CEINMS trial, every sample
+    /// (corrected torque) otherwise.
+    pub fn judged(&self, prediction: &[f64]) -> CmdResult<(Vec<f64>, Vec<f64>)> {
+        match &self.ceinms {
+            Some(c) => {
+                let p = c
+                    .at_torque_samples(prediction)
+                    .map_err(|e| Failure::internal(e.to_string()))?;
+                Ok((c.torque_at_samples.clone(), p))
+            }
+            None => Ok((self.problem.measured().to_vec(), prediction.to_vec())),
+        }
+    }
+
+    /// RMS error (N·m) and R² of `prediction` where the fit is judged.
+    pub fn fit_of(&self, prediction: &[f64]) -> CmdResult<(f64, f64)> {
+        let (m, p) = self.judged(prediction)?;
+        Ok(experiment::ceinms::moment_fit(&m, &p))
+    }
+
+    /// The trial's dynamometer report (`null` without an unloaded run).
+    pub fn dynamometer(&self) -> Value {
+        json!(self.correction.as_ref().map(|c| c.report()))
+    }
+}
+
+/// A session read and prepared.
+pub struct LoadedSession {
+    /// The manifest.
+    pub manifest: SessionManifest,
+    /// The shared muscle parameters (base values of the free ones).
+    pub params: ModelParams,
+    /// The effects every trial's model carries.
+    pub effects: Effects,
+    /// The free parameters.
+    pub free: Vec<ParamId>,
+    /// The trials, in the manifest's order.
+    pub trials: Vec<SessionTrial>,
+    /// Every file read (outputs never overwrite them).
+    pub inputs_read: Vec<PathBuf>,
+}
+
+impl LoadedSession {
+    /// The trials' problems as one set.
+    pub fn problem_set(&self) -> CmdResult<ProblemSet> {
+        ProblemSet::new(self.trials.iter().map(|t| t.problem.clone()).collect())
+            .map_err(|e| Failure::bad(format!("{}: {e}", self.manifest.path.display())))
+    }
+}
+
+/// The parameters of a parameters file: a parameters JSON (over the nominal values), an
+/// OpenSim `.osim` model, a CEINMS subject XML (its muscles `fixed`, CEINMS names, become
+/// fixed muscles), or an `identify.json`, whose identified values are set over `base` (with
+/// its effects when it has them).
+pub fn load_params_file(
+    path: &Path,
+    osim: &opensim_files::OsimMuscleNames,
+    fixed: &[String],
+    base: &ModelParams,
+) -> CmdResult<(ModelParams, Option<Effects>)> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .unwrap_or_default();
+    match ext.as_str() {
+        "osim" => {
+            let text = read_text(path)?;
+            let p = opensim_files::osim_params(
+                &text,
+                &path.display().to_string(),
+                osim,
+                &ModelParams::nominal(),
+            )
+            .map_err(Failure::bad)?;
+            Ok((p, None))
+        }
+        "xml" => {
+            let subject = ceinms_files::read_subject(path).map_err(Failure::bad)?;
+            let p =
+                experiment::ceinms::ceinms_model_params(&subject, fixed).map_err(Failure::bad)?;
+            Ok((p.params, None))
+        }
+        _ => {
+            let value = read_json(path)?;
+            let name = path.display().to_string();
+            if value.get("method").is_some() && value.get("params").is_some() {
+                return identified_over(&value, base, &name).map(|(p, e)| (p, Some(e)));
+            }
+            let p = ModelParams::nominal()
+                .merged_json(&value)
+                .map_err(|e| Failure::bad(format!("{name}: {e}")))?;
+            Ok((p, None))
+        }
+    }
+}
+
+/// The values of an `identify.json`'s `params` set over `base` (and over its `effects`, or
+/// none).
+fn identified_over(
+    doc: &Value,
+    base: &ModelParams,
+    name: &str,
+) -> CmdResult<(ModelParams, Effects)> {
+    let mut effects = match doc.get("effects") {
+        Some(v) => {
+            Effects::from_json(v).map_err(|e| Failure::bad(format!("{name}: effects: {e}")))?
+        }
+        None => Effects::none(),
+    };
+    let mut params = *base;
+    let map = doc["params"]
+        .as_object()
+        .ok_or_else(|| Failure::bad(format!("{name}: params: expected an object")))?;
+    for (k, v) in map {
+        let id = ParamId::parse(k).map_err(|e| Failure::bad(format!("{name}: params: {e}")))?;
+        let x = v
+            .as_f64()
+            .ok_or_else(|| Failure::bad(format!("{name}: params.{k}: expected a number")))?;
+        id.set(&mut params, &mut effects, x);
+    }
+    params
+        .validate()
+        .map_err(|e| Failure::bad(format!("{name}: {e}")))?;
+    Ok((params, effects))
+}
+
+/// Reads a session and prepares its trials. `model` may override the session's parameters
+/// (`--params`), effects (`--effects`) and EMG handling; `free` overrides its free parameters.
+pub fn load_session(
+    path: &Path,
+    model: &ModelArgs,
+    free: Option<&[String]>,
+) -> CmdResult<LoadedSession> {
+    let manifest = session::read_session_manifest(path).map_err(Failure::bad)?;
+    let mut read = vec![path.to_path_buf()];
+    // the recordings first: a CEINMS subject's fixed muscles are those of its trials
+    enum Loaded {
+        Csv(experiment::Trial, Option<experiment::Unloaded>),
+        Ceinms(Box<CeinmsModelTrial>),
+    }
+    let mut loaded = Vec::with_capacity(manifest.trials.len());
+    let mut ceinms_muscles: Vec<String> = Vec::new();
+    for t in &manifest.trials {
+        let p = t.source.path();
+        read.push(p.to_path_buf());
+        match &t.source {
+            TrialSource::Csv(_) => {
+                let trial = experiment::read_trial(p).map_err(Failure::bad)?;
+                let unloaded = match &t.unloaded {
+                    Some(u) => {
+                        read.push(u.clone());
+                        let un = experiment::read_unloaded(u).map_err(Failure::bad)?;
+                        super::check_unloaded(
+                            &trial,
+                            &p.display().to_string(),
+                            &un,
+                            &u.display().to_string(),
+                        )?;
+                        Some(un)
+                    }
+                    None => None,
+                };
+                loaded.push(Loaded::Csv(trial, unloaded));
+            }
+            TrialSource::Recording(_) => {
+                if !p.is_dir() {
+                    return Err(Failure::bad(format!(
+                        "{}: trial {}: recording {} is not a CEINMS trial folder (a folder \
+                         with emg.txt, lmt.txt, R_ankle_feMa.txt and R_ankle_feTorque.txt)",
+                        manifest.path.display(),
+                        t.name,
+                        p.display()
+                    )));
+                }
+                if t.unloaded.is_some() || t.knee_angle_deg.is_some() {
+                    return Err(Failure::bad(format!(
+                        "{}: trial {}: a CEINMS recording has no unloaded run or knee angle \
+                         (its lengths and moment arms already hold the knee's)",
+                        manifest.path.display(),
+                        t.name
+                    )));
+                }
+                let c = experiment::ceinms::read_ceinms_trial(p, ceinms_files::DEFAULT_JOINT)
+                    .map_err(Failure::bad)?;
+                for m in &c.muscles {
+                    if !ceinms_muscles.contains(m) {
+                        ceinms_muscles.push(m.clone());
+                    }
+                }
+                loaded.push(Loaded::Ceinms(Box::new(c)));
+            }
+        }
+    }
+
+    // parameters: the session's, replaced by --params or with an identify.json over them
+    let osim = opensim_files::OsimMuscleNames::renamed(
+        manifest
+            .osim_muscles
+            .iter()
+            .map(|(k, v)| (k.as_str(), v.as_str())),
+    )
+    .map_err(|e| Failure::bad(format!("{}: {e}", manifest.path.display())))?;
+    let mut params = ModelParams::nominal();
+    let mut effects_from_params = None;
+    if let Some(p) = &manifest.params {
+        read.push(p.clone());
+        let (pp, e) = load_params_file(p, &osim, &ceinms_muscles, &params)?;
+        params = pp;
+        effects_from_params = e;
+    }
+    if let Some(p) = &model.params {
+        read.push(p.clone());
+        let (pp, e) = load_params_file(p, &osim, &ceinms_muscles, &params)?;
+        params = pp;
+        effects_from_params = e.or(effects_from_params);
+    }
+    let effects_path = model.effects.as_ref().or(manifest.effects.as_ref());
+    let effects = match effects_path {
+        Some(p) => {
+            read.push(p.clone());
+            let v = read_json(p)?;
+            Effects::from_json(&v).map_err(|e| Failure::bad(format!("{}: {e}", p.display())))?
+        }
+        None => effects_from_params.unwrap_or_else(Effects::none),
+    };
+    let free_names: Option<Vec<String>> =
+        free.map(|f| f.to_vec()).or_else(|| manifest.free.clone());
+    let free: Vec<ParamId> = match free_names {
+        Some(names) => names
+            .iter()
+            .map(|n| ParamId::parse(n).map_err(|e| Failure::bad(format!("--free {n}: {e}"))))
+            .collect::<CmdResult<_>>()?,
+        None => ParamId::identified().to_vec(),
+    };
+    let bounds: Vec<(f64, f64)> = free
+        .iter()
+        .map(|id| {
+            let name = id.name();
+            match manifest.bounds.get(&name) {
+                Some(&b) => b,
+                None => id.default_bounds(&params, &effects),
+            }
+        })
+        .collect();
+    for name in manifest.bounds.keys() {
+        if !free.iter().any(|id| &id.name() == name) {
+            return Err(Failure::bad(format!(
+                "{}: bounds.{name}: not a free parameter of this identification",
+                manifest.path.display()
+            )));
+        }
+    }
+
+    let mut trials = Vec::with_capacity(loaded.len());
+    for (entry, l) in manifest.trials.iter().zip(loaded) {
+        let source = entry.source.path().display().to_string();
+        let bad = |e: &dyn std::fmt::Display| Failure::bad(format!("{source}: {e}"));
+        let trial = match l {
+            Loaded::Csv(trial, unloaded) => {
+                let opts = experiment::InputOptions {
+                    emg_is_envelope: model.emg_is_envelope,
+                    knee_angle_deg: entry.knee_angle_deg,
+                    ..experiment::InputOptions::default()
+                };
+                let prep = identify_sa::prepare_trial(&trial, unloaded.as_ref(), &opts)
+                    .map_err(|e| bad(&e))?;
+                let problem = Problem::new(
+                    prep.problem.inputs().clone(),
+                    prep.problem.measured().to_vec(),
+                    params,
+                    effects,
+                    free.clone(),
+                )
+                .and_then(|p| p.with_bounds(bounds.clone()))
+                .map_err(|e| bad(&e))?;
+                SessionTrial {
+                    name: entry.name.clone(),
+                    source,
+                    problem,
+                    raw_torque: prep.raw_torque,
+                    correction: prep.correction,
+                    ceinms: None,
+                }
+            }
+            Loaded::Ceinms(c) => {
+                let problem = Problem::new(
+                    c.inputs.clone(),
+                    c.torque_nm.clone(),
+                    params,
+                    effects,
+                    free.clone(),
+                )
+                .and_then(|p| p.with_bounds(bounds.clone()))
+                .and_then(|p| p.with_weights(c.weights.clone()))
+                .map_err(|e| bad(&e))?;
+                SessionTrial {
+                    name: entry.name.clone(),
+                    source,
+                    problem,
+                    raw_torque: c.torque_nm.clone(),
+                    correction: None,
+                    ceinms: Some(*c),
+                }
+            }
+        };
+        trials.push(trial);
+    }
+    Ok(LoadedSession {
+        manifest,
+        params,
+        effects,
+        free,
+        trials,
+        inputs_read: read,
+    })
+}
+
+/// A trial name as part of a file name (letters, digits, `-`, `_`; others become `_`).
+pub fn file_stem(name: &str) -> String {
+    name.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
