@@ -39,7 +39,7 @@ pub(super) fn run(args: &IdentifyArgs, session_path: &Path) -> CmdResult {
     let progress = ProgressDisplay::new(show, total, "SA");
     let observer = |ev: &identify_sa::IdentifyEvent| {
         progress.on_sa_event(ev);
-        std::ops::ControlFlow::Continue(())
+        progress.flow()
     };
     let fit = identify_sa::identify_set(&set, &settings, &observer).map_err(|e| {
         Failure::bad(format!(
@@ -48,6 +48,9 @@ pub(super) fn run(args: &IdentifyArgs, session_path: &Path) -> CmdResult {
         ))
     })?;
     progress.finish();
+    if progress.stop_requested() {
+        return Err(Failure::Interrupted);
+    }
 
     let (params, effects) = set
         .params_from_vector(&fit.x)
