@@ -347,6 +347,21 @@ impl TrialInputs {
         lerp(&self.env[j], self.locate(t))
     }
 
+    /// A series `v` known at the samples, at time `t` (linear interpolation; the first or last
+    /// value outside the trial).
+    #[inline]
+    pub(crate) fn linear_at(&self, v: &[f64], t: f64) -> f64 {
+        lerp(v, self.locate(t))
+    }
+
+    /// The slope of [`TrialInputs::linear_at`] on the sample interval holding `t` (per
+    /// second; the first or last interval's outside the trial).
+    #[inline]
+    pub(crate) fn linear_rate_at(&self, v: &[f64], t: f64) -> f64 {
+        let (i, _) = self.locate(t);
+        (v[i + 1] - v[i]) * self.fs
+    }
+
     /// TA envelope at time `t`, if given.
     #[inline]
     pub fn envelope_ta_at(&self, t: f64) -> Option<f64> {

@@ -50,6 +50,7 @@ mod muscle_torque;
 pub mod musculotendon;
 pub mod noise;
 pub mod params;
+mod path;
 pub mod problem;
 pub mod sensitivity;
 pub mod settings;
@@ -72,6 +73,6 @@ pub use sensitivity::{
     sensitivity, SensitivityRank, SensitivityRow, SensitivitySettings, SensitivityTable,
 };
 pub use settings::{Formulation, SimSettings};
-pub use simulate::{simulate, simulate_into, SimOutput};
+pub use simulate::{simulate, simulate_into, MuscleOutput, SimOutput};
 pub use stats::SimStats;
 pub use workspace::Workspace;
