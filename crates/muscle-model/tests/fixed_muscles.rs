@@ -265,6 +265,10 @@ fn missing_or_wrong_inputs_of_a_muscle_are_errors_naming_it() {
         .with_envelope("perbrev", vec![0.1; n + 3])
         .unwrap_err();
     assert!(err.to_string().contains("perbrev"), "{err}");
+    // an envelope named after an identified muscle replaces that muscle's
+    let quiet = tr.clone().with_envelope("gm", vec![0.0; n]).unwrap();
+    assert_eq!(quiet.envelope(Muscle::Gm), &vec![0.0; n][..]);
+    assert_eq!(quiet.envelope_named("gm"), Some(&vec![0.0; n][..]));
     let err = tr.with_knee_angle(vec![0.0; 2]).unwrap_err();
     assert!(matches!(err, ModelError::Length { .. }), "{err:?}");
 }
