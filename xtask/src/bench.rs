@@ -5,20 +5,26 @@
 //! evaluations; the MCMC row runs `identify_mcmc::identify` with its default settings and the
 //! unloaded run's noise model to R̂ < 1.01 and bulk ESS ≥ 400 (or its cap, which the row then
 //! shows); the diagnosis row runs `diagnose::run` on `fixtures/electromechanical_delay`.
+//! The series-geometry row times the same forward simulation with every muscle's
+//! musculotendon length and moment arm given as series at the samples (the values of the
+//! polynomials), against the polynomial fast path. `--model-only` prints the forward-model
+//! rows alone (no identification, diagnosis or peer).
 
 use anyhow::{bail, Context, Result};
 use muscle_model::{
-    simulate, simulate_into, Effects, ModelParams, Problem, ProblemWorkspace, SimSettings,
-    Workspace,
+    simulate, simulate_into, Effects, GeometrySeries, ModelParams, Muscle, Problem,
+    ProblemWorkspace, SimSettings, TrialInputs, Workspace,
 };
 use std::path::Path;
 use std::process::Command;
 use std::time::Instant;
 
-const USAGE: &str = "usage: cargo xtask bench [--repeat N] [--reps M] [--trial T.csv]\n\
+const USAGE: &str =
+    "usage: cargo xtask bench [--repeat N] [--reps M] [--trial T.csv] [--model-only]\n\
   --repeat N     Python peer simulations (median; default 5)\n\
   --reps M       Rust repetitions per row (median; default 2000)\n\
-  --trial T.csv  trial (default <workspace>/fixtures/seed/trial.csv)";
+  --trial T.csv  trial (default <workspace>/fixtures/seed/trial.csv)\n\
+  --model-only   the forward-model rows only (polynomial and series geometry)";
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -135,6 +141,43 @@ fn diagnose_run(root: &Path, name: &str) -> Result<(f64, Option<f64>, Vec<String
     Ok((wall, cpu, d.causes))
 }
 
+/// `inputs` with every muscle's geometry given as series: the length polynomial and its
+/// moment arm evaluated at the samples (so the simulated torque is the polynomial one, to the
+/// interpolation between samples).
+fn with_series_geometry(inputs: &TrialInputs, p: &ModelParams) -> Result<TrialInputs> {
+    let mut out = inputs.clone();
+    for m in Muscle::ALL {
+        let mp = p.muscle(m);
+        let series = GeometrySeries {
+            lmt_m: inputs.angle().iter().map(|&q| mp.lmt(q)).collect(),
+            moment_arm_m: inputs.angle().iter().map(|&q| mp.moment_arm(q)).collect(),
+        };
+        out = out.with_geometry(m.name(), series)?;
+    }
+    Ok(out)
+}
+
+/// Median time of one forward simulation of `inputs` (three parameter sets in turn, each
+/// differing in every muscle, so the two-slot per-muscle cache never applies).
+fn forward_time(inputs: &TrialInputs, p: &ModelParams, reps: usize) -> Result<f64> {
+    let sets: Vec<ModelParams> = (0..3)
+        .map(|k| {
+            let mut q = *p;
+            for m in &mut q.muscles {
+                m.lst_m *= 1.0 + 1e-4 * k as f64;
+            }
+            q
+        })
+        .collect();
+    let (e, s) = (Effects::none(), SimSettings::default());
+    let mut ws = Workspace::new();
+    let mut torque = vec![0.0; inputs.len()];
+    time_it(reps, |k| {
+        simulate_into(&mut ws, inputs, &sets[k % 3], &e, &s, &mut torque)?;
+        Ok(())
+    })
+}
+
 fn rms(a: &[f64], b: &[f64]) -> f64 {
     (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / a.len() as f64).sqrt()
 }
@@ -178,8 +221,10 @@ pub fn run(args: &mut impl Iterator<Item = String>) -> Result<bool> {
     let mut repeat = 5;
     let mut reps = 2000;
     let mut trial_path = root.join("fixtures/seed/trial.csv");
+    let mut model_only = false;
     while let Some(a) = args.next() {
         match a.as_str() {
+            "--model-only" => model_only = true,
             "--repeat" => repeat = args.next().context("--repeat N")?.parse()?,
             "--reps" => reps = args.next().context("--reps M")?.parse()?,
             "--trial" => trial_path = args.next().context("--trial T.csv")?.into(),
@@ -208,23 +253,30 @@ pub fn run(args: &mut impl Iterator<Item = String>) -> Result<bool> {
     let err = rms(&fast.torque, &tight.torque);
     let st = fast.total_stats();
 
-    // one forward simulation: three parameter sets in turn, each differing in every muscle,
-    // so the two-slot per-muscle cache never applies
-    let sets: Vec<ModelParams> = (0..3)
-        .map(|k| {
-            let mut q = p;
-            for m in &mut q.muscles {
-                m.lst_m *= 1.0 + 1e-4 * k as f64;
-            }
-            q
-        })
-        .collect();
-    let mut ws = Workspace::new();
-    let mut torque = vec![0.0; n];
-    let t_fwd = time_it(reps, |k| {
-        simulate_into(&mut ws, &inputs, &sets[k % 3], &e, &s, &mut torque)?;
-        Ok(())
-    })?;
+    // one forward simulation, polynomial geometry and geometry series
+    let t_fwd = forward_time(&inputs, &p, reps)?;
+    let series_inputs = with_series_geometry(&inputs, &p)?;
+    let series_err = rms(&simulate(&series_inputs, &p, &e, &s)?.torque, &fast.torque);
+    let t_series = forward_time(&series_inputs, &p, reps)?;
+    let us = |t: f64| format!("{:.1} µs", t * 1e6);
+    if model_only {
+        println!("| measurement | surae (Rust, 1 thread) | relative |");
+        println!("|---|---|---|");
+        println!(
+            "| forward simulation, seed trial (3 muscles integrated) | {} | 1 |",
+            us(t_fwd)
+        );
+        println!(
+            "| forward simulation, seed trial, geometry as series (3 muscles integrated) | {} | {:.2} |",
+            us(t_series),
+            t_series / t_fwd
+        );
+        println!();
+        println!(
+            "series vs polynomial geometry: {series_err:.2e} N·m RMS; default settings: {err:.2e} N·m RMS from SimSettings::tight(); {reps} repetitions"
+        );
+        return Ok(true);
+    }
 
     // cost evaluations as an annealer makes them: one coordinate of the 9 moved at a time
     let problem = Problem::standard(inputs.clone(), trial.torque_nm.clone())?;
@@ -266,7 +318,6 @@ pub fn run(args: &mut impl Iterator<Item = String>) -> Result<bool> {
     eprintln!("running the Python peer ({repeat} simulations) ...");
     let t_peer = peer(&root, &trial_path, repeat)?;
 
-    let us = |t: f64| format!("{:.1} µs", t * 1e6);
     println!("| measurement | surae (Rust, 1 thread) | peer (Python, scipy RK45) | ratio |");
     println!("|---|---|---|---|");
     println!(
@@ -274,6 +325,12 @@ pub fn run(args: &mut impl Iterator<Item = String>) -> Result<bool> {
         us(t_fwd),
         t_peer * 1e3,
         t_peer / t_fwd
+    );
+    println!(
+        "| forward simulation, seed trial, geometry as series (3 muscles integrated; {series_err:.1e} N·m RMS from the polynomial) | {} | {:.1} ms | {:.0}× |",
+        us(t_series),
+        t_peer * 1e3,
+        t_peer / t_series
     );
     println!(
         "| cost evaluation, all 9 parameters moved | {} | — | {:.0}× |",

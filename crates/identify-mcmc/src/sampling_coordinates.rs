@@ -375,7 +375,7 @@ impl<'a> Conditional<'a> {
             let mut cols: [&[f64]; 3] = [&[]; 3];
             let mut inv_f0 = [0.0; 3];
             for (k, &(i, muscle)) in self.lin.iter().enumerate() {
-                cols[k] = &tms[muscle];
+                cols[k] = &tms[muscle].torque;
                 inv_f0[k] = 1.0 / x[i];
             }
             let total = &s.total;

@@ -76,11 +76,10 @@ fn main() {
         );
         for (name, s) in &candidates {
             let out = simulate(&tr, p, &e, &s.with_states()).expect("sim");
-            let st = out.states.as_ref().expect("states");
             let (mut inv, mut lmt) = (0.0_f64, 0.0_f64);
             for m in Muscle::ALL {
                 let u = MuscleUnit::new(p, m, &e);
-                for (i, y) in st[m.index()].iter().enumerate() {
+                for (i, y) in out.states_of(m).expect("states").iter().enumerate() {
                     inv = inv.max((u.detail(y).tendon_force_from_lengths - y[IX_FT]).abs());
                     lmt = lmt.max((y[IX_LMT] - u.lmt(tr.angle()[i])).abs());
                 }

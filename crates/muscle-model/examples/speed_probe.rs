@@ -36,7 +36,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "{} samples; default: RMS vs tight {:.3e} N·m, stats {:?}",
         inputs.len(),
         rms(&fast.torque, &tight.torque),
-        fast.stats
+        fast.total_stats()
     );
     for (label, all) in [
         ("all three muscles changed", true),

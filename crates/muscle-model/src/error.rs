@@ -55,7 +55,7 @@ pub enum ModelError {
     /// The ODE integration of one muscle failed.
     #[error("integration of muscle `{muscle}` failed: {source}")]
     Integration {
-        /// `sol`, `gm`, `gl`, or `ta` (antagonist activation).
+        /// `sol`, `gm`, `gl`, a fixed muscle's name, or `ta` (also the antagonist activation).
         muscle: &'static str,
         /// The integrator's error.
         source: ode::OdeError,

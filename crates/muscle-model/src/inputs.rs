@@ -160,11 +160,14 @@ impl TrialInputs {
     }
 
     /// The same inputs with the normalised envelope of a further muscle `name` (a fixed muscle
-    /// of the model; `ta` is also the antagonist effect's channel). Values are clamped to
-    /// `[0, 1]`; a second envelope of the same name replaces the first.
+    /// of the model; `ta` is also the antagonist effect's channel; `sol`, `gm` or `gl`
+    /// replaces that muscle's envelope). Values are clamped to `[0, 1]`; a second envelope of
+    /// the same name replaces the first.
     pub fn with_envelope(mut self, name: &str, mut env: Vec<f64>) -> Result<Self, ModelError> {
         check_env(&mut env, self.len(), &format!("envelope {name}"))?;
-        if name == "ta" {
+        if let Some(m) = Muscle::from_name(name) {
+            self.env[m.index()] = env;
+        } else if name == "ta" {
             self.env_ta = Some(env);
         } else if let Some(slot) = self.channels.iter_mut().find(|(n, _)| n == name) {
             slot.1 = env;
@@ -345,6 +348,21 @@ impl TrialInputs {
     #[inline]
     pub fn envelope_at(&self, j: usize, t: f64) -> f64 {
         lerp(&self.env[j], self.locate(t))
+    }
+
+    /// A series `v` known at the samples, at time `t` (linear interpolation; the first or last
+    /// value outside the trial).
+    #[inline]
+    pub(crate) fn linear_at(&self, v: &[f64], t: f64) -> f64 {
+        lerp(v, self.locate(t))
+    }
+
+    /// The slope of [`TrialInputs::linear_at`] on the sample interval holding `t` (per
+    /// second; the first or last interval's outside the trial).
+    #[inline]
+    pub(crate) fn linear_rate_at(&self, v: &[f64], t: f64) -> f64 {
+        let (i, _) = self.locate(t);
+        (v[i + 1] - v[i]) * self.fs
     }
 
     /// TA envelope at time `t`, if given.

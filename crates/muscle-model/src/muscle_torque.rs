@@ -1,7 +1,9 @@
-//! One muscle's torque `F̃T·F0·r(q)` at every sample, by any [`Formulation`]: the fast path
+//! One muscle's torque `F̃T·F0·r` at every sample, by any [`Formulation`]: the fast path
 //! of [`crate::fast_simulation`], or [`ode::dopri5_dense`] on the reduced (`[a, LM]`, with
-//! `LMT = LMT(q)` and `F̃T = fT(ε)` from the invariants) or the four-state system of
-//! [`MuscleUnit`], from the static equilibrium (`ṽ = 0`) at `a = u(0)`.
+//! `LMT` from the muscle's path and `F̃T = fT(ε)` from the invariants) or the four-state
+//! system of [`MuscleUnit`] (driven by the path's `vMT`), from the static equilibrium
+//! (`ṽ = 0`) at `a = u(0)`. The path ([`MusclePath`]) is the length polynomial with the knee
+//! term, or the trial's geometry series; `u` is the muscle's own envelope channel.
 
 use crate::effects::Effects;
 use crate::error::ModelError;
@@ -9,11 +11,29 @@ use crate::fast_simulation::{self, Channel, Fibre};
 use crate::inputs::TrialInputs;
 use crate::joint_effects::delay_s;
 use crate::musculotendon::{MuscleUnit, IX_FT, IX_LM, STATE_DIM};
-use crate::params::{ModelParams, Muscle};
+use crate::path::MusclePath;
 use crate::settings::{Formulation, SimSettings};
 use crate::stats::SimStats;
 use ode::OdeSystem;
 use std::sync::Arc;
+
+/// The envelope channel that drives `unit` (its own name's); an error naming the muscle and
+/// the channel when the trial does not have it.
+pub(crate) fn envelope_of<'a>(
+    inputs: &'a TrialInputs,
+    unit: &MuscleUnit,
+) -> Result<&'a [f64], ModelError> {
+    let name = unit.name;
+    inputs.envelope_named(name).ok_or_else(|| {
+        ModelError::input(
+            format!("envelope {name}"),
+            format!(
+                "muscle `{name}` is driven by the EMG envelope channel `{name}` (emg_{name}), \
+                 which the trial does not have"
+            ),
+        )
+    })
+}
 
 /// What the fast integration of `unit` needs: its channel (`current` when it matches), its
 /// fibre constants and the equilibrium fibre length at the first sample.
@@ -22,19 +42,21 @@ pub(crate) fn fast_prepare(
     inputs: &TrialInputs,
     unit: &MuscleUnit,
     delay: f64,
-) -> (Arc<Channel>, Fibre, f64) {
-    let y0 = unit.equilibrium_state(
-        inputs.envelope_at(unit.muscle.index(), inputs.times()[0] - delay),
-        inputs.angle()[0],
+) -> Result<(Arc<Channel>, Fibre, f64), ModelError> {
+    let env = envelope_of(inputs, unit)?;
+    let path = MusclePath::new(unit, inputs)?;
+    let y0 = unit.equilibrium_state_lmt(
+        inputs.linear_at(env, inputs.times()[0] - delay),
+        path.lmt_sample(inputs, 0),
     );
-    let ch = fast_simulation::channel_for(current, inputs, unit, delay);
-    (ch, fast_simulation::Fibre::new(unit), y0[IX_LM])
+    let ch = fast_simulation::channel_for(current, inputs, unit, env, &path, delay);
+    Ok((ch, fast_simulation::Fibre::new(unit), y0[IX_LM]))
 }
 
-/// The integration error of muscle `muscle`.
-pub(crate) fn integration_error(muscle: Muscle) -> impl FnOnce(ode::OdeError) -> ModelError {
+/// The integration error of muscle `name`.
+pub(crate) fn integration_error(name: &'static str) -> impl FnOnce(ode::OdeError) -> ModelError {
     move |source| ModelError::Integration {
-        muscle: muscle.name(),
+        muscle: name,
         source,
     }
 }
@@ -50,10 +72,10 @@ pub(crate) fn fast_unit_torque(
     settings: &SimSettings,
     out: &mut [f64],
 ) -> Result<SimStats, ModelError> {
-    let (ch, fib, lm0) = fast_prepare(current.as_ref(), inputs, unit, delay);
+    let (ch, fib, lm0) = fast_prepare(current.as_ref(), inputs, unit, delay)?;
     lm.resize(inputs.len(), 0.0);
     let stats = fast_simulation::run(&ch, inputs, &fib, lm0, settings, lm)
-        .map_err(integration_error(unit.muscle))?;
+        .map_err(integration_error(unit.name))?;
     fast_simulation::unit_torque(&fib, &ch, lm, out);
     *current = Some(ch);
     Ok(stats)
@@ -62,7 +84,8 @@ pub(crate) fn fast_unit_torque(
 struct UnitSystem<'a> {
     unit: &'a MuscleUnit,
     inputs: &'a TrialInputs,
-    j: usize,
+    env: &'a [f64],
+    path: MusclePath<'a>,
     delay: f64,
     reduced: bool,
 }
@@ -70,41 +93,39 @@ struct UnitSystem<'a> {
 impl OdeSystem<STATE_DIM> for UnitSystem<'_> {
     #[inline]
     fn rhs(&mut self, t: f64, y: &[f64; STATE_DIM], dydt: &mut [f64; STATE_DIM]) {
-        let u = self.inputs.envelope_at(self.j, t - self.delay);
+        let u = self.inputs.linear_at(self.env, t - self.delay);
         if self.reduced {
-            let q = self.inputs.angle_value_at(t);
-            self.unit.derivative_reduced(u, q, y, dydt);
+            let lmt = self.path.lmt_at(self.inputs, t);
+            self.unit.derivative_reduced_lmt(u, lmt, y, dydt);
         } else {
-            let (q, qd) = self.inputs.angle_at(t);
-            self.unit.derivative(u, q, qd, y, dydt);
+            let vmt = self.path.vmt_at(self.inputs, t);
+            self.unit.derivative_vmt(u, vmt, y, dydt);
         }
     }
 }
 
-/// Integrates muscle `m` and writes its torque at every sample into `torque` and, when given,
+/// Integrates `unit` and writes its torque at every sample into `torque` and, when given,
 /// every sample's state into `states`.
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn run_muscle(
     current: &mut Option<Arc<Channel>>,
     inputs: &TrialInputs,
-    params: &ModelParams,
+    unit: &MuscleUnit,
     effects: &Effects,
     settings: &SimSettings,
-    m: Muscle,
     torque: &mut [f64],
     mut states: Option<&mut [[f64; STATE_DIM]]>,
 ) -> Result<SimStats, ModelError> {
-    let unit = MuscleUnit::new(params, m, effects);
+    let unit = *unit;
     let delay = delay_s(effects);
     let t = inputs.times();
-    let j = m.index();
     if settings.formulation == Formulation::Fast {
-        let (ch, fib, lm0) = fast_prepare(current.as_ref(), inputs, &unit, delay);
+        let (ch, fib, lm0) = fast_prepare(current.as_ref(), inputs, &unit, delay)?;
         let mut lm = vec![0.0; inputs.len()];
         let stats = fast_simulation::run(&ch, inputs, &fib, lm0, settings, &mut lm)
-            .map_err(integration_error(m))?;
+            .map_err(integration_error(unit.name))?;
         let f0 = unit.f0;
-        let activation = states.is_some().then(|| ch.activation(inputs));
+        let env = envelope_of(inputs, &unit)?;
+        let activation = states.is_some().then(|| ch.activation(env, inputs));
         for (i, &lmi) in lm.iter().enumerate() {
             let lmt = ch.lmt[i];
             let ft = fib.tendon_force(lmt, lmi);
@@ -117,31 +138,37 @@ pub(crate) fn run_muscle(
         *current = Some(ch);
         return Ok(stats);
     }
-    let y0 = unit.equilibrium_state(inputs.envelope_at(j, t[0] - delay), inputs.angle()[0]);
+    let env = envelope_of(inputs, &unit)?;
+    let path = MusclePath::new(&unit, inputs)?;
+    let y0 = unit.equilibrium_state_lmt(
+        inputs.linear_at(env, t[0] - delay),
+        path.lmt_sample(inputs, 0),
+    );
     let reduced = settings.formulation == Formulation::Reduced;
     let mut sys = UnitSystem {
         unit: &unit,
         inputs,
-        j,
+        env,
+        path,
         delay,
         reduced,
     };
-    let q = inputs.angle();
     let stats = ode::dopri5_dense(&mut sys, y0, t, &settings.adaptive(), |i, y| {
+        let r = path.moment_arm_sample(inputs, i);
         if reduced {
             let mut yp = *y;
-            unit.project(q[i], &mut yp);
-            torque[i] = yp[IX_FT] * unit.f0 * unit.moment_arm(q[i]);
+            unit.project_lmt(path.lmt_sample(inputs, i), &mut yp);
+            torque[i] = yp[IX_FT] * unit.f0 * r;
             if let Some(st) = states.as_deref_mut() {
                 st[i] = yp;
             }
         } else {
-            torque[i] = y[IX_FT] * unit.f0 * unit.moment_arm(q[i]);
+            torque[i] = y[IX_FT] * unit.f0 * r;
             if let Some(st) = states.as_deref_mut() {
                 st[i] = *y;
             }
         }
     })
-    .map_err(integration_error(m))?;
+    .map_err(integration_error(unit.name))?;
     Ok(stats.into())
 }

@@ -5,7 +5,7 @@ use crate::activation::Activation;
 use crate::curves::Curves;
 use crate::effects::Effects;
 use crate::geometry::{lmt, moment_arm, Pennation};
-use crate::params::{ModelParams, Muscle};
+use crate::params::{ModelParams, Muscle, MuscleParams};
 
 /// Length of a unit's state vector: `[a, F̃T, LM, LMT, ∫â dt]`.
 pub const STATE_DIM: usize = 5;
@@ -26,8 +26,9 @@ pub const MIN_FIBRE_FRACTION: f64 = 0.01;
 /// A musculotendon unit with all constants precomputed.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MuscleUnit {
-    /// Which muscle.
-    pub muscle: Muscle,
+    /// The muscle's name (`sol`, `gm`, `gl` or a fixed muscle's), also the name of its
+    /// envelope channel and of its geometry series in a trial.
+    pub name: &'static str,
     /// `F0` (N).
     pub f0: f64,
     /// `LOM` (m).
@@ -36,8 +37,13 @@ pub struct MuscleUnit {
     pub lst: f64,
     /// `vmax` (m/s).
     pub vmax: f64,
-    /// Geometry polynomial.
+    /// Geometry polynomial (zeros when the geometry comes from each trial).
     pub poly: [f64; 4],
+    /// Knee moment arm `r_knee` (m): `LMT(q, k) = P(q) − r_knee·k` with polynomial geometry.
+    pub knee_moment_arm: f64,
+    /// The musculotendon length and moment arm come from each trial's geometry series (the
+    /// muscle has no length polynomial).
+    pub geometry_from_trial: bool,
     /// Constant-thickness pennation.
     pub pennation: Pennation,
     /// Fibre-length floor `max(h/sin 84°, 0.01·LOM)` (m): at the floor the fibre cannot
@@ -71,18 +77,51 @@ pub struct UnitDetail {
 impl MuscleUnit {
     /// The unit of muscle `m` under `params` and `effects` (`fatigue`, `eccentric_enhancement`).
     pub fn new(params: &ModelParams, m: Muscle, effects: &Effects) -> Self {
-        let p = params.muscle(m);
+        Self::of(m.name(), params.muscle(m), params, effects)
+    }
+
+    /// The unit of every muscle of `params`: sol, gm, gl, then the fixed muscles in order.
+    pub fn all(params: &ModelParams, effects: &Effects) -> Vec<MuscleUnit> {
+        let mut units: Vec<MuscleUnit> = Muscle::ALL
+            .iter()
+            .map(|&m| Self::new(params, m, effects))
+            .collect();
+        units.extend(
+            params
+                .fixed
+                .iter()
+                .map(|f| Self::of(f.name, &f.params, params, effects)),
+        );
+        units
+    }
+
+    /// The unit of the muscle `name` with parameters `p`, under the activation and curves of
+    /// `params` and `effects`.
+    pub fn of(
+        name: &'static str,
+        p: &MuscleParams,
+        params: &ModelParams,
+        effects: &Effects,
+    ) -> Self {
         let flen = effects
             .eccentric_enhancement
             .map_or(params.curves.flen, |e| e.flen);
         let pennation = Pennation::new(p.lom_m, p.alpha_deg);
+        // NaN coefficients mark trial geometry; zeros keep the unit comparable (cache keys)
+        let geometry_from_trial = p.geometry_from_trial();
         MuscleUnit {
-            muscle: m,
+            name,
             f0: p.fom_n,
             lom: p.lom_m,
             lst: p.lst_m,
             vmax: p.vmax_lom_per_s * p.lom_m,
-            poly: p.lmt_poly_m,
+            poly: if geometry_from_trial {
+                [0.0; 4]
+            } else {
+                p.lmt_poly_m
+            },
+            knee_moment_arm: p.knee_moment_arm_m,
+            geometry_from_trial,
             pennation,
             lm_min: pennation.lm_cap.max(MIN_FIBRE_FRACTION * p.lom_m),
             curves: Curves::new(&params.curves, flen),
@@ -91,7 +130,12 @@ impl MuscleUnit {
         }
     }
 
-    /// `LMT(q)` (m).
+    /// The identified muscle this unit is, if it is one of sol, gm, gl.
+    pub fn muscle(&self) -> Option<Muscle> {
+        Muscle::from_name(self.name)
+    }
+
+    /// `LMT(q)` (m), knee extended.
     #[inline]
     pub fn lmt(&self, q: f64) -> f64 {
         lmt(&self.poly, q)
@@ -145,11 +189,23 @@ impl MuscleUnit {
         y: &[f64; STATE_DIM],
         dy: &mut [f64; STATE_DIM],
     ) {
+        self.derivative_vmt(u, self.moment_arm(q) * qd, y, dy);
+    }
+
+    /// State derivative for excitation `u` and musculotendon velocity `vmt` (m/s), whatever
+    /// the geometry (polynomial with or without the knee term, or a series).
+    #[inline]
+    pub fn derivative_vmt(
+        &self,
+        u: f64,
+        vmt: f64,
+        y: &[f64; STATE_DIM],
+        dy: &mut [f64; STATE_DIM],
+    ) {
         let a = y[IX_A];
         let lm = y[IX_LM];
         let cos = self.pennation.cos_alpha(lm);
         let vm = self.fibre_velocity(y);
-        let vmt = self.moment_arm(q) * qd;
         let lt = y[IX_LMT] - lm * cos;
         let eps = (lt - self.lst) / self.lst;
         dy[IX_A] = self.activation.rate(u, a);
@@ -163,7 +219,12 @@ impl MuscleUnit {
     /// `F̃T = fT(ε(LMT, LM))`, other components of `y` unchanged.
     #[inline]
     pub fn project(&self, q: f64, y: &mut [f64; STATE_DIM]) {
-        let lmt = self.lmt(q);
+        self.project_lmt(self.lmt(q), y);
+    }
+
+    /// The state on the invariant manifold at musculotendon length `lmt`.
+    #[inline]
+    pub fn project_lmt(&self, lmt: f64, y: &mut [f64; STATE_DIM]) {
         y[IX_LMT] = lmt;
         y[IX_FT] = self.curves.ft(self.tendon_strain(lmt, y[IX_LM]));
     }
@@ -178,8 +239,20 @@ impl MuscleUnit {
         y: &[f64; STATE_DIM],
         dy: &mut [f64; STATE_DIM],
     ) {
+        self.derivative_reduced_lmt(u, self.lmt(q), y, dy);
+    }
+
+    /// [`MuscleUnit::derivative_reduced`] at musculotendon length `lmt`.
+    #[inline]
+    pub fn derivative_reduced_lmt(
+        &self,
+        u: f64,
+        lmt: f64,
+        y: &[f64; STATE_DIM],
+        dy: &mut [f64; STATE_DIM],
+    ) {
         let mut yp = *y;
-        self.project(q, &mut yp);
+        self.project_lmt(lmt, &mut yp);
         let a = y[IX_A];
         dy[IX_A] = self.activation.rate(u, a);
         dy[IX_FT] = 0.0;
@@ -195,9 +268,13 @@ impl MuscleUnit {
     /// length at which the tendon goes slack. If the tendon is slack even at the floor the
     /// fibre starts at the floor with `F̃T = 0`.
     pub fn equilibrium_state(&self, u: f64, q: f64) -> [f64; STATE_DIM] {
+        self.equilibrium_state_lmt(u, self.lmt(q))
+    }
+
+    /// [`MuscleUnit::equilibrium_state`] at musculotendon length `lmt` (m).
+    pub fn equilibrium_state_lmt(&self, u: f64, lmt: f64) -> [f64; STATE_DIM] {
         let a = u.clamp(0.0, 1.0);
         let a_hat = self.activation.nonlinearity.apply(a);
-        let lmt = self.lmt(q);
         let h = self.pennation.h;
         let g = |lm: f64| {
             let cos = self.pennation.cos_alpha(lm);

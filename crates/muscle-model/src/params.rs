@@ -161,6 +161,26 @@ impl MuscleParams {
         }
     }
 
+    /// Nominal tibialis anterior, a dorsiflexor to add as a fixed muscle named `ta` (driven
+    /// by the `ta` envelope): F0 = 905 N, LOM = 0.098 m, LST = 0.223 m and α0 = 5° are
+    /// gait2392's `tib_ant_r`. Its length polynomial is an approximation, not a fit to that
+    /// model's path: `LMT(q) = 0.3210 − 0.036·q + 0.003·q²` (m), so the moment arm
+    /// `r(q) = −0.036 + 0.006·q` runs from −0.039 m at 30° plantarflexion to −0.033 m at 30°
+    /// dorsiflexion (published TA moment arms are 3–4 cm), and `LMT(0) ≈ LST + LOM·cos α0`
+    /// puts the fibres near their optimal length with the ankle at 0°. The TA does not cross
+    /// the knee (knee moment arm 0).
+    pub fn nominal_ta() -> Self {
+        MuscleParams {
+            fom_n: 905.0,
+            lom_m: 0.098,
+            lst_m: 0.223,
+            alpha_deg: 5.0,
+            vmax_lom_per_s: 10.0,
+            lmt_poly_m: [0.3210, -0.036, 0.003, 0.0],
+            knee_moment_arm_m: 0.0,
+        }
+    }
+
     /// A muscle whose values must all be given (NaN until set; validation names the first
     /// missing one). `vmax` defaults to 10 LOM/s and the knee moment arm to 0.
     fn unset() -> Self {

@@ -2,25 +2,39 @@
 //! torque at every sample (dissertation eq. 7) plus the joint-level effects,
 //!
 //! ```text
-//! τ(tᵢ) = τ_effects(tᵢ) + Σ_j F̃T_j(tᵢ)·F0_j·r_j(q(tᵢ))
+//! τ(tᵢ) = τ_effects(tᵢ) + Σ_j F̃T_j(tᵢ)·F0_j·r_j(tᵢ)
 //! ```
+//!
+//! over sol, gm, gl and the model's fixed muscles (`r_j < 0` for a dorsiflexor).
 //!
 //! [`simulate`] returns everything ([`SimOutput`]); [`simulate_into`] and the fused prediction
 //! of the identification problem reuse a [`Workspace`] and its per-muscle cache.
 
 use crate::effects::Effects;
 use crate::error::ModelError;
-use crate::fast_simulation::Channel;
 use crate::inputs::TrialInputs;
 use crate::joint_effects::{add_joint_effects, needs_ta, run_ta};
 use crate::muscle_torque::run_muscle;
-use crate::musculotendon::STATE_DIM;
+use crate::musculotendon::{MuscleUnit, STATE_DIM};
 use crate::params::{ModelParams, Muscle};
 use crate::settings::{Formulation, SimSettings};
 use crate::stats::SimStats;
 use crate::workspace::{update_muscles, Workspace};
 use serde::Serialize;
-use std::sync::Arc;
+
+/// One muscle's part of a simulation.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct MuscleOutput {
+    /// The muscle (`sol`, `gm`, `gl` or a fixed muscle's name).
+    pub name: &'static str,
+    /// Its torque `F̃T·F0·r` at the samples (N·m; negative for a dorsiflexor).
+    pub torque: Vec<f64>,
+    /// Its state `[a, F̃T, LM, LMT, ∫â]` at the samples (with
+    /// [`SimSettings::record_states`]).
+    pub states: Option<Vec<[f64; STATE_DIM]>>,
+    /// Its integrator statistics.
+    pub stats: SimStats,
+}
 
 /// Result of a simulation, one value per input sample.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -29,28 +43,55 @@ pub struct SimOutput {
     pub time: Vec<f64>,
     /// Total joint torque including effects (N·m, plantarflexion > 0).
     pub torque: Vec<f64>,
-    /// Torque of each muscle `F̃T·F0·r(q)` (N·m), indexed by [`Muscle::index`].
-    pub torque_muscle: [Vec<f64>; 3],
+    /// Every muscle's torque, state and statistics: sol, gm, gl (at [`Muscle::index`]), then
+    /// the fixed muscles in the order of [`ModelParams::fixed`].
+    pub muscles: Vec<MuscleOutput>,
     /// Sum of the joint-level effect torques (offset, passive, gravity, damping, inertia,
     /// antagonist) (N·m).
     pub torque_effects: Vec<f64>,
-    /// Per muscle, per sample state `[a, F̃T, LM, LMT, ∫â]` (with
-    /// [`SimSettings::record_states`]).
-    pub states: Option<[Vec<[f64; STATE_DIM]>; 3]>,
     /// TA activation `a_TA` at the samples when `antagonist_coactivation` is active.
     pub activation_ta: Option<Vec<f64>>,
-    /// Integrator statistics per muscle.
-    pub stats: [SimStats; 3],
 }
 
 impl SimOutput {
     /// Total integrator statistics.
     pub fn total_stats(&self) -> SimStats {
         let mut t = SimStats::default();
-        for s in &self.stats {
-            t.add(*s);
+        for m in &self.muscles {
+            t.add(m.stats);
         }
         t
+    }
+
+    /// Torque of sol, gm or gl at the samples (N·m).
+    pub fn torque_of(&self, m: Muscle) -> &[f64] {
+        &self.muscles[m.index()].torque
+    }
+
+    /// State of sol, gm or gl at the samples, when recorded.
+    pub fn states_of(&self, m: Muscle) -> Option<&[[f64; STATE_DIM]]> {
+        self.muscles[m.index()].states.as_deref()
+    }
+
+    /// The muscle called `name`, if the model has it.
+    pub fn muscle_named(&self, name: &str) -> Option<&MuscleOutput> {
+        self.muscles.iter().find(|m| m.name == name)
+    }
+}
+
+/// `Σ_k torques[k]` sample by sample, in order, into `out` (the fixed muscles' sum: one
+/// definition for every path, so that they agree bit for bit).
+pub(crate) fn sum_torques<'a>(
+    torques: impl Iterator<Item = &'a [f64]>,
+    n: usize,
+    out: &mut Vec<f64>,
+) {
+    out.clear();
+    out.resize(n, 0.0);
+    for t in torques {
+        for (o, v) in out.iter_mut().zip(t) {
+            *o += v;
+        }
     }
 }
 
@@ -83,24 +124,25 @@ pub fn simulate(
 ) -> Result<SimOutput, ModelError> {
     check(params, effects, settings)?;
     let n = inputs.len();
-    let mut torque_muscle: [Vec<f64>; 3] = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
-    let mut states: Option<[Vec<[f64; STATE_DIM]>; 3]> = settings
-        .record_states
-        .then(|| std::array::from_fn(|_| vec![[0.0; STATE_DIM]; n]));
-    let mut stats = [SimStats::default(); 3];
-    let mut channels: [Option<Arc<Channel>>; 3] = Default::default();
-    for m in Muscle::ALL {
-        let j = m.index();
-        stats[j] = run_muscle(
-            &mut channels[j],
+    let mut muscles = Vec::with_capacity(3 + params.fixed.len());
+    for unit in MuscleUnit::all(params, effects) {
+        let mut torque = vec![0.0; n];
+        let mut states = settings.record_states.then(|| vec![[0.0; STATE_DIM]; n]);
+        let stats = run_muscle(
+            &mut None,
             inputs,
-            params,
+            &unit,
             effects,
             settings,
-            m,
-            &mut torque_muscle[j],
-            states.as_mut().map(|s| &mut s[j][..]),
+            &mut torque,
+            states.as_deref_mut(),
         )?;
+        muscles.push(MuscleOutput {
+            name: unit.name,
+            torque,
+            states,
+            stats,
+        });
     }
     let activation_ta = if needs_ta(effects) {
         let mut ta = vec![0.0; n];
@@ -116,11 +158,17 @@ pub fn simulate(
         activation_ta.as_deref().unwrap_or(&[]),
         &mut torque_effects,
     );
-    let torque: Vec<f64> = (0..n)
-        .map(|i| {
-            torque_effects[i] + torque_muscle[0][i] + torque_muscle[1][i] + torque_muscle[2][i]
-        })
+    let tm = |j: usize| &muscles[j].torque;
+    let mut torque: Vec<f64> = (0..n)
+        .map(|i| torque_effects[i] + tm(0)[i] + tm(1)[i] + tm(2)[i])
         .collect();
+    if muscles.len() > 3 {
+        let mut fixed = Vec::new();
+        sum_torques(muscles[3..].iter().map(|m| &m.torque[..]), n, &mut fixed);
+        for (t, f) in torque.iter_mut().zip(&fixed) {
+            *t += f;
+        }
+    }
     if let Some(i) = torque.iter().position(|x| !x.is_finite()) {
         return Err(ModelError::NonFinite {
             what: "torque",
@@ -130,11 +178,9 @@ pub fn simulate(
     Ok(SimOutput {
         time: inputs.times().to_vec(),
         torque,
-        torque_muscle,
+        muscles,
         torque_effects,
-        states,
         activation_ta,
-        stats,
     })
 }
 
@@ -162,12 +208,18 @@ pub fn simulate_into(
     if settings.formulation == Formulation::Fast {
         ws.scale_unit_torques(n);
     }
+    ws.copy_fixed_outputs();
     let ta = ws.ta_activation(inputs, params, effects, settings)?;
     torque.fill(0.0);
     add_joint_effects(inputs, effects, ta, torque);
-    let [t0, t1, t2] = ws.torque_muscle();
+    let tm = ws.torque_muscle();
+    let (t0, t1, t2) = (&tm[0].torque, &tm[1].torque, &tm[2].torque);
+    let fixed = ws.fixed_torque(n);
     for (i, t) in torque.iter_mut().enumerate() {
         *t += t0[i] + t1[i] + t2[i];
+        if let Some(f) = fixed {
+            *t += f[i];
+        }
         if !t.is_finite() {
             return Err(ModelError::NonFinite {
                 what: "torque",
@@ -216,6 +268,11 @@ pub(crate) fn predict_into(
     // the operations of `simulate_into`: effects, then `+= F0₀g₀ + F0₁g₁ + F0₂g₂`
     for i in 0..n {
         out[i] = e[i] + (f0 * g0[i] + f1 * g1[i] + f2 * g2[i]);
+    }
+    if let Some(f) = ws.fixed_torque(n) {
+        for (o, f) in out.iter_mut().zip(f) {
+            *o += f;
+        }
     }
     let has_target = target.is_some();
     let ss = target.map_or(0.0, |t| sum_squares(out, t));

@@ -6,6 +6,11 @@
 //! its two latest parameter sets (two slots, the newer one marked), so a move of one muscle's
 //! parameters integrates one muscle and a move of `F0` alone integrates none; the muscles are
 //! independent given the inputs, so a reused result is the same bits as a new one.
+//!
+//! The fixed muscles of a model (`ModelParams::fixed`) are not identified: with any
+//! formulation each one's torque, and their sum, is kept for the trial, parameters, effects
+//! and settings it was computed with, so that an identification's evaluations integrate them
+//! once (again only when the activation, curves, delay or another of their inputs moves).
 
 use crate::effects::Effects;
 use crate::error::ModelError;
@@ -16,13 +21,20 @@ use crate::muscle_torque::{fast_prepare, fast_unit_torque, integration_error, ru
 use crate::musculotendon::MuscleUnit;
 use crate::params::{ModelParams, Muscle};
 use crate::settings::{Formulation, SimSettings};
+use crate::simulate::{sum_torques, MuscleOutput};
 use crate::stats::SimStats;
 use std::sync::Arc;
 
 /// Reusable scratch memory for [`crate::simulate_into`] (one per thread).
 #[derive(Clone, Debug, Default)]
 pub struct Workspace {
-    torque_muscle: [Vec<f64>; 3],
+    /// sol, gm, gl, then the fixed muscles (torques and statistics; no states).
+    torque_muscle: Vec<MuscleOutput>,
+    /// The fixed muscles' kept torques.
+    fixed: Vec<FixedSlot>,
+    /// `Σ` of the fixed muscles' torques, valid for `fixed_sum_len` muscles (`None`: stale).
+    fixed_sum: Vec<f64>,
+    fixed_sum_len: Option<usize>,
     ta: Vec<f64>,
     channels: [Option<Arc<Channel>>; 3],
     /// Fibre length of each muscle at the samples (scratch of the fast integrator).
@@ -52,6 +64,25 @@ struct SlotKey {
     max_steps: usize,
 }
 
+/// What a fixed muscle's kept torque was computed from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct FixedKey {
+    uid: u64,
+    n: usize,
+    unit: MuscleUnit,
+    delay: f64,
+    settings: SimSettings,
+}
+
+/// One fixed muscle's kept torque `F̃T·F0·r` at the samples.
+#[derive(Clone, Debug, Default)]
+struct FixedSlot {
+    key: Option<FixedKey>,
+    torque: Vec<f64>,
+    stats: SimStats,
+    channel: Option<Arc<Channel>>,
+}
+
 /// One cached muscle: `F̃T·r` at the samples (torque per newton of `F0`).
 #[derive(Clone, Debug, Default)]
 struct Slot {
@@ -66,9 +97,51 @@ impl Workspace {
         Workspace::default()
     }
 
-    /// Per-muscle torques of the last [`crate::simulate_into`] call.
-    pub fn torque_muscle(&self) -> &[Vec<f64>; 3] {
+    /// Per-muscle torques and statistics of the last [`crate::simulate_into`] call: sol, gm,
+    /// gl (at [`Muscle::index`]), then the fixed muscles in order (empty before the first
+    /// call).
+    pub fn torque_muscle(&self) -> &[MuscleOutput] {
         &self.torque_muscle
+    }
+
+    /// The per-muscle outputs sized and named for `params` (sol, gm, gl, then the fixed
+    /// muscles).
+    fn name_outputs(&mut self, params: &ModelParams) {
+        let names = Muscle::ALL
+            .iter()
+            .map(|m| m.name())
+            .chain(params.fixed.iter().map(|f| f.name));
+        let mut k = 0;
+        for name in names {
+            if k == self.torque_muscle.len() {
+                self.torque_muscle.push(MuscleOutput {
+                    name,
+                    torque: Vec::new(),
+                    states: None,
+                    stats: SimStats::default(),
+                });
+            }
+            self.torque_muscle[k].name = name;
+            k += 1;
+        }
+        self.torque_muscle.truncate(k);
+    }
+
+    /// The fixed muscles' summed torque at the samples (`n`), `None` when the model has none.
+    pub(crate) fn fixed_torque(&self, n: usize) -> Option<&[f64]> {
+        match self.fixed_sum_len {
+            Some(k) if k > 0 => Some(&self.fixed_sum[..n]),
+            _ => None,
+        }
+    }
+
+    /// Copies the fixed muscles' kept torques and statistics into [`Workspace::torque_muscle`].
+    pub(crate) fn copy_fixed_outputs(&mut self) {
+        for (k, slot) in self.fixed.iter().enumerate() {
+            let out = &mut self.torque_muscle[3 + k];
+            out.torque.clone_from(&slot.torque);
+            out.stats = slot.stats;
+        }
     }
 
     /// `(reused, integrated)`: how many per-muscle results [`crate::simulate_into`] took from this
@@ -89,7 +162,8 @@ impl Workspace {
         for j in 0..3 {
             let f0 = self.f0[j];
             let g = &self.slots[j][self.newest[j]].unit_torque;
-            let buf = &mut self.torque_muscle[j];
+            self.torque_muscle[j].stats = self.slots[j][self.newest[j]].stats;
+            let buf = &mut self.torque_muscle[j].torque;
             buf.resize(n, 0.0);
             for (b, g) in buf.iter_mut().zip(g) {
                 *b = f0 * g;
@@ -169,28 +243,88 @@ pub(crate) fn update_muscles(
     let n = inputs.len();
     let mut total = SimStats::default();
     let delay = delay_s(effects);
+    ws.name_outputs(params);
     if settings.formulation == Formulation::Fast {
         update_fast(ws, inputs, params, effects, settings, delay)?;
         for j in 0..3 {
             total.add(ws.slots[j][ws.newest[j]].stats);
         }
-        return Ok(total);
+    } else {
+        for m in Muscle::ALL {
+            let j = m.index();
+            let out = &mut ws.torque_muscle[j];
+            out.torque.resize(n, 0.0);
+            let unit = MuscleUnit::new(params, m, effects);
+            let s = run_muscle(
+                &mut ws.channels[j],
+                inputs,
+                &unit,
+                effects,
+                settings,
+                &mut out.torque,
+                None,
+            )?;
+            out.stats = s;
+            total.add(s);
+        }
     }
-    for m in Muscle::ALL {
-        let j = m.index();
-        let buf = &mut ws.torque_muscle[j];
-        buf.resize(n, 0.0);
-        let s = run_muscle(
-            &mut ws.channels[j],
-            inputs,
-            params,
-            effects,
-            settings,
-            m,
-            buf,
-            None,
-        )?;
-        total.add(s);
+    total.add(update_fixed(ws, inputs, params, effects, settings, delay)?);
+    Ok(total)
+}
+
+/// Brings the fixed muscles' kept torques and their sum up to date (each integrated only when
+/// what it depends on changed). Returns their summed statistics.
+fn update_fixed(
+    ws: &mut Workspace,
+    inputs: &TrialInputs,
+    params: &ModelParams,
+    effects: &Effects,
+    settings: &SimSettings,
+    delay: f64,
+) -> Result<SimStats, ModelError> {
+    let n = inputs.len();
+    let count = params.fixed.len();
+    let mut total = SimStats::default();
+    let mut changed = ws.fixed_sum_len != Some(count);
+    ws.fixed.resize_with(count, FixedSlot::default);
+    // the settings that change the result (recording states does not)
+    let settings_key = SimSettings {
+        record_states: false,
+        ..*settings
+    };
+    for (slot, f) in ws.fixed.iter_mut().zip(params.fixed.iter()) {
+        let unit = MuscleUnit::of(f.name, &f.params, params, effects);
+        let key = FixedKey {
+            uid: inputs.uid(),
+            n,
+            unit,
+            delay,
+            settings: settings_key,
+        };
+        if slot.key == Some(key) {
+            ws.hits += 1;
+        } else {
+            ws.misses += 1;
+            changed = true;
+            slot.key = None;
+            slot.torque.resize(n, 0.0);
+            slot.stats = run_muscle(
+                &mut slot.channel,
+                inputs,
+                &unit,
+                effects,
+                settings,
+                &mut slot.torque,
+                None,
+            )?;
+            slot.key = Some(key);
+        }
+        total.add(slot.stats);
+    }
+    if changed {
+        ws.fixed_sum_len = None;
+        sum_torques(ws.fixed.iter().map(|s| &s.torque[..]), n, &mut ws.fixed_sum);
+        ws.fixed_sum_len = Some(count);
     }
     Ok(total)
 }
@@ -266,7 +400,7 @@ fn update_fast(
     let mut prepared: [Option<(Arc<Channel>, Fibre, f64)>; 3] = [None, None, None];
     for j in 0..3 {
         if let Some((unit, _)) = &todo[j] {
-            prepared[j] = Some(fast_prepare(ws.channels[j].as_ref(), inputs, unit, delay));
+            prepared[j] = Some(fast_prepare(ws.channels[j].as_ref(), inputs, unit, delay)?);
         }
     }
     for lm in &mut ws.lm {
@@ -282,7 +416,7 @@ fn update_fast(
             .map(|((ch, fib, lm0), buf)| (&**ch, fib, *lm0, buf))
     });
     let stats = fast_simulation::run_lanes(lanes, inputs, settings)
-        .map_err(|(j, e)| integration_error(Muscle::ALL[j])(e))?;
+        .map_err(|(j, e)| integration_error(Muscle::ALL[j].name())(e))?;
     for j in 0..3 {
         if let (Some((ch, fib, _)), Some((_, key))) = (prepared[j].take(), todo[j]) {
             let sl = &mut ws.slots[j][ws.newest[j]];

@@ -348,7 +348,7 @@ fn sensitivity_sweep_ranks_the_parameters() {
     )
     .unwrap();
     let sol_rms =
-        (sim.torque_muscle[0].iter().map(|t| t * t).sum::<f64>() / tr.len() as f64).sqrt();
+        (sim.muscles[0].torque.iter().map(|t| t * t).sum::<f64>() / tr.len() as f64).sqrt();
     let r = table
         .rows
         .iter()

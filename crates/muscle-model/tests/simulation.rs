@@ -115,10 +115,9 @@ fn check_invariants(settings: SimSettings, tol_ft: f64, tol_lmt: f64, params: &M
     let tr = synthetic::seed_like_trial(FS).unwrap();
     let e = Effects::none();
     let out = simulate(&tr, params, &e, &settings.with_states()).unwrap();
-    let states = out.states.as_ref().unwrap();
     for m in Muscle::ALL {
         let unit = MuscleUnit::new(params, m, &e);
-        let st = &states[m.index()];
+        let st = out.states_of(m).unwrap();
         let mut worst_ft = 0.0_f64;
         let mut worst_lmt = 0.0_f64;
         for (i, y) in st.iter().enumerate() {
@@ -127,7 +126,7 @@ fn check_invariants(settings: SimSettings, tol_ft: f64, tol_lmt: f64, params: &M
             worst_lmt = worst_lmt.max((y[IX_LMT] - unit.lmt(tr.angle()[i])).abs());
             // torque is F̃T·F0·r(q)
             let tq = y[IX_FT] * unit.f0 * unit.moment_arm(tr.angle()[i]);
-            assert!((tq - out.torque_muscle[m.index()][i]).abs() < 1e-9);
+            assert!((tq - out.torque_of(m)[i]).abs() < 1e-9);
         }
         println!("{m}: max |F̃T − fT(ε)| = {worst_ft:e}, max |LMT − LMT(q)| = {worst_lmt:e} m");
         assert!(worst_ft < tol_ft, "{m}: {worst_ft}");
@@ -235,8 +234,8 @@ fn soleus_slack_length_plus_five_percent_integrates() {
         let out = simulate(&tr, &p, &e, &SimSettings::default()).unwrap();
         assert!(out.torque.iter().all(|t| t.is_finite()));
         // a longer tendon slack length lowers the soleus torque
-        let sol_nom: f64 = nominal.torque_muscle[0].iter().sum();
-        let sol: f64 = out.torque_muscle[0].iter().sum();
+        let sol_nom: f64 = nominal.torque_of(Muscle::Sol).iter().sum();
+        let sol: f64 = out.torque_of(Muscle::Sol).iter().sum();
         assert!(sol < sol_nom, "+{pct} %: {sol} vs {sol_nom}");
         // and agrees with a tight run
         let tight = simulate(&tr, &p, &e, &SimSettings::tight()).unwrap();
@@ -262,9 +261,9 @@ fn outputs_have_one_value_per_sample() {
     .unwrap();
     assert_eq!(out.time.len(), tr.len());
     assert_eq!(out.torque.len(), tr.len());
-    assert!(out.states.is_none());
+    assert!(out.muscles.iter().all(|m| m.states.is_none()));
     for i in 0..tr.len() {
-        let s = out.torque_muscle[0][i] + out.torque_muscle[1][i] + out.torque_muscle[2][i];
+        let s = out.muscles[0].torque[i] + out.muscles[1].torque[i] + out.muscles[2].torque[i];
         assert_eq!(out.torque[i], s);
     }
     assert!((out.time[1] - 1.0 / 512.0).abs() < 1e-15);
@@ -285,7 +284,7 @@ fn slack_tendon_drives_the_fibre_to_its_floor_without_failure() {
     let e = Effects::none();
     let out = simulate(&tr, &p, &e, &SimSettings::default().with_states()).unwrap();
     let unit = MuscleUnit::new(&p, Muscle::Sol, &e);
-    let st = &out.states.as_ref().unwrap()[0];
+    let st = out.states_of(Muscle::Sol).unwrap();
     let min_lm = st.iter().map(|y| y[IX_LM]).fold(f64::MAX, f64::min);
     println!("floor {:.5} m, min LM {min_lm:.5} m", unit.lm_min);
     assert!(
@@ -295,7 +294,7 @@ fn slack_tendon_drives_the_fibre_to_its_floor_without_failure() {
     assert!(min_lm < unit.lm_min + 1e-3, "floor never reached: {min_lm}");
     assert!(out.torque.iter().all(|t| t.is_finite()));
     // the slack soleus carries (almost) no force
-    assert!(out.torque_muscle[0].iter().all(|t| *t < 5.0));
+    assert!(out.torque_of(Muscle::Sol).iter().all(|t| *t < 5.0));
 }
 
 #[test]

@@ -45,7 +45,7 @@ fn csv_text(trial: &experiment::Trial, sim: &muscle_model::SimOutput) -> String 
         experiment::write_f64(&mut text, sim.torque[i]);
         for m in Muscle::ALL {
             text.push(',');
-            experiment::write_f64(&mut text, sim.torque_muscle[m.index()][i]);
+            experiment::write_f64(&mut text, sim.torque_of(m)[i]);
         }
         text.push('\n');
     }
@@ -137,10 +137,7 @@ pub fn run(args: SimulateArgs) -> CmdResult {
     );
     println!("  peak model torque      {peak:8.2} N·m");
     for m in Muscle::ALL {
-        let p = sim.torque_muscle[m.index()]
-            .iter()
-            .cloned()
-            .fold(f64::MIN, f64::max);
+        let p = sim.torque_of(m).iter().cloned().fold(f64::MIN, f64::max);
         println!("    {:<4} peak           {p:8.2} N·m", m.name());
     }
     println!("  RMS vs measured torque {rms_diff:8.2} N·m");

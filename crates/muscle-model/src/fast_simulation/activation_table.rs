@@ -16,6 +16,7 @@ use super::kept::KeptList;
 use crate::activation::Activation;
 use crate::inputs::TrialInputs;
 use crate::musculotendon::MuscleUnit;
+use crate::params::Muscle;
 use std::sync::{Arc, OnceLock};
 
 /// RK4 substeps per sample interval when the activation is precomputed.
@@ -26,7 +27,8 @@ pub(super) const ACT_SUBSTEPS: usize = 4;
 pub(super) struct TableKey {
     uid: u64,
     n: usize,
-    pub(super) j: usize,
+    /// The muscle, whose envelope drives the activation.
+    pub(super) name: &'static str,
     k1: f64,
     k2: f64,
     shape: f64,
@@ -40,7 +42,7 @@ impl TableKey {
         TableKey {
             uid: inputs.uid(),
             n: inputs.len(),
-            j: unit.muscle.index(),
+            name: unit.name,
             k1: act.k1,
             k2: act.k2,
             shape: act.nonlinearity.shape,
@@ -70,7 +72,7 @@ pub(super) struct ActTable {
 }
 
 impl ActTable {
-    /// The tables of all three muscles with `key`'s activation and delay (a delay or an
+    /// The tables of sol, gm and gl with `key`'s activation and delay (a delay or an
     /// activation parameter changes all three at once): integrated without a delay, else the
     /// undelayed tables (from `undelayed`, the trial's list of them) shifted by the delay.
     pub(super) fn build_all(
@@ -79,13 +81,20 @@ impl ActTable {
         act: Activation,
         undelayed: &KeptList<ActTable>,
     ) -> [ActTable; 3] {
+        let envs = Muscle::ALL.map(|m| inputs.envelope(m));
         if key.delay > 0.0 {
             let base = Self::undelayed(key, inputs, act, undelayed);
-            return std::array::from_fn(|j| Self::shifted(&base[j], TableKey { j, ..key }, inputs));
+            return std::array::from_fn(|j| {
+                let name = Muscle::ALL[j].name();
+                Self::shifted(&base[j], TableKey { name, ..key }, envs[j], inputs)
+            });
         }
-        let keys: [TableKey; 3] = std::array::from_fn(|j| TableKey { j, ..key });
+        let keys: [TableKey; 3] = std::array::from_fn(|j| TableKey {
+            name: Muscle::ALL[j].name(),
+            ..key
+        });
         let mut j = 0;
-        integrate_activation(&keys, inputs, act).map(|(a, adot)| {
+        integrate_activation(&keys, &envs, inputs, act).map(|(a, adot)| {
             j += 1;
             ActTable {
                 key: keys[j - 1],
@@ -107,7 +116,7 @@ impl ActTable {
         list: &KeptList<ActTable>,
     ) -> [Arc<ActTable>; 3] {
         let keys: [TableKey; 3] = std::array::from_fn(|j| TableKey {
-            j,
+            name: Muscle::ALL[j].name(),
             delay: 0.0,
             ..key
         });
@@ -121,10 +130,42 @@ impl ActTable {
         Self::build_all(keys[0], inputs, act, list).map(|t| list.keep(Arc::new(t), |t| &t.key))
     }
 
+    /// The table of one further muscle (driven by envelope `env`) with `key`'s activation and
+    /// delay: integrated alone without a delay, else its undelayed table (from `undelayed` or
+    /// integrated and kept there) shifted by the delay.
+    pub(super) fn build_one(
+        key: TableKey,
+        env: &[f64],
+        inputs: &TrialInputs,
+        act: Activation,
+        undelayed: &KeptList<ActTable>,
+    ) -> ActTable {
+        let alone = |key: TableKey| {
+            let [(a, adot)] = integrate_activation(&[key], &[env], inputs, act);
+            ActTable {
+                key,
+                act,
+                a,
+                adot,
+                z: OnceLock::new(),
+                base: None,
+            }
+        };
+        if key.delay > 0.0 {
+            let k0 = TableKey { delay: 0.0, ..key };
+            let base = match undelayed.find(&k0, |t| &t.key) {
+                Some(b) => b,
+                None => undelayed.keep(Arc::new(alone(k0)), |t| &t.key),
+            };
+            return Self::shifted(&base, key, env, inputs);
+        }
+        alone(key)
+    }
+
     /// `base` (undelayed) delayed by `key.delay > 0`: `a(tᵢ) = a₀(tᵢ − d)` by cubic Hermite
     /// interpolation of `a₀` and `ȧ₀` (`a₀(t₀)` before `t₀ + d`), `ȧ(tᵢ)` from the activation
     /// equation at `u(tᵢ − d)`.
-    fn shifted(base: &Arc<ActTable>, key: TableKey, inputs: &TrialInputs) -> ActTable {
+    fn shifted(base: &Arc<ActTable>, key: TableKey, env: &[f64], inputs: &TrialInputs) -> ActTable {
         let act = base.act;
         let (a0, adot0) = (&base.a, &base.adot);
         let mut a = Vec::with_capacity(key.n);
@@ -133,7 +174,7 @@ impl ActTable {
             // `a₀(t₀)` at and before the first sample: the rest before `t₀ + d`
             let ai = inputs.hermite_at(a0, adot0, ti - key.delay);
             a.push(ai);
-            let u = inputs.envelope_at(key.j, ti - key.delay);
+            let u = inputs.linear_at(env, ti - key.delay);
             adot.push(act.rate(u.clamp(0.0, 1.0), ai));
         }
         ActTable {
@@ -149,15 +190,17 @@ impl ActTable {
     /// `∫₀ᵗ â dt` at the samples, on the first call: integrated together with `a` (with the
     /// same arithmetic for `a`), or for a delayed table `â(a₀(t₀))·min(t − t₀, d)` plus the
     /// undelayed integral at `t − d` (cubic Hermite, slopes `â₀`).
-    pub(super) fn z(&self, inputs: &TrialInputs) -> &[f64] {
+    pub(super) fn z(&self, env: &[f64], inputs: &TrialInputs) -> &[f64] {
         self.z.get_or_init(|| {
             let mut z = Vec::with_capacity(self.key.n);
             match &self.base {
                 None => {
-                    integrate_activation_and_integral(&self.key, inputs, self.act, |zi| z.push(zi));
+                    integrate_activation_and_integral(&self.key, env, inputs, self.act, |zi| {
+                        z.push(zi)
+                    });
                 }
                 Some(b) => {
-                    let (z0, nl, d) = (b.z(inputs), self.act.nonlinearity, self.key.delay);
+                    let (z0, nl, d) = (b.z(env, inputs), self.act.nonlinearity, self.key.delay);
                     let ah0: Vec<f64> = b.a.iter().map(|&a| nl.apply(a)).collect();
                     let rest = ah0[0];
                     let t0 = inputs.t0();
@@ -177,7 +220,7 @@ impl ActTable {
     }
 }
 
-/// Classical RK4 on `ȧ = rate(u_l(t − d), a)` for the muscles `keys[l].j` together (their
+/// Classical RK4 on `ȧ = rate(u_l(t − d), a)` for the muscles `keys[l]` (envelopes `envs[l]`) together (their
 /// independent recurrences interleaved, which keeps the processor busy: each alone is one
 /// long dependency chain), [`ACT_SUBSTEPS`] substeps per sample interval (`u` clamped to
 /// [0, 1]). Returns `a` and `ȧ` at the samples per muscle; each muscle's numbers are the same
@@ -187,6 +230,7 @@ impl ActTable {
 /// last stage time is the next substep's first (the same `tt + hs` rounding).
 fn integrate_activation<const L: usize>(
     keys: &[TableKey; L],
+    envs: &[&[f64]; L],
     inputs: &TrialInputs,
     act: Activation,
 ) -> [(Vec<f64>, Vec<f64>); L] {
@@ -195,7 +239,7 @@ fn integrate_activation<const L: usize>(
     let hs = 1.0 / inputs.fs() / ACT_SUBSTEPS as f64;
     let u_at = |l: usize, tt: f64| {
         inputs
-            .envelope_at(keys[l].j, tt - keys[l].delay)
+            .linear_at(envs[l], tt - keys[l].delay)
             .clamp(0.0, 1.0)
     };
     let mut out: [(Vec<f64>, Vec<f64>); L] =
@@ -233,16 +277,17 @@ fn integrate_activation<const L: usize>(
 /// identically: it does not read `∫â`); calls `out(∫â)` at every sample.
 fn integrate_activation_and_integral(
     key: &TableKey,
+    env: &[f64],
     inputs: &TrialInputs,
     act: Activation,
     mut out: impl FnMut(f64),
 ) {
     let n = key.n;
-    let (j, delay) = (key.j, key.delay);
+    let delay = key.delay;
     let t = inputs.times();
     let hs = 1.0 / inputs.fs() / ACT_SUBSTEPS as f64;
     let nl = act.nonlinearity;
-    let u_at = |tt: f64| inputs.envelope_at(j, tt - delay).clamp(0.0, 1.0);
+    let u_at = |tt: f64| inputs.linear_at(env, tt - delay).clamp(0.0, 1.0);
     let f = |tt: f64, y: [f64; 2]| -> [f64; 2] { [act.rate(u_at(tt), y[0]), nl.apply(y[0])] };
     let mut y = [u_at(t[0]), 0.0];
     for (i, &ti) in t.iter().enumerate() {
@@ -274,15 +319,16 @@ mod tests {
     use super::super::test_support::test_units as units;
     use super::*;
     use crate::effects::Effects;
-    use crate::params::{ModelParams, Muscle};
+    use crate::params::ModelParams;
 
     #[test]
     fn muscles_integrated_together_equal_each_alone_bit_for_bit() {
         let (tr, u, d) = units(None, 37.0);
         let keys: [TableKey; 3] = std::array::from_fn(|j| TableKey::new(&tr, &u[j], d));
-        let together = integrate_activation(&keys, &tr, u[0].activation);
+        let envs = Muscle::ALL.map(|m| tr.envelope(m));
+        let together = integrate_activation(&keys, &envs, &tr, u[0].activation);
         for j in 0..3 {
-            let [alone] = integrate_activation(&[keys[j]], &tr, u[0].activation);
+            let [alone] = integrate_activation(&[keys[j]], &[envs[j]], &tr, u[0].activation);
             assert_eq!(alone, together[j], "muscle {j}");
         }
         // the activation follows a step of the envelope towards it and stays in [0, 1]
@@ -299,9 +345,10 @@ mod tests {
             // 0.3 samples, 37.4 ms, and the largest delay allowed (150 ms)
             for d in [0.3 / fs, 0.0374, 0.150] {
                 let key = TableKey::new(&tr, &u[1], d);
-                let [(a, adot)] = integrate_activation(&[key], &tr, act);
+                let env = tr.envelope(Muscle::Gm);
+                let [(a, adot)] = integrate_activation(&[key], &[env], &tr, act);
                 let mut z = Vec::new();
-                integrate_activation_and_integral(&key, &tr, act, |zi| z.push(zi));
+                integrate_activation_and_integral(&key, env, &tr, act, |zi| z.push(zi));
                 let shifted = &ActTable::build_all(key, &tr, act, &KeptList::default())[1];
                 assert!(shifted.base.is_some() && shifted.key == key);
                 let err = |x: &[f64], y: &[f64]| {
@@ -315,7 +362,7 @@ mod tests {
                 let (ea, ed, ez) = (
                     err(&shifted.a, &a),
                     err(&shifted.adot, &adot),
-                    err(shifted.z(&tr), &z),
+                    err(shifted.z(env, &tr), &z),
                 );
                 assert!(
                     ea < tol[0] && ed < tol[1] && ez < tol[2],

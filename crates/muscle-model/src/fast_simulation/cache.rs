@@ -12,6 +12,8 @@ use super::channel::{Channel, ChannelKey};
 use super::kept::KeptList;
 use crate::inputs::TrialInputs;
 use crate::musculotendon::MuscleUnit;
+use crate::params::Muscle;
+use crate::path::MusclePath;
 use std::sync::Arc;
 
 /// The kept activation tables and channels of one trial.
@@ -25,14 +27,16 @@ struct ChannelCache {
     channels: KeptList<Channel>,
 }
 
-/// The channel of `unit` on `inputs`: `current` when its key matches, else one kept with the
-/// inputs (shared across threads), else a new one (then kept), built from the kept activation
-/// table when there is one. Channels and tables are deterministic functions of their keys, so
-/// where one comes from does not change any result.
+/// The channel of `unit` (envelope `env`, geometry `path`) on `inputs`: `current` when its
+/// key matches, else one kept with the inputs (shared across threads), else a new one (then
+/// kept), built from the kept activation table when there is one. Channels and tables are
+/// deterministic functions of their keys, so where one comes from does not change any result.
 pub(crate) fn channel_for(
     current: Option<&Arc<Channel>>,
     inputs: &TrialInputs,
     unit: &MuscleUnit,
+    env: &[f64],
+    path: &MusclePath<'_>,
     delay: f64,
 ) -> Arc<Channel> {
     let key = ChannelKey::new(inputs, unit, delay);
@@ -51,8 +55,44 @@ pub(crate) fn channel_for(
     if let Some(c) = cache.channels.find(&key, |c| &c.key) {
         return c;
     }
-    let j = key.table.j;
-    let table = if key.table.delay > 0.0 {
+    let table = match Muscle::from_name(key.table.name) {
+        Some(m) => triceps_table(key, inputs, unit, cache, m.index()),
+        // a further muscle: its table alone (kept in the same lists, keyed by its name)
+        None => {
+            let list = if key.table.delay > 0.0 {
+                &cache.tables
+            } else {
+                &cache.undelayed
+            };
+            match list.find(&key.table, |t| &t.key) {
+                Some(t) => t,
+                None => {
+                    let t = ActTable::build_one(
+                        key.table,
+                        env,
+                        inputs,
+                        unit.activation,
+                        &cache.undelayed,
+                    );
+                    list.keep(Arc::new(t), |t| &t.key)
+                }
+            }
+        }
+    };
+    let c = Arc::new(Channel::build(key, inputs, unit, env, path, table));
+    cache.channels.keep(c, |c| &c.key)
+}
+
+/// The activation table of sol, gm or gl (index `j`) for `key`: kept, or the three built
+/// together (a new delay or activation needs all three).
+fn triceps_table(
+    key: ChannelKey,
+    inputs: &TrialInputs,
+    unit: &MuscleUnit,
+    cache: &ChannelCache,
+    j: usize,
+) -> Arc<ActTable> {
+    if key.table.delay > 0.0 {
         match cache.tables.find(&key.table, |t| &t.key) {
             Some(t) => t,
             None => {
@@ -63,28 +103,26 @@ pub(crate) fn channel_for(
         }
     } else {
         Arc::clone(&ActTable::undelayed(key.table, inputs, unit.activation, &cache.undelayed)[j])
-    };
-    let c = Arc::new(Channel::build(key, inputs, unit, table));
-    cache.channels.keep(c, |c| &c.key)
+    }
 }
 
 #[cfg(test)]
 mod tests {
-    use super::super::test_support::test_units as units;
+    use super::super::test_support::{test_channel as chan, test_units as units};
     use super::*;
 
     #[test]
     fn delay_fits_reuse_the_undelayed_tables() {
         let (tr, u, _) = units(None, 0.0);
-        let c0 = channel_for(None, &tr, &u[2], 0.0);
-        let c1 = channel_for(None, &tr, &u[2], 0.021);
-        let c2 = channel_for(None, &tr, &u[2], 0.0213);
+        let c0 = chan(&tr, &u[2], 0.0);
+        let c1 = chan(&tr, &u[2], 0.021);
+        let c2 = chan(&tr, &u[2], 0.0213);
         for c in [&c1, &c2] {
             let base = c.table.base.as_ref().expect("a delayed table has a base");
             assert!(Arc::ptr_eq(base, &c0.table));
         }
         assert!(c0.table.base.is_none());
-        assert!(Arc::ptr_eq(&c1, &channel_for(None, &tr, &u[2], 0.021)));
+        assert!(Arc::ptr_eq(&c1, &chan(&tr, &u[2], 0.021)));
     }
 
     #[test]
@@ -92,11 +130,11 @@ mod tests {
         let (tr, u0, d) = units(None, 20.0);
         let (_, u1, _) = units(Some(0.03), 20.0);
         // the same inputs (one cache): rebuild the fatigued units on `tr`
-        let c0 = channel_for(None, &tr, &u0[1], d);
-        let c1 = channel_for(None, &tr, &u1[1], d);
+        let c0 = chan(&tr, &u0[1], d);
+        let c1 = chan(&tr, &u1[1], d);
         assert!(Arc::ptr_eq(&c0.table, &c1.table));
-        assert!(Arc::ptr_eq(&c0, &channel_for(None, &tr, &u0[1], d)));
-        let (a, z) = c1.activation(&tr);
+        assert!(Arc::ptr_eq(&c0, &chan(&tr, &u0[1], d)));
+        let (a, z) = c1.activation(tr.envelope(crate::params::Muscle::Gm), &tr);
         let nl = u1[1].activation.nonlinearity;
         for i in (0..tr.len()).step_by(97) {
             assert_eq!(c0.drive[i][0], nl.apply(a[i]));

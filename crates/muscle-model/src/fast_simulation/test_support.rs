@@ -4,6 +4,15 @@ use crate::effects::Effects;
 use crate::inputs::TrialInputs;
 use crate::musculotendon::MuscleUnit;
 use crate::params::{ModelParams, Muscle};
+use crate::path::MusclePath;
+use std::sync::Arc;
+
+/// The channel of `unit` (sol, gm or gl) on `tr` with delay `d` (s), found or built.
+pub(super) fn test_channel(tr: &TrialInputs, unit: &MuscleUnit, d: f64) -> Arc<super::Channel> {
+    let env = tr.envelope(unit.muscle().unwrap());
+    let path = MusclePath::new(unit, tr).unwrap();
+    super::channel_for(None, tr, unit, env, &path, d)
+}
 
 /// The seed-like synthetic trial (512 Hz) and the three muscles' units at nominal parameters
 /// with an electromechanical delay of `delay_ms` and an optional fatigue rate; the delay in

@@ -40,3 +40,4 @@ pub fn idx(fs: f64, t: f64) -> usize {
 }
 
 pub const MUSCLES: [Muscle; 3] = Muscle::ALL;
+pub mod spec_model;
