@@ -8,7 +8,7 @@
 use super::{load_model_config, load_trial, out_file, trial_inputs, ModelArgs};
 use crate::error::{CmdResult, Failure};
 use crate::output::write_file_checked;
-use muscle_model::{simulate, Muscle, SimSettings};
+use muscle_model::{simulate, SimSettings};
 use std::path::PathBuf;
 
 mod session_out;
@@ -33,19 +33,24 @@ pub struct SimulateArgs {
     pub out: Option<PathBuf>,
 }
 
-/// The CSV: `time_s, ankle_angle_deg, torque_nm, torque_<muscle>_nm`.
+/// The CSV: `time_s, ankle_angle_deg, torque_nm`, then `torque_<muscle>_nm` for sol, gm, gl
+/// and every fixed muscle of the model.
 fn csv_text(trial: &experiment::Trial, sim: &muscle_model::SimOutput) -> String {
     let mut text = String::with_capacity(trial.len() * 100);
-    text.push_str("time_s,ankle_angle_deg,torque_nm,torque_sol_nm,torque_gm_nm,torque_gl_nm\n");
+    text.push_str("time_s,ankle_angle_deg,torque_nm");
+    for m in &sim.muscles {
+        text.push_str(&format!(",torque_{}_nm", m.name));
+    }
+    text.push('\n');
     for i in 0..trial.len() {
         experiment::write_f64(&mut text, trial.time_s[i]);
         text.push(',');
         experiment::write_f64(&mut text, trial.ankle_angle_deg[i]);
         text.push(',');
         experiment::write_f64(&mut text, sim.torque[i]);
-        for m in Muscle::ALL {
+        for m in &sim.muscles {
             text.push(',');
-            experiment::write_f64(&mut text, sim.torque_of(m)[i]);
+            experiment::write_f64(&mut text, m.torque[i]);
         }
         text.push('\n');
     }
@@ -63,9 +68,9 @@ fn sto_text(trial: &experiment::Trial, sim: &muscle_model::SimOutput) -> CmdResu
         trial.ankle_angle_deg.clone(),
         sim.torque.clone(),
     ];
-    for m in Muscle::ALL {
-        labels.push(format!("torque_{}_nm", m.name()));
-        columns.push(sim.torque_muscle[m.index()].clone());
+    for m in &sim.muscles {
+        labels.push(format!("torque_{}_nm", m.name));
+        columns.push(m.torque.clone());
     }
     labels.push("ankle_angle_r_moment".into());
     columns.push(sim.torque.iter().map(|t| -t).collect());
@@ -136,14 +141,22 @@ pub fn run(args: SimulateArgs) -> CmdResult {
         }
     );
     println!("  peak model torque      {peak:8.2} N·m");
-    for m in Muscle::ALL {
-        let p = sim.torque_of(m).iter().cloned().fold(f64::MIN, f64::max);
-        println!("    {:<4} peak           {p:8.2} N·m", m.name());
+    for m in &sim.muscles {
+        // a dorsiflexor's torque is negative: its largest pull is its minimum
+        let (label, p) = if m.torque.iter().any(|&t| t < 0.0) {
+            ("min ", m.torque.iter().cloned().fold(f64::MAX, f64::min))
+        } else {
+            ("peak", m.torque.iter().cloned().fold(f64::MIN, f64::max))
+        };
+        println!("    {:<4} {label}           {p:8.2} N·m", m.name);
     }
     println!("  RMS vs measured torque {rms_diff:8.2} N·m");
     println!(
-        "  integrator: {} steps ({} rejected), {} RHS calls over 3 muscles",
-        stats.accepted, stats.rejected, stats.rhs_calls
+        "  integrator: {} steps ({} rejected), {} RHS calls over {} muscles",
+        stats.accepted,
+        stats.rejected,
+        stats.rhs_calls,
+        sim.muscles.len()
     );
     println!("wrote {}", target.display());
     Ok(())
