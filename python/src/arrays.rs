@@ -9,7 +9,7 @@
 
 use crate::bad;
 use crate::convert::{array, channels, json_arg, vec1, JsonArg};
-use muscle_model::{Effects, ModelParams, Muscle, SimSettings, TrialInputs};
+use muscle_model::{Effects, ModelParams, SimSettings, TrialInputs};
 use numpy::PyArray2;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -103,13 +103,15 @@ fn channel_envelope(
     Ok(env)
 }
 
-/// The envelopes argument of `simulate`: a dict (`sol`, `gm`, `gl`, optional `ta`; an `emg_`
-/// prefix is accepted) or an array of shape (3, n) or (4, n) in that order.
-/// The envelopes of sol, gm, gl and, when given, ta.
-type Envelopes = ([Vec<f64>; 3], Option<Vec<f64>>);
+/// The envelopes argument of `simulate`: a dict (`sol`, `gm`, `gl`, optional `ta` and any
+/// further muscle of the model by its name; an `emg_` prefix is accepted) or an array of shape
+/// (3, n) or (4, n) in the order sol, gm, gl, ta.
+/// The envelopes of sol, gm, gl, of ta when given, and of further muscles by name.
+type Envelopes = ([Vec<f64>; 3], Option<Vec<f64>>, Vec<(String, Vec<f64>)>);
 
 fn envelopes_arg(obj: &Bound<'_, PyAny>) -> PyResult<Envelopes> {
     let mut slots: [Option<Vec<f64>>; 4] = Default::default();
+    let mut others = Vec::new();
     const NAMES: [&str; 4] = ["sol", "gm", "gl", "ta"];
     if let Ok(d) = obj.cast::<PyDict>() {
         for (k, v) in d.iter() {
@@ -117,12 +119,11 @@ fn envelopes_arg(obj: &Bound<'_, PyAny>) -> PyResult<Envelopes> {
                 .extract()
                 .map_err(|_| bad("emg_envelopes: keys must be strings"))?;
             let short = key.strip_prefix("emg_").unwrap_or(&key);
-            let Some(i) = NAMES.iter().position(|n| *n == short) else {
-                return Err(bad(format!(
-                    "emg_envelopes: unknown key '{key}' (sol, gm, gl, ta)"
-                )));
-            };
-            slots[i] = Some(vec1(&v, &format!("emg_envelopes['{key}']"))?);
+            let values = vec1(&v, &format!("emg_envelopes['{key}']"))?;
+            match NAMES.iter().position(|n| *n == short) {
+                Some(i) => slots[i] = Some(values),
+                None => others.push((short.to_string(), values)),
+            }
         }
     } else {
         let (rows, one_d) = channels(obj, "emg_envelopes")?;
@@ -140,7 +141,11 @@ fn envelopes_arg(obj: &Bound<'_, PyAny>) -> PyResult<Envelopes> {
     let need = |v: Option<Vec<f64>>, n: &str| {
         v.ok_or_else(|| bad(format!("emg_envelopes: missing '{n}'")))
     };
-    Ok(([need(sol, "sol")?, need(gm, "gm")?, need(gl, "gl")?], ta))
+    Ok((
+        [need(sol, "sol")?, need(gm, "gm")?, need(gl, "gl")?],
+        ta,
+        others,
+    ))
 }
 
 /// Model parameters from a `params` argument (nominal when absent).
@@ -173,10 +178,15 @@ pub(crate) fn effects_arg(arg: Option<JsonArg>) -> PyResult<Effects> {
 
 /// The model's joint torque for an ankle angle (degrees, dorsiflexion > 0) and normalised
 /// envelopes sampled at `fs` Hz, with optional parameters and effects (dicts or JSON files in
-/// the command line's formats). Returns a dict of arrays: `time_s` (`t0 + i/fs`),
-/// `ankle_angle_deg`, `torque_nm`, `torque_sol_nm`, `torque_gm_nm`, `torque_gl_nm`.
+/// the command line's formats; `params` may add fixed muscles, each driven by the envelope of
+/// its name) and an optional knee flexion (degrees: a number or an array like `angle_deg`).
+/// Returns a dict of arrays: `time_s` (`t0 + i/fs`), `ankle_angle_deg`, `torque_nm`, and
+/// `torque_<muscle>_nm` for sol, gm, gl and every fixed muscle.
 #[pyfunction]
-#[pyo3(signature = (angle_deg, emg_envelopes, fs, params=None, effects=None, *, t0=0.0))]
+#[pyo3(signature = (
+    angle_deg, emg_envelopes, fs, params=None, effects=None, *, t0=0.0, knee_angle_deg=None
+))]
+#[allow(clippy::too_many_arguments)]
 pub fn simulate<'py>(
     py: Python<'py>,
     angle_deg: &Bound<'py, PyAny>,
@@ -185,9 +195,20 @@ pub fn simulate<'py>(
     params: Option<&Bound<'py, PyAny>>,
     effects: Option<&Bound<'py, PyAny>>,
     t0: f64,
+    knee_angle_deg: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let angle_deg = vec1(angle_deg, "angle_deg")?;
-    let (env, env_ta) = envelopes_arg(emg_envelopes)?;
+    let (env, env_ta, others) = envelopes_arg(emg_envelopes)?;
+    let knee_rad: Option<Vec<f64>> = match knee_angle_deg.filter(|k| !k.is_none()) {
+        None => None,
+        Some(k) => {
+            let deg = match k.extract::<f64>() {
+                Ok(v) => vec![v; angle_deg.len()],
+                Err(_) => vec1(k, "knee_angle_deg")?,
+            };
+            Some(deg.iter().map(|d| d.to_radians()).collect())
+        }
+    };
     for (e, n) in env.iter().zip(["sol", "gm", "gl"]) {
         if e.len() != angle_deg.len() {
             return Err(bad(format!(
@@ -199,10 +220,28 @@ pub fn simulate<'py>(
     }
     let params = params_arg(json_arg(params, "params")?)?;
     let effects = effects_arg(json_arg(effects, "effects")?)?;
+    for (name, _) in &others {
+        if params.fixed.get(name).is_none() {
+            return Err(bad(format!(
+                "emg_envelopes: unknown key '{name}' (sol, gm, gl, ta, or a further muscle of \
+                 params)"
+            )));
+        }
+    }
     let angle_rad: Vec<f64> = angle_deg.iter().map(|d| d.to_radians()).collect();
     let sim = py.detach(|| -> Result<_, String> {
-        let inputs = TrialInputs::new(fs, t0, angle_rad, env, env_ta)
+        let mut inputs = TrialInputs::new(fs, t0, angle_rad, env, env_ta)
             .map_err(|e| format!("invalid model inputs: {e}"))?;
+        for (name, e) in others {
+            inputs = inputs
+                .with_envelope(&name, e)
+                .map_err(|e| format!("invalid model inputs: {e}"))?;
+        }
+        if let Some(k) = knee_rad {
+            inputs = inputs
+                .with_knee_angle(k)
+                .map_err(|e| format!("invalid model inputs: {e}"))?;
+        }
         let sim = muscle_model::simulate(&inputs, &params, &effects, &SimSettings::default())
             .map_err(|e| format!("simulation failed: {e}"))?;
         Ok((inputs.times().to_vec(), sim))
@@ -212,9 +251,8 @@ pub fn simulate<'py>(
     out.set_item("time_s", array(py, times))?;
     out.set_item("ankle_angle_deg", array(py, angle_deg))?;
     out.set_item("torque_nm", array(py, sim.torque))?;
-    let [sol, gm, gl] = sim.torque_muscle;
-    for (m, v) in Muscle::ALL.into_iter().zip([sol, gm, gl]) {
-        out.set_item(format!("torque_{}_nm", m.name()), array(py, v))?;
+    for m in sim.muscles {
+        out.set_item(format!("torque_{}_nm", m.name), array(py, m.torque))?;
     }
     Ok(out)
 }

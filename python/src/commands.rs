@@ -12,7 +12,7 @@ use crate::bad;
 use crate::convert::{json_arg, json_to_py, path_arg, vec1, JsonArg};
 use crate::run::{run_command, ProgressMode};
 use cli::commands::identify::{IdentifyArgs, Method};
-use cli::commands::{diagnose::DiagnoseArgs, ModelArgs, ReportArgs};
+use cli::commands::{diagnose::DiagnoseArgs, KneeArgs, ModelArgs, ReportArgs};
 use cli::error::Failure;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -210,6 +210,12 @@ where
 /// max_iterations: MCMC only, a cap on the iterations per chain.
 /// params, effects: the fixed model, dicts or JSON files (as for simulate).
 /// emg_is_envelope: the EMG columns already hold envelopes in [0, 1].
+/// knee_angle_deg: a constant knee flexion (degrees) for a trial without a knee_angle_deg
+///     column.
+/// session: a session manifest path (docs/formats.md) in place of trial: its trials
+///     identified together (method "sa"), with the manifest's parameters.
+/// free: with session, the parameters identified (e.g. ["sol.lst_m", "activation.shape_a"]).
+/// chains: "sa" only, the number of annealing chains (starts; default 4).
 /// out: folder keeping identify.json, the figures and report.html (default: a temporary
 ///     folder, removed afterwards).
 /// progress: None/False shows nothing; True one line on sys.stderr; a callable is called as
@@ -220,7 +226,8 @@ where
 #[pyfunction]
 #[pyo3(signature = (
     trial=None, unloaded=None, method="sa", seed=42, *, truth=None, max_iterations=None,
-    params=None, effects=None, emg_is_envelope=false, out=None, progress=None
+    params=None, effects=None, emg_is_envelope=false, knee_angle_deg=None, session=None,
+    free=None, chains=None, out=None, progress=None
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn identify<'py>(
@@ -234,6 +241,10 @@ pub fn identify<'py>(
     params: Option<&Bound<'py, PyAny>>,
     effects: Option<&Bound<'py, PyAny>>,
     emg_is_envelope: bool,
+    knee_angle_deg: Option<f64>,
+    session: Option<&Bound<'py, PyAny>>,
+    free: Option<Vec<String>>,
+    chains: Option<u32>,
     out: Option<&Bound<'py, PyAny>>,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
@@ -253,9 +264,16 @@ pub fn identify<'py>(
         Some(o) => path_arg(o, "out")?,
         None => staging.dir.path().join("out"),
     };
+    let session = match session.filter(|s| !s.is_none()) {
+        Some(s) => Some(path_arg(s, "session")?),
+        None => None,
+    };
     let args = IdentifyArgs {
         method,
         trial,
+        session,
+        free,
+        chains,
         unloaded,
         seed,
         truth,
@@ -264,6 +282,8 @@ pub fn identify<'py>(
             params,
             effects,
             emg_is_envelope,
+            knee: KneeArgs { knee_angle_deg },
+            ..ModelArgs::default()
         },
         out: Some(out.clone()),
         report: ReportArgs {
@@ -279,11 +299,13 @@ pub fn identify<'py>(
 /// What the model gets wrong, as `surae diagnose` finds it; returns the `diagnosis.json` it
 /// writes as a dict (equal to the command line's but for `wall_s`).
 ///
-/// trial, unloaded, seed, emg_is_envelope, out, progress: as for identify; out keeps
-/// diagnosis.json, the figures and report.html.
+/// trial, unloaded, seed, emg_is_envelope, knee_angle_deg, out, progress: as for identify;
+/// out keeps diagnosis.json, the figures and report.html.
 #[pyfunction]
+#[allow(clippy::too_many_arguments)]
 #[pyo3(signature = (
-    trial=None, unloaded=None, seed=42, *, emg_is_envelope=false, out=None, progress=None
+    trial=None, unloaded=None, seed=42, *, emg_is_envelope=false, knee_angle_deg=None,
+    out=None, progress=None
 ))]
 pub fn diagnose<'py>(
     py: Python<'py>,
@@ -291,6 +313,7 @@ pub fn diagnose<'py>(
     unloaded: Option<&Bound<'py, PyAny>>,
     seed: u64,
     emg_is_envelope: bool,
+    knee_angle_deg: Option<f64>,
     out: Option<&Bound<'py, PyAny>>,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
@@ -307,6 +330,7 @@ pub fn diagnose<'py>(
         unloaded,
         seed,
         emg_is_envelope,
+        knee: KneeArgs { knee_angle_deg },
         out: Some(out.clone()),
         report: ReportArgs {
             quiet: true,

@@ -53,21 +53,25 @@ def simulate(
     effects: Optional[_JsonArg] = None,
     *,
     t0: float = 0.0,
+    knee_angle_deg: Optional[Union[float, _ArrayLike]] = None,
 ) -> Dict[str, _FloatArray]:
     """The model's joint torque, as ``surae simulate`` computes it.
 
     angle_deg: ankle angle in degrees (dorsiflexion > 0), one value per sample.
-    emg_envelopes: normalised envelopes in [0, 1]: a dict with keys ``sol``, ``gm``, ``gl``
-        and optionally ``ta`` (an ``emg_`` prefix is accepted), or an array of shape (3, n)
-        (sol, gm, gl) or (4, n) (sol, gm, gl, ta).
+    emg_envelopes: normalised envelopes in [0, 1]: a dict with keys ``sol``, ``gm``, ``gl``,
+        optionally ``ta`` and one per further muscle of ``params`` (an ``emg_`` prefix is
+        accepted), or an array of shape (3, n) (sol, gm, gl) or (4, n) (sol, gm, gl, ta).
     fs: sampling rate in Hz.
     params: model parameters as a dict or a parameters JSON file (any subset; the rest is
         nominal).
     effects: effects as a dict or an effects JSON file, ``{"<effect>": {"<param>": value}}``.
     t0: time of the first sample in seconds.
+    knee_angle_deg: knee flexion in degrees (0 extended), a number or one value per sample;
+        the gastrocnemii shorten by 0.020 m per radian of flexion.
 
     Returns a dict of arrays: ``time_s`` (``t0 + i/fs``), ``ankle_angle_deg``, ``torque_nm``,
-    ``torque_sol_nm``, ``torque_gm_nm``, ``torque_gl_nm`` (N·m, plantarflexion > 0).
+    and ``torque_<muscle>_nm`` for sol, gm, gl and every further muscle (N·m, plantarflexion
+    > 0; a dorsiflexor's torque is negative).
     """
 
 def bundled_trial() -> Dict[str, Any]:
@@ -90,6 +94,10 @@ def identify(
     params: Optional[_JsonArg] = None,
     effects: Optional[_JsonArg] = None,
     emg_is_envelope: bool = False,
+    knee_angle_deg: Optional[float] = None,
+    session: Optional[_PathLike] = None,
+    free: Optional[Sequence[str]] = None,
+    chains: Optional[int] = None,
     out: Optional[_PathLike] = None,
     progress: _ProgressArg = None,
 ) -> Dict[str, Any]:
@@ -110,6 +118,13 @@ def identify(
     max_iterations: MCMC only, cap on the iterations per chain.
     params, effects: the fixed model (dicts or JSON files), as for :func:`simulate`.
     emg_is_envelope: the trial's EMG columns already hold envelopes in [0, 1].
+    knee_angle_deg: a constant knee flexion in degrees, for a trial without a
+        ``knee_angle_deg`` column.
+    session: a session manifest path, in place of ``trial``: its trials (trial CSVs or CEINMS
+        trial folders) identified together by ``"sa"``, with the manifest's parameters.
+    free: with ``session``, the parameters identified, e.g. ``["sol.lst_m",
+        "activation.shape_a"]`` (default: LST, F0 and alpha0 of sol, gm and gl).
+    chains: ``"sa"`` only, the number of annealing chains (starts); default 4.
     out: folder for ``identify.json``, the figures and ``report.html`` (and the chain files of
         MCMC); by default a temporary folder, removed afterwards.
     progress: None (default) or False shows nothing; True writes one line on ``sys.stderr``,
@@ -126,6 +141,7 @@ def diagnose(
     seed: int = 42,
     *,
     emg_is_envelope: bool = False,
+    knee_angle_deg: Optional[float] = None,
     out: Optional[_PathLike] = None,
     progress: _ProgressArg = None,
 ) -> Dict[str, Any]:

@@ -10,7 +10,8 @@
 //! surae alone). Baseline: the moment regressed on each muscle's envelope × moment arm
 //! (`τ ≈ c + Σ_m F_m·e_m·r_m`, one coefficient per muscle, `F_m` a force in N) by least
 //! squares over the torque file's own samples of all trials jointly; RMS (N·m) and R² per
-//! trial at those samples, with and without the intercept `c`. The peronei brevis, longus and
+//! trial at those samples, with and without the intercept `c`; then each trial predicted by
+//! the regression fitted on the other trials (leave one out). The peronei brevis, longus and
 //! tertius share one EMG channel, so their three regressors are nearly collinear and their
 //! per-muscle forces come out large and of opposite signs; the last variant pools the
 //! muscles of each channel (`τ ≈ Σ_c F_c·e_c·Σ_{m∈c} r_m`), one force per channel.
@@ -171,6 +172,49 @@ fn run(dir: &std::path::Path, joint: &str) -> Result<(), experiment::ExperimentE
                     let s: f64 = d.iter().zip(&b).map(|(c, f)| c[i] * f).sum();
                     s + if intercept { b[names.len()] } else { 0.0 }
                 })
+                .collect();
+            let (rms, r2) = moment_fit(tau, &pred);
+            rms_sum += rms;
+            r2_sum += r2;
+            println!("  {name:<16} RMS {rms:6.2} N·m  R² {r2:.3}");
+        }
+        let n = per_trial.len() as f64;
+        println!(
+            "  {:<16} RMS {:6.2} N·m  R² {:.3}",
+            "mean",
+            rms_sum / n,
+            r2_sum / n
+        );
+    }
+    // each trial predicted by the regression fitted on the others: what the baseline does on
+    // a trial it has not seen, the measure a calibration is judged by
+    for per_channel in [false, true] {
+        println!(
+            "\nlinear baseline, one force per {}, leave one trial out (fitted on the others, \
+             predicting the one left out)",
+            if per_channel { "EMG channel" } else { "muscle" }
+        );
+        let (mut rms_sum, mut r2_sum) = (0.0, 0.0);
+        for (k, (name, d, tau)) in per_trial.iter().enumerate() {
+            let mut cols: Vec<Vec<f64>> = Vec::new();
+            let mut yk = Vec::new();
+            for (j, (_, dj, tj)) in per_trial.iter().enumerate() {
+                if j == k {
+                    continue;
+                }
+                let dj = if per_channel { pool(dj) } else { dj.clone() };
+                if cols.is_empty() {
+                    cols = vec![Vec::new(); dj.len()];
+                }
+                for (c, v) in cols.iter_mut().zip(&dj) {
+                    c.extend_from_slice(v);
+                }
+                yk.extend_from_slice(tj);
+            }
+            let b = least_squares(&cols, &yk)?;
+            let d = if per_channel { pool(d) } else { d.clone() };
+            let pred: Vec<f64> = (0..tau.len())
+                .map(|i| d.iter().zip(&b).map(|(c, f)| c[i] * f).sum())
                 .collect();
             let (rms, r2) = moment_fit(tau, &pred);
             rms_sum += rms;
