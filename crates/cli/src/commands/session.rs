@@ -172,6 +172,13 @@ pub fn load_session(
     free: Option<&[String]>,
 ) -> CmdResult<LoadedSession> {
     let manifest = session::read_session_manifest(path).map_err(Failure::bad)?;
+    if !manifest.mvc.is_empty() {
+        crate::warn(format!(
+            "{}: mvc: MVC trials are not used yet; each trial CSV's envelopes are normalised by \
+             their own maximum",
+            manifest.path.display()
+        ));
+    }
     let mut read = vec![path.to_path_buf()];
     // the recordings first: a CEINMS subject's fixed muscles are those of its trials
     enum Loaded {

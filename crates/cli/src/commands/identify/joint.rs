@@ -57,19 +57,26 @@ pub(super) fn run(args: &IdentifyArgs, session_path: &Path) -> CmdResult {
         .map_err(|e| Failure::internal(e.to_string()))?;
     let mut trials = Vec::with_capacity(session.trials.len());
     let mut predictions = Vec::with_capacity(session.trials.len());
+    let start = set.base_vector();
     for t in &session.trials {
-        let pred = t.problem.predict(&fit.x).map_err(|e| {
+        let failed = |e: muscle_model::ModelError| {
             Failure::bad(format!("{}: simulation of the fit failed: {e}", t.source))
-        })?;
+        };
+        let pred = t.problem.predict(&fit.x).map_err(failed)?;
         let (rms, r2) = t.fit_of(&pred)?;
+        // the session's own parameters, for comparison (e.g. a CEINMS calibration)
+        let base = t.problem.predict(&start).map_err(failed)?;
+        let (rms0, r20) = t.fit_of(&base)?;
         trials.push(json!({
             "name": t.name,
             "source": t.source,
             "rms_nm": rms,
             "r2": r2,
+            "start_rms_nm": rms0,
+            "start_r2": r20,
             "dynamometer": t.dynamometer(),
         }));
-        predictions.push(pred);
+        predictions.push((pred, base));
     }
     let values: Map<String, Value> = fit
         .params
@@ -128,13 +135,16 @@ pub(super) fn run(args: &IdentifyArgs, session_path: &Path) -> CmdResult {
                 .join(", "),
             fit.best_chain
         ));
-        say("  trial                     RMS (N·m)     R²");
+        say("  trial                     RMS (N·m)     R²   at the session's parameters");
         for t in doc["trials"].as_array().into_iter().flatten() {
+            let f = |k: &str| t[k].as_f64().unwrap_or(f64::NAN);
             say(&format!(
-                "  {:<24} {:>9.2} {:>8.3}",
+                "  {:<24} {:>9.2} {:>8.3}   {:>9.2} {:>8.3}",
                 t["name"].as_str().unwrap_or(""),
-                t["rms_nm"].as_f64().unwrap_or(f64::NAN),
-                t["r2"].as_f64().unwrap_or(f64::NAN)
+                f("rms_nm"),
+                f("r2"),
+                f("start_rms_nm"),
+                f("start_r2")
             ));
         }
         say("  parameter                      estimate    bounds");
@@ -160,7 +170,7 @@ pub(super) fn run(args: &IdentifyArgs, session_path: &Path) -> CmdResult {
 fn write_figures(
     out: &OutDir,
     session: &LoadedSession,
-    predictions: &[Vec<f64>],
+    predictions: &[(Vec<f64>, Vec<f64>)],
     session_path: &Path,
 ) -> CmdResult<Vec<std::path::PathBuf>> {
     let mut set = FigureSet::new(
@@ -171,46 +181,40 @@ fn write_figures(
         "The session's trials identified together: one set of muscle parameters for every \
          trial, fitted to the sum of the trials' squared torque errors. Each figure shows one \
          trial's measured torque (after its dynamometer correction, when it has an unloaded \
-         run) and the model at the identified parameters."
+         run), the model at the identified parameters, and the model at the session's own \
+         parameters (where the identification started)."
             .to_string(),
     );
-    for (t, pred) in session.trials.iter().zip(predictions) {
+    for (t, (pred, base)) in session.trials.iter().zip(predictions) {
         let inputs = t.problem.inputs();
         let angle = figures::angle_deg(inputs);
         let env = figures::envelopes(inputs);
         let measured = t.problem.measured();
         // a CEINMS trial's moment is measured only inside the moment file's span
-        let (time, measured, pred, angle, env): (
-            Vec<f64>,
-            Vec<f64>,
-            Vec<f64>,
-            Vec<f64>,
-            Vec<(&str, Vec<f64>)>,
-        ) = match t.problem.weights() {
-            Some(w) => {
-                let keep: Vec<usize> = (0..w.len()).filter(|&i| w[i] > 0.0).collect();
-                let pick = |v: &[f64]| keep.iter().map(|&i| v[i]).collect::<Vec<f64>>();
-                (
-                    pick(inputs.times()),
-                    pick(measured),
-                    pick(pred),
-                    pick(&angle),
-                    env.iter().map(|(n, e)| (*n, pick(e))).collect(),
-                )
-            }
-            None => (
-                inputs.times().to_vec(),
-                measured.to_vec(),
-                pred.clone(),
-                angle,
-                env.iter().map(|(n, e)| (*n, e.to_vec())).collect(),
-            ),
+        let keep: Vec<usize> = match t.problem.weights() {
+            Some(w) => (0..w.len()).filter(|&i| w[i] > 0.0).collect(),
+            None => (0..inputs.len()).collect(),
         };
+        let pick = |v: &[f64]| keep.iter().map(|&i| v[i]).collect::<Vec<f64>>();
+        let (time, measured, pred, base, angle) = (
+            pick(inputs.times()),
+            pick(measured),
+            pick(pred),
+            pick(base),
+            pick(&angle),
+        );
+        let env: Vec<(&str, Vec<f64>)> = env.iter().map(|(n, e)| (*n, pick(e))).collect();
         let env_refs: Vec<(&str, &[f64])> = env.iter().map(|(n, e)| (*n, e.as_slice())).collect();
         set.add(
             &format!("torque_fit_{}", file_stem(&t.name)),
             &format!("{}: measured and fitted torque", t.name),
-            report::figures::torque_fit(&time, &measured, &[("fit", &pred)], &angle, &env_refs),
+            report::figures::torque_fit(
+                &time,
+                &measured,
+                &[("fit", &pred), ("session's parameters", &base)],
+                &angle,
+                &env_refs,
+            ),
         )?;
     }
     set.finish()
