@@ -316,3 +316,53 @@ fn bad_sessions_are_one_line_errors_and_write_nothing() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--method sa"));
 }
+
+#[test]
+fn a_session_with_an_osim_model_writes_identified_osim() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let syn = synthesize(&SynthConfig::new("seed".parse().unwrap(), 6)).unwrap();
+    write_trial(&d.join("trial.csv"), &syn.trial).unwrap();
+    let model = Path::new(env!("CARGO_MANIFEST_DIR")).join("../opensim-files/tests/data/leg6.osim");
+    std::fs::copy(&model, d.join("model.osim")).unwrap();
+    std::fs::write(
+        d.join("session.json"),
+        r#"{"params": "model.osim", "trials": [{"name": "a", "trial": "trial.csv"}]}"#,
+    )
+    .unwrap();
+    ok(&surae(
+        &[
+            "identify",
+            "--method",
+            "sa",
+            "--session",
+            "session.json",
+            "--chains",
+            "1",
+            "--out",
+            "fit",
+            "--quiet",
+        ],
+        d,
+    ));
+    let fit = json(&d.join("fit/identify.json"));
+    let text = std::fs::read_to_string(d.join("fit/identified.osim")).unwrap();
+    let doc = roxmltree::Document::parse(&text).unwrap();
+    let value = |muscle: &str, tag: &str| -> f64 {
+        doc.descendants()
+            .find(|n| n.attribute("name") == Some(muscle))
+            .and_then(|m| m.descendants().find(|c| c.has_tag_name(tag)))
+            .and_then(|c| c.text())
+            .unwrap()
+            .trim()
+            .parse()
+            .unwrap()
+    };
+    // equal but for the last bit serde_json's default float parsing may lose
+    let same = |a: f64, b: f64| (a - b).abs() <= 1e-14 * b.abs();
+    let lst = fit["params"]["sol.lst_m"].as_f64().unwrap();
+    assert!(same(value("soleus_r", "tendon_slack_length"), lst));
+    let f0 = fit["params"]["gm.fom_n"].as_f64().unwrap();
+    assert!(same(value("med_gas_r", "max_isometric_force"), f0));
+    assert!(lst != 0.25, "the soleus's LST was identified, not copied");
+}

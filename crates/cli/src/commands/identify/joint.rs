@@ -20,7 +20,11 @@ pub(super) fn run(args: &IdentifyArgs, session_path: &Path) -> CmdResult {
         .clone()
         .unwrap_or_else(|| crate::default_out("identify"));
     let input_refs: Vec<&Path> = session.inputs_read.iter().map(|p| p.as_path()).collect();
-    let mut planned = vec!["identify.json".to_string(), "report.html".to_string()];
+    let mut planned = vec![
+        "identify.json".to_string(),
+        "report.html".to_string(),
+        "identified.osim".to_string(),
+    ];
     planned.extend(
         session
             .trials
@@ -114,7 +118,25 @@ pub(super) fn run(args: &IdentifyArgs, session_path: &Path) -> CmdResult {
     }
     let text = serde_json::to_string_pretty(&doc).map_err(Failure::internal)? + "\n";
     let path = out.write("identify.json", text.as_bytes())?;
-    let files = write_figures(&out, &session, &predictions, session_path)?;
+    let mut files = write_figures(&out, &session, &predictions, session_path)?;
+    // the identified values written into a copy of the session's OpenSim model, if it has one
+    let osim = [args.model.params.as_ref(), session.manifest.params.as_ref()]
+        .into_iter()
+        .flatten()
+        .find(|p| super::super::is_osim(p));
+    if let Some(path) = osim {
+        let names = opensim_files::OsimMuscleNames::renamed(
+            session
+                .manifest
+                .osim_muscles
+                .iter()
+                .map(|(k, v)| (k.as_str(), v.as_str())),
+        )
+        .map_err(Failure::bad)?;
+        files.push(super::other_tools::write_osim_copy(
+            &out, path, &names, &params,
+        )?);
+    }
 
     args.report.print_json(&text);
     if show {

@@ -53,13 +53,20 @@ pub(super) fn write_identified_osim(
             id.set(&mut params, &mut effects, v);
         }
     }
+    write_osim_copy(out, path, &osim_names(model)?, &params).map(Some)
+}
+
+/// Writes `identified.osim`: the model `path` with `params`' F0, LST and α0 of sol, gm and gl
+/// set on the muscles `names`, and nothing else changed.
+pub(super) fn write_osim_copy(
+    out: &OutDir,
+    path: &std::path::Path,
+    names: &opensim_files::OsimMuscleNames,
+    params: &ModelParams,
+) -> CmdResult<PathBuf> {
     let text = read_text(path)?;
-    let edited = opensim_files::write_identified_osim(
-        &text,
-        &path.display().to_string(),
-        &osim_names(model)?,
-        &params,
-    )
-    .map_err(Failure::bad)?;
-    Ok(Some(out.write("identified.osim", edited.as_bytes())?))
+    let edited =
+        opensim_files::write_identified_osim(&text, &path.display().to_string(), names, params)
+            .map_err(Failure::bad)?;
+    out.write("identified.osim", edited.as_bytes())
 }
