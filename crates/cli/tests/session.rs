@@ -366,3 +366,89 @@ fn a_session_with_an_osim_model_writes_identified_osim() {
     assert!(same(value("med_gas_r", "max_isometric_force"), f0));
     assert!(lst != 0.25, "the soleus's LST was identified, not copied");
 }
+
+/// The model torque column of a `simulate --session` trial CSV.
+fn session_torque(path: &Path) -> Vec<f64> {
+    let text = std::fs::read_to_string(path).unwrap();
+    text.lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
+        .collect()
+}
+
+#[test]
+fn muscle_analysis_geometry_replaces_the_polynomial() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let syn = synthesize(&SynthConfig::new("seed".parse().unwrap(), 7)).unwrap();
+    write_trial(&d.join("trial.csv"), &syn.trial).unwrap();
+    let t = &syn.trial.time_s;
+    // OpenSim's clock: 100 Hz, a little wider than the trial
+    let st: Vec<f64> = (0..)
+        .map(|k| t[0] - 0.02 + k as f64 / 100.0)
+        .take_while(|&s| s <= t[t.len() - 1] + 0.02)
+        .collect();
+    let q: Vec<f64> = st.iter().map(|&s| syn.inputs.angle_value_at(s)).collect();
+    let p = ModelParams::nominal();
+    let write = |file: &str, sign: f64, arm: bool| {
+        let mut labels = vec!["time".to_string()];
+        let mut columns = vec![st.clone()];
+        for (m, name) in Muscle::ALL
+            .into_iter()
+            .zip(["soleus_r", "med_gas_r", "lat_gas_r"])
+        {
+            labels.push(name.into());
+            let mp = p.muscle(m);
+            columns.push(
+                q.iter()
+                    .map(|&q| {
+                        if arm {
+                            sign * mp.moment_arm(q)
+                        } else {
+                            mp.lmt(q)
+                        }
+                    })
+                    .collect(),
+            );
+        }
+        let table = opensim_files::StoTable {
+            name: "MuscleAnalysis".into(),
+            version: 1,
+            in_degrees: Some(false),
+            labels,
+            columns,
+        };
+        std::fs::write(d.join(file), opensim_files::write_sto(&table).unwrap()).unwrap();
+    };
+    write("Length.sto", 1.0, false);
+    // OpenSim's moment arm about ankle_angle_r is positive towards dorsiflexion
+    write("MomentArm.sto", -1.0, true);
+    write("MomentArm_wrong_sign.sto", 1.0, true);
+    let manifest = |geometry: &str| {
+        format!(r#"{{"trials": [{{"name": "a", "trial": "trial.csv"{geometry}}}]}}"#)
+    };
+    let geo = |arms: &str| {
+        format!(r#", "geometry": {{"lengths": "Length.sto", "moment_arms": "{arms}"}}"#)
+    };
+    std::fs::write(d.join("poly.json"), manifest("")).unwrap();
+    std::fs::write(d.join("series.json"), manifest(&geo("MomentArm.sto"))).unwrap();
+    std::fs::write(
+        d.join("flipped.json"),
+        manifest(&geo("MomentArm_wrong_sign.sto")),
+    )
+    .unwrap();
+    for s in ["poly", "series", "flipped"] {
+        ok(&surae(
+            &["simulate", "--session", &format!("{s}.json"), "--out", s],
+            d,
+        ));
+    }
+    let rms = |a: &[f64], b: &[f64]| {
+        (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / a.len() as f64).sqrt()
+    };
+    let poly = session_torque(&d.join("poly/a.csv"));
+    let series = session_torque(&d.join("series/a.csv"));
+    let flipped = session_torque(&d.join("flipped/a.csv"));
+    assert!(rms(&poly, &series) < 0.05, "{}", rms(&poly, &series));
+    assert!(rms(&poly, &flipped) > 10.0, "{}", rms(&poly, &flipped));
+}

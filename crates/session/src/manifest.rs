@@ -10,6 +10,10 @@
 //!    {"name": "walk", "recording": "walk_ceinms_folder"}]}
 //! ```
 //!
+//! A trial CSV may name OpenSim MuscleAnalysis results for its geometry:
+//! `"geometry": {"lengths": "S01_MuscleAnalysis_Length.sto", "moment_arms":
+//! "S01_MuscleAnalysis_MomentArm_ankle_angle_r.sto"}`.
+//!
 //! Optional keys: `osim_muscles` (names of sol, gm, gl in an `.osim`), `mvc`, `effects` (an
 //! effects JSON every trial's model carries), `free` (the parameters identified, e.g.
 //! `["sol.lst_m", "activation.shape_a"]`) and `bounds` (`{"sol.fom_n": [2000, 8000]}`).
@@ -62,6 +66,19 @@ pub struct SessionTrialEntry {
     pub unloaded: Option<PathBuf>,
     /// A constant knee flexion (degrees) for a trial file without a `knee_angle_deg` column.
     pub knee_angle_deg: Option<f64>,
+    /// The subject's own musculotendon lengths and moment arms for a trial CSV (OpenSim
+    /// MuscleAnalysis storage files), if given.
+    pub geometry: Option<GeometryFiles>,
+}
+
+/// OpenSim MuscleAnalysis results of a trial: musculotendon lengths (`*_Length.sto`) and ankle
+/// moment arms (`*_MomentArm_ankle_angle_r.sto`), one column per muscle, on their own clock.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct GeometryFiles {
+    /// The lengths file.
+    pub lengths: PathBuf,
+    /// The moment-arms file.
+    pub moment_arms: PathBuf,
 }
 
 /// Where a trial's data are.
@@ -106,6 +123,14 @@ struct RawTrial {
     recording: Option<String>,
     unloaded: Option<String>,
     knee_angle_deg: Option<f64>,
+    geometry: Option<RawGeometry>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawGeometry {
+    lengths: String,
+    moment_arms: String,
 }
 
 /// Reads and checks a session manifest.
@@ -217,11 +242,21 @@ pub fn parse_session_manifest(text: &str, path: &Path) -> Result<SessionManifest
                 ));
             }
         }
+        if t.geometry.is_some() && matches!(source, TrialSource::Recording(_)) {
+            return Err(invalid(
+                key("geometry"),
+                "a recording carries its own lengths and moment arms".into(),
+            ));
+        }
         trials.push(SessionTrialEntry {
             name: t.name,
             source,
             unloaded: t.unloaded.as_deref().map(resolve),
             knee_angle_deg: t.knee_angle_deg,
+            geometry: t.geometry.map(|g| GeometryFiles {
+                lengths: resolve(&g.lengths),
+                moment_arms: resolve(&g.moment_arms),
+            }),
         });
     }
     Ok(SessionManifest {

@@ -311,8 +311,12 @@ pub fn load_session(
                 };
                 let prep = identify_sa::prepare_trial(&trial, unloaded.as_ref(), &opts)
                     .map_err(|e| bad(&e))?;
+                let mut inputs = prep.problem.inputs().clone();
+                if let Some(g) = &entry.geometry {
+                    inputs = with_muscle_analysis(inputs, g, &params, &osim)?;
+                }
                 let problem = Problem::new(
-                    prep.problem.inputs().clone(),
+                    inputs,
                     prep.problem.measured().to_vec(),
                     params,
                     effects,
@@ -360,6 +364,83 @@ pub fn load_session(
         trials,
         inputs_read: read,
     })
+}
+
+/// `inputs` with the musculotendon lengths and ankle moment arms of OpenSim MuscleAnalysis
+/// results (`g`) for every muscle of the model that has a column in both files (sol, gm, gl
+/// under their `.osim` names, fixed muscles under their own), resampled linearly onto the
+/// trial's samples. OpenSim's moment arm about `ankle_angle_r` is positive towards
+/// dorsiflexion, surae's towards plantarflexion: it is negated.
+fn with_muscle_analysis(
+    mut inputs: muscle_model::TrialInputs,
+    g: &session::GeometryFiles,
+    params: &ModelParams,
+    osim: &opensim_files::OsimMuscleNames,
+) -> CmdResult<muscle_model::TrialInputs> {
+    let read = |p: &Path| -> CmdResult<opensim_files::StoTable> {
+        let text = read_text(p)?;
+        opensim_files::read_sto(&text, &p.display().to_string()).map_err(Failure::bad)
+    };
+    let (lengths, arms) = (read(&g.lengths)?, read(&g.moment_arms)?);
+    let times = inputs.times().to_vec();
+    let (t0, t1) = (times[0], times[times.len() - 1]);
+    let mut names: Vec<(String, String)> = muscle_model::Muscle::ALL
+        .iter()
+        .map(|&m| (m.name().to_string(), osim.get(m).to_string()))
+        .collect();
+    names.extend(
+        params
+            .fixed
+            .iter()
+            .map(|f| (f.name.to_string(), f.name.to_string())),
+    );
+    let mut found = 0;
+    for (model_name, column) in names {
+        let (Some(l), Some(r)) = (lengths.column(&column), arms.column(&column)) else {
+            continue;
+        };
+        let series = |file: &Path, table: &opensim_files::StoTable, v: &[f64]| {
+            let t = table
+                .time()
+                .ok_or_else(|| Failure::bad(format!("{}: no time column", file.display())))?;
+            if t.first().is_none_or(|&a| a > t0 + 1e-9) || t.last().is_none_or(|&b| b < t1 - 1e-9) {
+                return Err(Failure::bad(format!(
+                    "{}: covers {:.3}–{:.3} s, the trial {t0:.3}–{t1:.3} s",
+                    file.display(),
+                    t.first().copied().unwrap_or(f64::NAN),
+                    t.last().copied().unwrap_or(f64::NAN)
+                )));
+            }
+            numerics::interpolate::resample_linear(t, v, &times)
+                .map_err(|e| Failure::bad(format!("{}: {column}: {e}", file.display())))
+        };
+        let lmt_m = series(&g.lengths, &lengths, l)?;
+        let moment_arm_m = series(&g.moment_arms, &arms, r)?
+            .into_iter()
+            .map(|x| -x)
+            .collect();
+        inputs = inputs
+            .with_geometry(
+                &model_name,
+                muscle_model::GeometrySeries {
+                    lmt_m,
+                    moment_arm_m,
+                },
+            )
+            .map_err(|e| Failure::bad(format!("{}: {column}: {e}", g.lengths.display())))?;
+        found += 1;
+    }
+    if found == 0 {
+        return Err(Failure::bad(format!(
+            "{}: no column for any muscle of the model (looked for {}, {}, {} and the fixed \
+             muscles' names)",
+            g.lengths.display(),
+            osim.get(muscle_model::Muscle::Sol),
+            osim.get(muscle_model::Muscle::Gm),
+            osim.get(muscle_model::Muscle::Gl)
+        )));
+    }
+    Ok(inputs)
 }
 
 /// A trial name as part of a file name (letters, digits, `-`, `_`; others become `_`).
