@@ -109,7 +109,7 @@ fn channel_envelope(
 /// The envelopes of sol, gm, gl, of ta when given, and of further muscles by name.
 type Envelopes = ([Vec<f64>; 3], Option<Vec<f64>>, Vec<(String, Vec<f64>)>);
 
-fn envelopes_arg(obj: &Bound<'_, PyAny>) -> PyResult<Envelopes> {
+fn envelopes_arg(obj: &Bound<'_, PyAny>, params: &ModelParams) -> PyResult<Envelopes> {
     let mut slots: [Option<Vec<f64>>; 4] = Default::default();
     let mut others = Vec::new();
     const NAMES: [&str; 4] = ["sol", "gm", "gl", "ta"];
@@ -119,8 +119,15 @@ fn envelopes_arg(obj: &Bound<'_, PyAny>) -> PyResult<Envelopes> {
                 .extract()
                 .map_err(|_| bad("emg_envelopes: keys must be strings"))?;
             let short = key.strip_prefix("emg_").unwrap_or(&key);
+            let position = NAMES.iter().position(|n| *n == short);
+            if position.is_none() && params.fixed.get(short).is_none() {
+                return Err(bad(format!(
+                    "emg_envelopes: unknown key '{key}' (sol, gm, gl, ta, or a further muscle \
+                     of params)"
+                )));
+            }
             let values = vec1(&v, &format!("emg_envelopes['{key}']"))?;
-            match NAMES.iter().position(|n| *n == short) {
+            match position {
                 Some(i) => slots[i] = Some(values),
                 None => others.push((short.to_string(), values)),
             }
@@ -198,7 +205,8 @@ pub fn simulate<'py>(
     knee_angle_deg: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let angle_deg = vec1(angle_deg, "angle_deg")?;
-    let (env, env_ta, others) = envelopes_arg(emg_envelopes)?;
+    let params = params_arg(json_arg(params, "params")?)?;
+    let (env, env_ta, others) = envelopes_arg(emg_envelopes, &params)?;
     let knee_rad: Option<Vec<f64>> = match knee_angle_deg.filter(|k| !k.is_none()) {
         None => None,
         Some(k) => {
@@ -218,16 +226,7 @@ pub fn simulate<'py>(
             )));
         }
     }
-    let params = params_arg(json_arg(params, "params")?)?;
     let effects = effects_arg(json_arg(effects, "effects")?)?;
-    for (name, _) in &others {
-        if params.fixed.get(name).is_none() {
-            return Err(bad(format!(
-                "emg_envelopes: unknown key '{name}' (sol, gm, gl, ta, or a further muscle of \
-                 params)"
-            )));
-        }
-    }
     let angle_rad: Vec<f64> = angle_deg.iter().map(|d| d.to_radians()).collect();
     let sim = py.detach(|| -> Result<_, String> {
         let mut inputs = TrialInputs::new(fs, t0, angle_rad, env, env_ta)

@@ -105,3 +105,23 @@ def test_simulate_envelopes_as_dict_or_array(trial):
     np.testing.assert_allclose(
         a["torque_nm"], a["torque_sol_nm"] + a["torque_gm_nm"] + a["torque_gl_nm"], atol=1e-9
     )
+
+
+def test_simulate_with_a_fixed_tibialis_and_a_flexed_knee(trial):
+    fs = trial["fs"]
+    env = surae.envelope(raw_emg(trial), fs)
+    n = env.shape[1]
+    angle = trial["ankle_angle_deg"]
+    base = surae.simulate(angle, env, fs)
+    ta = {"fom_n": 905, "lom_m": 0.098, "lst_m": 0.223, "alpha_deg": 5,
+          "lmt_poly_m": [0.321, -0.036, 0.003, 0.0]}
+    envelopes = {"sol": env[0], "gm": env[1], "gl": env[2], "ta": np.full(n, 0.3)}
+    with_ta = surae.simulate(angle, envelopes, fs, params={"muscles": {"ta": ta}})
+    assert (with_ta["torque_ta_nm"] <= 0).all()
+    assert with_ta["torque_ta_nm"].min() < -5.0
+    np.testing.assert_allclose(
+        with_ta["torque_nm"], base["torque_nm"] + with_ta["torque_ta_nm"], atol=1e-6
+    )
+    flexed = surae.simulate(angle, env, fs, knee_angle_deg=90.0)
+    np.testing.assert_array_equal(flexed["torque_sol_nm"], base["torque_sol_nm"])
+    assert flexed["torque_gm_nm"].max() < 0.9 * base["torque_gm_nm"].max()
