@@ -2,15 +2,8 @@
 //! bad input (exit code 2, one line naming the file, nothing written).
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn surae(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_surae"))
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .expect("the surae binary runs")
-}
+mod common;
+use common::{stderr_of, surae};
 
 fn data(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -31,10 +24,6 @@ fn read_table(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
         .map(|l| l.split(',').map(|v| v.parse::<f64>().unwrap()).collect())
         .collect();
     (header, rows)
-}
-
-fn stderr_of(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
 #[test]

@@ -4,19 +4,8 @@
 
 use experiment::{synthesize, write_trial, Protocol, SynthConfig, Trial};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn surae(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_surae"))
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .expect("the surae binary runs")
-}
-
-fn stderr_of(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+mod common;
+use common::{stderr_of, surae};
 
 /// A synthetic seed trial (seed 31), with the given knee column, written into `dir`.
 fn trial_file(dir: &Path, name: &str, knee: Option<f64>) -> PathBuf {

@@ -2,19 +2,8 @@
 //! from an `.osim` `--params`, the CmdStan chain files, and bad OpenSim input.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn surae(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_surae"))
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .expect("the surae binary runs")
-}
-
-fn stderr_of(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+mod common;
+use common::{stderr_of, surae};
 
 /// The test model of the opensim-files crate (six muscles, Thelen, Millard and Schutte).
 fn leg6() -> PathBuf {

@@ -8,15 +8,9 @@ use experiment::{synthesize, write_trial, write_unloaded, SynthConfig};
 use muscle_model::{simulate, Effects, ModelParams, Muscle, SimSettings};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn surae(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_surae"))
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .expect("the surae binary runs")
-}
+use std::process::Output;
+mod common;
+use common::surae;
 
 fn ok(o: &Output) {
     assert!(
