@@ -31,8 +31,8 @@ fn a_session_of_one_trial_identifies_what_the_trial_does() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let syn = synthesize(&SynthConfig::new("seed".parse().unwrap(), 5)).unwrap();
-    write_trial(&d.join("trial.csv"), &syn.trial).unwrap();
-    write_unloaded(&d.join("unloaded.csv"), &syn.unloaded).unwrap();
+    write_trial(d.join("trial.csv"), &syn.trial).unwrap();
+    write_unloaded(d.join("unloaded.csv"), &syn.unloaded).unwrap();
     std::fs::write(
         d.join("session.json"),
         r#"{"trials": [{"name": "seed5", "trial": "trial.csv", "unloaded": "unloaded.csv"}]}"#,
@@ -316,7 +316,7 @@ fn a_session_with_an_osim_model_writes_identified_osim() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let syn = synthesize(&SynthConfig::new("seed".parse().unwrap(), 6)).unwrap();
-    write_trial(&d.join("trial.csv"), &syn.trial).unwrap();
+    write_trial(d.join("trial.csv"), &syn.trial).unwrap();
     let model = Path::new(env!("CARGO_MANIFEST_DIR")).join("../opensim-files/tests/data/leg6.osim");
     std::fs::copy(&model, d.join("model.osim")).unwrap();
     std::fs::write(
@@ -375,7 +375,7 @@ fn muscle_analysis_geometry_replaces_the_polynomial() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let syn = synthesize(&SynthConfig::new("seed".parse().unwrap(), 7)).unwrap();
-    write_trial(&d.join("trial.csv"), &syn.trial).unwrap();
+    write_trial(d.join("trial.csv"), &syn.trial).unwrap();
     let t = &syn.trial.time_s;
     // OpenSim's clock: 100 Hz, a little wider than the trial
     let st: Vec<f64> = (0..)

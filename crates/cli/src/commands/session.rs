@@ -182,7 +182,7 @@ pub fn load_session(
     let mut read = vec![path.to_path_buf()];
     // the recordings first: a CEINMS subject's fixed muscles are those of its trials
     enum Loaded {
-        Csv(experiment::Trial, Option<experiment::Unloaded>),
+        Csv(Box<(experiment::Trial, Option<experiment::Unloaded>)>),
         Ceinms(Box<CeinmsModelTrial>),
     }
     let mut loaded = Vec::with_capacity(manifest.trials.len());
@@ -207,7 +207,7 @@ pub fn load_session(
                     }
                     None => None,
                 };
-                loaded.push(Loaded::Csv(trial, unloaded));
+                loaded.push(Loaded::Csv(Box::new((trial, unloaded))));
             }
             TrialSource::Recording(_) => {
                 if !p.is_dir() {
@@ -303,7 +303,8 @@ pub fn load_session(
         let source = entry.source.path().display().to_string();
         let bad = |e: &dyn std::fmt::Display| Failure::bad(format!("{source}: {e}"));
         let trial = match l {
-            Loaded::Csv(trial, unloaded) => {
+            Loaded::Csv(csv) => {
+                let (trial, unloaded) = *csv;
                 let opts = experiment::InputOptions {
                     emg_is_envelope: model.emg_is_envelope,
                     knee_angle_deg: entry.knee_angle_deg,
