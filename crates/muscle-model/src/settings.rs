@@ -19,7 +19,7 @@ pub struct SimSettings {
     pub h_max: f64,
     /// Step limit per muscle.
     pub max_steps: usize,
-    /// Keep the per-sample states in [`crate::SimOutput::states`].
+    /// Keep the per-sample states in each [`crate::simulate::MuscleOutput::states`].
     pub record_states: bool,
     /// Which (mathematically equivalent) form of the ODE is integrated.
     pub formulation: Formulation,
