@@ -222,6 +222,21 @@ pub struct Diagnosis {
     pub evaluations: usize,
     /// Wall time (s).
     pub wall_s: f64,
+    /// Candidate effects this recording cannot test (an empty list is not written).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub not_testable: Vec<NotTestable>,
+}
+
+/// Why a candidate effect is not tested on a recording.
+pub const NO_JOINT_ANGLE: &str = "not testable on this trial: no joint angle";
+
+/// A candidate effect the recording cannot test, and why.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct NotTestable {
+    /// Effect name.
+    pub effect: String,
+    /// Why it is not tested (e.g. [`NO_JOINT_ANGLE`]).
+    pub reason: String,
 }
 
 fn fmt_effect(
@@ -364,6 +379,15 @@ impl Diagnosis {
             ra.extended_time_structure_lm,
             ra.time_structure_df
         ));
+        if !self.not_testable.is_empty() {
+            let names: Vec<&str> = self
+                .not_testable
+                .iter()
+                .map(|t| t.effect.as_str())
+                .collect();
+            let reason = &self.not_testable[0].reason;
+            l.push(format!("not tested   {} ({reason})", names.join(", ")));
+        }
         l.push(
             "candidates   effect                   evidence  held-out  ΔBIC  could be missed below"
                 .into(),
