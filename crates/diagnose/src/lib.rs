@@ -126,6 +126,31 @@ pub fn run(
     settings: &DiagnoseSettings,
     observer: &mut dyn FnMut(&DiagnosisProgress) -> ControlFlow<()>,
 ) -> Result<Diagnosis, DiagnoseError> {
+    run_with_model(
+        trial,
+        unloaded,
+        &ModelParams::nominal(),
+        &Effects::none(),
+        settings,
+        observer,
+    )
+}
+
+/// [`run`] with base parameters `params` (the start and bounds' centre of the 9 identified
+/// muscle parameters; every other value, fixed muscles included, held) and base effects
+/// `effects` (carried at their values, not candidates), as a session's trial CSV is
+/// diagnosed with the session's model.
+///
+/// # Errors
+/// As [`run`].
+pub fn run_with_model(
+    trial: &Trial,
+    unloaded: Option<&Unloaded>,
+    params: &ModelParams,
+    effects: &Effects,
+    settings: &DiagnoseSettings,
+    observer: &mut dyn FnMut(&DiagnosisProgress) -> ControlFlow<()>,
+) -> Result<Diagnosis, DiagnoseError> {
     let t0 = Instant::now();
     // Settings and inputs: refuse what the decision rule cannot use before any simulation.
     settings.validate()?;
@@ -133,8 +158,8 @@ pub fn run(
     let target = context::Target {
         torque_nm: &trial.torque_nm,
         observed: None,
-        params: ModelParams::nominal(),
-        effects: Effects::none(),
+        params: *params,
+        effects: *effects,
     };
     diagnose_target(target, unloaded, inputs, seg, settings, observer, t0)
 }
