@@ -30,7 +30,9 @@ pub use numerics::special::{beta_regularized, chi2_survival, f_survival};
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Bin {
     /// Variable: `phase`, `angle_deg.<phase>`, `velocity_deg_s`, `acceleration_deg_s2`,
-    /// `activation`, `activation_rate_per_s`, `emg_ta`.
+    /// `activation`, `activation_rate_per_s`, `emg_ta`, and for a recording without joint
+    /// motion `span_fraction` (0 at the first compared sample, 1 at the last: the fraction
+    /// of stance for a CEINMS trial).
     pub variable: String,
     /// Bin label (phase name) or lower edge.
     pub lo: f64,
@@ -209,6 +211,23 @@ fn quantile_edges(x: &[f64], k: usize) -> Vec<f64> {
         *l += 1e-9;
     }
     e
+}
+
+/// Per sample, its place between the first (0) and last (1) observed sample; NaN outside.
+fn span_fraction(ctx: &Context) -> Vec<f64> {
+    let n = ctx.y.len();
+    let first = (0..n).find(|&i| ctx.is_observed(i)).unwrap_or(0);
+    let last = (0..n).rev().find(|&i| ctx.is_observed(i)).unwrap_or(0);
+    let width = (last.saturating_sub(first)).max(1) as f64;
+    (0..n)
+        .map(|i| {
+            if i < first || i > last {
+                f64::NAN
+            } else {
+                (i - first) as f64 / width
+            }
+        })
+        .collect()
 }
 
 /// The values of `x` at the observed samples, in order.
@@ -421,6 +440,14 @@ pub(crate) fn analyse(
         &all,
         &quantile_edges(&observed_values(ctx, &rate), 5),
     ));
+    if ctx.seg.cycles.is_empty() {
+        let frac = span_fraction(ctx);
+        // tenths, the last closed at 1
+        let mut edges: Vec<f64> = (0..=10).map(|k| k as f64 / 10.0).collect();
+        edges[10] += 1e-9;
+        let seen_in_span = |i: usize| ctx.is_observed(i) && frac[i].is_finite();
+        bb.extend(bins_of("span_fraction", &frac, &rb, &seen_in_span, &edges));
+    }
     if let Some(ta) = inp.envelope_ta() {
         let edges = quantile_edges(&observed_values(ctx, ta), 5);
         bb.extend(bins_of("emg_ta", ta, &rb, &all, &edges));

@@ -297,6 +297,31 @@ impl Diagnosis {
         serde_json::to_value(self).unwrap_or(serde_json::Value::Null)
     }
 
+    /// A caution when the noise model was fitted to the trial's own residual and its AR(1)
+    /// correlation time `−Δt/ln φ` exceeds a quarter of the recording: the recording then
+    /// holds fewer than four independent stretches of noise, a misfit as slow as the
+    /// recording counts as noise, and every test loses power (what a short real recording
+    /// without an unloaded run gives).
+    fn slow_noise_caution(&self) -> Option<String> {
+        let t = &self.residual_analysis.series.time_s;
+        let phi = self.noise.phi;
+        if self.noise.source != crate::noise::NoiseModelSource::TrialResidual
+            || t.len() < 2
+            || !(phi > 0.0 && phi < 1.0)
+        {
+            return None;
+        }
+        let dt = t[1] - t[0];
+        let tc = -dt / phi.ln();
+        let span = t[t.len() - 1] - t[0];
+        (tc > 0.25 * span).then(|| {
+            format!(
+                "caution      noise correlation time {tc:.2} s against a {span:.2} s recording: \
+                 a slow misfit counts as noise, the tests have little power"
+            )
+        })
+    }
+
     /// A terminal summary of at most 20 lines.
     pub fn summary_lines(&self) -> Vec<String> {
         let mut l = Vec::new();
@@ -318,6 +343,9 @@ impl Diagnosis {
             self.noise.sd_ar_nm,
             self.noise.sd_white_nm
         ));
+        if let Some(line) = self.slow_noise_caution() {
+            l.push(line);
+        }
         l.push(format!(
             "baseline     RMS {:.2} N·m, held-out RMS {:.2} N·m ({})",
             self.baseline.rms_nm, self.baseline.heldout_rms_nm, self.cv_folds

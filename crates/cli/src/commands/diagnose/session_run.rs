@@ -95,7 +95,9 @@ pub(super) fn run(args: &DiagnoseArgs, session_path: &Path) -> CmdResult {
         let say = |s: &str| args.report.say(s);
         for (t, r) in session.trials.iter().zip(&done) {
             say(&format!("diagnose: {} ({})", t.name, t.source));
-            if r.unloaded.is_none() {
+            if t.ceinms.is_some() {
+                say("  (inverse-dynamics moment: no noise reference, the noise model is fitted to the baseline's residual)");
+            } else if r.unloaded.is_none() {
                 say("  (no unloaded run: the dynamometer's own error cannot be told from a torque offset)");
             }
             for l in r.d.summary_lines() {
@@ -251,6 +253,9 @@ fn session_row(t: &SessionTrial, r: &Diagnosed) -> CmdResult<Value> {
         None => Value::Null,
     };
     let folder: PathBuf = PathBuf::from(&r.stem);
+    // the AR(1) correlation time of the noise model, `−Δt/ln φ` (s)
+    let phi = d.noise.phi;
+    let corr_time_s = (phi > 0.0 && phi < 1.0).then(|| -1.0 / (r.fitted_on_hz * phi.ln()));
     Ok(json!({
         "name": t.name,
         "source": t.source,
@@ -266,6 +271,8 @@ fn session_row(t: &SessionTrial, r: &Diagnosed) -> CmdResult<Value> {
         "heldout_rms_reduction_pct": d.gain.heldout_rms_reduction_pct,
         "heldout_deviance_reduction": d.gain.heldout_deviance_reduction,
         "delta_bic": d.gain.delta_bic,
+        "noise_source": d.noise.source,
+        "noise_corr_time_s": corr_time_s,
         "moment_fit": moment_fit,
     }))
 }
