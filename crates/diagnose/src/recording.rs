@@ -64,6 +64,9 @@ impl DiagnosisRecording {
             ));
         }
         let Some(w) = &self.weights else {
+            if let Some(i) = self.torque_nm.iter().position(|v| !v.is_finite()) {
+                return bad(format!("torque at sample {i} is not finite"));
+            }
             return Ok(None);
         };
         if w.len() != n {
@@ -86,5 +89,50 @@ impl DiagnosisRecording {
             ));
         }
         Ok(Some(observed))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn still(n: usize) -> DiagnosisRecording {
+        let inputs = TrialInputs::new(
+            1000.0,
+            0.0,
+            vec![0.0; n],
+            [vec![0.2; n], vec![0.2; n], vec![0.2; n]],
+            None,
+        )
+        .unwrap();
+        DiagnosisRecording::new(inputs, vec![10.0; n])
+    }
+
+    #[test]
+    fn weights_become_the_observed_mask() {
+        let mut w = vec![0.0; 100];
+        w[30..].iter_mut().for_each(|v| *v = 1.0);
+        let o = still(100).with_weights(w).observed().unwrap().unwrap();
+        assert_eq!(o.iter().filter(|x| **x).count(), 70);
+        assert!(!o[29] && o[30]);
+        assert_eq!(still(100).observed().unwrap(), None);
+    }
+
+    #[test]
+    fn torque_or_weights_that_do_not_fit_are_refused() {
+        let msg = |r: &DiagnosisRecording| r.observed().unwrap_err().to_string();
+        let mut short = still(100);
+        short.torque_nm.pop();
+        assert!(msg(&short).contains("99 torque samples for 100"));
+        assert!(msg(&still(100).with_weights(vec![1.0; 99])).contains("99 weights"));
+        let mut w = vec![1.0; 100];
+        w[7] = f64::NAN;
+        assert!(msg(&still(100).with_weights(w)).contains("sample 7"));
+        let mut w = vec![0.0; 100];
+        w[..10].iter_mut().for_each(|v| *v = 1.0);
+        assert!(msg(&still(100).with_weights(w)).contains("10 samples of positive weight"));
+        let mut nan = still(100);
+        nan.torque_nm[50] = f64::NAN;
+        assert!(msg(&nan).contains("sample 50"));
     }
 }
