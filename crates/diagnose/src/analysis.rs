@@ -30,7 +30,9 @@ pub use numerics::special::{beta_regularized, chi2_survival, f_survival};
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Bin {
     /// Variable: `phase`, `angle_deg.<phase>`, `velocity_deg_s`, `acceleration_deg_s2`,
-    /// `activation`, `activation_rate_per_s`, `emg_ta`.
+    /// `activation`, `activation_rate_per_s`, `emg_ta`, and for a recording without joint
+    /// motion `span_fraction` (0 at the first compared sample, 1 at the last: the fraction
+    /// of stance for a CEINMS trial).
     pub variable: String,
     /// Bin label (phase name) or lower edge.
     pub lo: f64,
@@ -151,12 +153,12 @@ fn bins_of(
     out
 }
 
-fn phase_bins(ph: &[PhaseLabel], r: &[f64]) -> Vec<Bin> {
+fn phase_bins(ph: &[PhaseLabel], r: &[f64], seen: &dyn Fn(usize) -> bool) -> Vec<Bin> {
     PhaseLabel::ALL
         .iter()
         .filter_map(|p| {
             let v: Vec<f64> = (0..r.len())
-                .filter(|&i| ph[i] == *p)
+                .filter(|&i| ph[i] == *p && seen(i))
                 .map(|i| r[i])
                 .collect();
             if v.is_empty() {
@@ -176,7 +178,12 @@ fn phase_bins(ph: &[PhaseLabel], r: &[f64]) -> Vec<Bin> {
         .collect()
 }
 
-fn angle_bins(ph: &[PhaseLabel], angle_deg: &[f64], r: &[f64]) -> Vec<Bin> {
+fn angle_bins(
+    ph: &[PhaseLabel],
+    angle_deg: &[f64],
+    r: &[f64],
+    seen: &dyn Fn(usize) -> bool,
+) -> Vec<Bin> {
     let edges: Vec<f64> = (0..=8).map(|k| -20.0 + 5.0 * k as f64 - 0.01).collect();
     let mut out = Vec::new();
     for p in [
@@ -188,7 +195,7 @@ fn angle_bins(ph: &[PhaseLabel], angle_deg: &[f64], r: &[f64]) -> Vec<Bin> {
             &format!("angle_deg.{}", p.name()),
             angle_deg,
             r,
-            &|i| ph[i] == p,
+            &|i| ph[i] == p && seen(i),
             &edges,
         ));
     }
@@ -204,6 +211,36 @@ fn quantile_edges(x: &[f64], k: usize) -> Vec<f64> {
         *l += 1e-9;
     }
     e
+}
+
+/// Per sample, its place between the first (0) and last (1) observed sample; NaN outside.
+fn span_fraction(ctx: &Context) -> Vec<f64> {
+    let n = ctx.y.len();
+    let first = (0..n).find(|&i| ctx.is_observed(i)).unwrap_or(0);
+    let last = (0..n).rev().find(|&i| ctx.is_observed(i)).unwrap_or(0);
+    let width = (last.saturating_sub(first)).max(1) as f64;
+    (0..n)
+        .map(|i| {
+            if i < first || i > last {
+                f64::NAN
+            } else {
+                (i - first) as f64 / width
+            }
+        })
+        .collect()
+}
+
+/// The values of `x` at the observed samples, in order.
+fn observed_values(ctx: &Context, x: &[f64]) -> Vec<f64> {
+    match &ctx.observed {
+        None => x.to_vec(),
+        Some(o) => x
+            .iter()
+            .zip(o)
+            .filter(|(_, seen)| **seen)
+            .map(|(v, _)| *v)
+            .collect(),
+    }
 }
 
 fn acf(x: &[f64], k: usize) -> f64 {
@@ -309,10 +346,12 @@ pub(crate) fn structure_lm(ctx: &Context, fit: &Fit) -> (f64, usize) {
 /// `LM` of a fit against a basis (projected on the complement of the whitened Jacobian) and the
 /// rank of the projected basis.
 fn basis_lm(ctx: &Context, fit: &Fit, cols: &[Vec<f64>]) -> (f64, usize) {
-    let n = ctx.plan.n_obs();
+    // whitened vectors have every sample (0 where unobserved); the scale counts observed ones
+    let n = fit.white.len();
+    let n_obs = ctx.plan.n_obs();
     let q = fit.jac.clone().qr().q();
     let r = DVector::from_column_slice(&fit.white);
-    let s2 = (r.norm_squared() / (n - fit.k()).max(1) as f64).max(1e-12);
+    let s2 = (r.norm_squared() / n_obs.saturating_sub(fit.k()).max(1) as f64).max(1e-12);
     let p = cols.len();
     let mut pc = DMatrix::zeros(n, p);
     for (j, c) in cols.iter().enumerate() {
@@ -370,9 +409,9 @@ pub(crate) fn analyse(
         })
         .collect();
     let ph = &ctx.seg.phase;
-    let all = |_: usize| true;
-    let mut bb = phase_bins(ph, &rb);
-    bb.extend(angle_bins(ph, &deg, &rb));
+    let all = |i: usize| ctx.is_observed(i);
+    let mut bb = phase_bins(ph, &rb, &all);
+    bb.extend(angle_bins(ph, &deg, &rb, &all));
     bb.extend(bins_of(
         "velocity_deg_s",
         &vel,
@@ -392,20 +431,31 @@ pub(crate) fn analyse(
         &act,
         &rb,
         &all,
-        &quantile_edges(&act, 5),
+        &quantile_edges(&observed_values(ctx, &act), 5),
     ));
     bb.extend(bins_of(
         "activation_rate_per_s",
         &rate,
         &rb,
         &all,
-        &quantile_edges(&rate, 5),
+        &quantile_edges(&observed_values(ctx, &rate), 5),
     ));
-    if let Some(ta) = inp.envelope_ta() {
-        bb.extend(bins_of("emg_ta", ta, &rb, &all, &quantile_edges(ta, 5)));
+    if ctx.seg.cycles.is_empty() {
+        let frac = span_fraction(ctx);
+        // tenths, the last closed at 1
+        let mut edges: Vec<f64> = (0..=10).map(|k| k as f64 / 10.0).collect();
+        edges[10] += 1e-9;
+        let seen_in_span = |i: usize| ctx.is_observed(i) && frac[i].is_finite();
+        bb.extend(bins_of("span_fraction", &frac, &rb, &seen_in_span, &edges));
     }
-    let mut eb = phase_bins(ph, &re);
-    eb.extend(angle_bins(ph, &deg, &re));
+    if let Some(ta) = inp.envelope_ta() {
+        let edges = quantile_edges(&observed_values(ctx, ta), 5);
+        bb.extend(bins_of("emg_ta", ta, &rb, &all, &edges));
+    }
+    let mut eb = phase_bins(ph, &re, &all);
+    eb.extend(angle_bins(ph, &deg, &re, &all));
+    // the autocorrelation of the compared samples (one span for a CEINMS trial)
+    let (rb_seen, re_seen) = (observed_values(ctx, &rb), observed_values(ctx, &re));
     let lags_ms = [0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 30.0, 50.0, 100.0, 200.0];
     let acf_pts = lags_ms
         .iter()
@@ -413,8 +463,8 @@ pub(crate) fn analyse(
             let k = ((ms * 1e-3 * fs).round() as usize).max(1);
             AcfPoint {
                 lag_ms: k as f64 / fs * 1e3,
-                baseline: acf(&rb, k),
-                extended: acf(&re, k),
+                baseline: acf(&rb_seen, k),
+                extended: acf(&re_seen, k),
                 noise_model: ctx.noise.autocorrelation(k),
             }
         })

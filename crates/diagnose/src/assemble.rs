@@ -83,10 +83,15 @@ pub(crate) fn diagnosis(
         confounded,
         near_ties,
         noise: ctx.noise,
-        cv_folds: settings.cv_folds.describe(ctx.seg.cycles.len()),
+        cv_folds: settings.cv_folds.describe_for(
+            ctx.seg.cycles.len(),
+            ctx.inputs.len(),
+            ctx.inputs.fs(),
+        ),
         residual_analysis: ra,
         evaluations,
         wall_s: 0.0,
+        not_testable: Vec::new(),
     }
 }
 

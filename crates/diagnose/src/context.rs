@@ -3,10 +3,9 @@
 //! whitens the residual (docs/diagnosis.md, docs/dynamometer.md).
 
 use experiment::{model_inputs, Trial, Unloaded};
-use muscle_model::{Muscle, TrialInputs};
+use muscle_model::{Effects, ModelParams, Muscle, TrialInputs};
 use numerics::LevenbergMarquardtSettings;
 
-use crate::baseline::nominal_muscles;
 use crate::fit::Context;
 use crate::noise::{NoiseModelSource, Transient, TrialNoiseModel, WhitenPlan};
 use crate::segment::Segmentation;
@@ -19,6 +18,33 @@ pub(crate) fn prepare(
     settings: &DiagnoseSettings,
 ) -> Result<(TrialInputs, Segmentation), DiagnoseError> {
     let inputs = model_inputs(trial, &settings.input_options)?;
+    let seg = segment_motion(&inputs)?;
+    Ok((inputs, seg))
+}
+
+/// The segmentation of `inputs`' motion; a recording whose angle never changes over the
+/// observed samples (no joint angle) is one hold.
+pub(crate) fn segment(
+    inputs: &TrialInputs,
+    observed: Option<&[bool]>,
+) -> Result<Segmentation, DiagnoseError> {
+    let q = inputs.angle();
+    let seen = |i: usize| observed.is_none_or(|o| o[i]);
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for (i, v) in q.iter().enumerate() {
+        if seen(i) {
+            lo = lo.min(*v);
+            hi = hi.max(*v);
+        }
+    }
+    if hi - lo <= 1e-9 {
+        return Ok(Segmentation::still(inputs.len()));
+    }
+    segment_motion(inputs)
+}
+
+/// The segmentation of a moving angle, the mean sol/gm/gl envelope marking relaxed cycles.
+fn segment_motion(inputs: &TrialInputs) -> Result<Segmentation, DiagnoseError> {
     let act: Vec<f64> = (0..inputs.len())
         .map(|i| {
             Muscle::ALL
@@ -28,13 +54,21 @@ pub(crate) fn prepare(
                 / 3.0
         })
         .collect();
-    let seg = Segmentation::new(inputs.angle(), inputs.fs(), Some(&act)).map_err(|reason| {
+    Segmentation::new(inputs.angle(), inputs.fs(), Some(&act)).map_err(|reason| {
         DiagnoseError::Segmentation {
             recording: "trial",
             reason,
         }
-    })?;
-    Ok((inputs, seg))
+    })
+}
+
+/// What a diagnosis fits besides the inputs: the measured torque, the samples it is compared
+/// at, and the base model.
+pub(crate) struct Target<'a> {
+    pub torque_nm: &'a [f64],
+    pub observed: Option<Vec<bool>>,
+    pub params: ModelParams,
+    pub effects: Effects,
 }
 
 /// The fitting context of the trial: the torque with the dynamometer's systematic part
@@ -44,31 +78,46 @@ pub(crate) fn prepare(
 /// With an unloaded run the noise model is that run's (docs/dynamometer.md); without one, a
 /// baseline fitted under white noise leaves a residual from which the model is fitted, its
 /// offset set to zero (a dynamometer offset cannot be told from the `torque_offset` effect).
+/// The residual is taken from the first to the last observed sample, unobserved samples
+/// inside that span set to zero.
 pub(crate) fn trial_context(
-    trial: &Trial,
+    target: Target<'_>,
     unloaded: Option<&Unloaded>,
     inputs: TrialInputs,
     seg: Segmentation,
     settings: &DiagnoseSettings,
 ) -> Result<(Context, usize), DiagnoseError> {
+    let Target {
+        torque_nm,
+        observed,
+        params,
+        effects,
+    } = target;
     let n = inputs.len();
     let fs = inputs.fs();
     let times: Vec<f64> = (0..n).map(|i| i as f64 / fs).collect();
-    let nominal = nominal_muscles();
     let mut evaluations = 0;
     let lm = settings.lm;
     let cv_lm = LevenbergMarquardtSettings {
         max_iterations: settings.cv_iterations,
         ..settings.lm
     };
+    let seen = |i: usize| observed.as_ref().is_none_or(|o| o[i]);
     let make_ctx = |y: Vec<f64>, noise: TrialNoiseModel| -> Context {
-        let plan = noise.plan(n, None);
+        let plan = noise.plan(n, observed.as_deref());
         let folds = settings
             .cv_folds
             .held_out_masks(n, fs, &seg.cycle)
             .into_iter()
-            .map(|held| {
-                let train: Vec<bool> = held.iter().map(|h| !h).collect();
+            .map(|mut held| {
+                for (i, h) in held.iter_mut().enumerate() {
+                    *h = *h && seen(i);
+                }
+                let train: Vec<bool> = held
+                    .iter()
+                    .enumerate()
+                    .map(|(i, h)| !h && seen(i))
+                    .collect();
                 let p: WhitenPlan = noise.plan(n, Some(&train));
                 (held, p)
             })
@@ -84,6 +133,9 @@ pub(crate) fn trial_context(
             cv_lm,
             extended_extra_starts: settings.extended_extra_starts,
             start_seed: settings.start_seed,
+            params,
+            effects,
+            observed: observed.clone(),
         }
     };
     let noise = match unloaded {
@@ -117,11 +169,26 @@ pub(crate) fn trial_context(
                 remainder_rms_nm: 0.0,
                 level_dof: f64::INFINITY,
             };
-            let ctx0 = make_ctx(trial.torque_nm.clone(), pre_noise);
-            let f0 = ctx0.fit(&[], &nominal, false)?;
+            let ctx0 = make_ctx(torque_nm.to_vec(), pre_noise);
+            let f0 = ctx0.fit(&[], &ctx0.base_muscles(), false)?;
             evaluations += f0.evaluations;
-            let res = difference(&trial.torque_nm, &f0.pred);
-            let correction = experiment::DynamometerCorrection::fit(&res, fs, &seg.events, false)?;
+            let mut res = difference(torque_nm, &f0.pred);
+            let first = (0..n).find(|&i| seen(i)).unwrap_or(0);
+            let last = (0..n).rev().find(|&i| seen(i)).map_or(n, |i| i + 1);
+            for (i, r) in res.iter_mut().enumerate() {
+                if !seen(i) {
+                    *r = 0.0;
+                }
+            }
+            let t_first = first as f64 / fs;
+            let events: Vec<f64> = seg
+                .events
+                .iter()
+                .map(|e| e - t_first)
+                .filter(|e| *e >= 0.0)
+                .collect();
+            let correction =
+                experiment::DynamometerCorrection::fit(&res[first..last], fs, &events, false)?;
             let mut noise = TrialNoiseModel::from_correction(
                 &correction,
                 NoiseModelSource::TrialResidual,
@@ -132,7 +199,7 @@ pub(crate) fn trial_context(
         }
     };
     // the systematic part at the trial's own events is what the fits never see
-    let y = difference(&trial.torque_nm, &noise.systematic(&times, &seg.events));
+    let y = difference(torque_nm, &noise.systematic(&times, &seg.events));
     Ok((make_ctx(y, noise), evaluations))
 }
 

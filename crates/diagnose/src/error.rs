@@ -25,6 +25,12 @@ pub enum DiagnoseError {
         /// Why it cannot be used.
         reason: String,
     },
+    /// A prepared recording's torque or weights do not fit its inputs.
+    #[error("recording: {reason}")]
+    Recording {
+        /// What does not fit.
+        reason: String,
+    },
     /// A setting is out of range.
     #[error("setting `{name}`: {reason}")]
     Settings {

@@ -27,6 +27,14 @@ pub(crate) struct Context {
     pub extended_extra_starts: usize,
     /// Seed of the Latin-hypercube starts.
     pub start_seed: u64,
+    /// The model's base parameters: the start of the identified muscle parameters, their
+    /// bounds' centre, and every other parameter (fixed muscles included) as is.
+    pub params: ModelParams,
+    /// Effects every model carries at their values (never refitted or named).
+    pub effects: Effects,
+    /// Which samples are compared with the model (`None`: every sample). Unobserved samples
+    /// are skipped by every whitening plan, so no fit, score, test or held-out error sees them.
+    pub observed: Option<Vec<bool>>,
 }
 
 /// A fitted model.
@@ -61,9 +69,9 @@ impl Fit {
     }
 }
 
-/// Effects at their null values for each kind.
-pub(crate) fn base_effects(kinds: &[EffectKind]) -> Effects {
-    let mut e = Effects::none();
+/// `base` with each kind's effect added at its null values.
+pub(crate) fn base_effects(base: &Effects, kinds: &[EffectKind]) -> Effects {
+    let mut e = *base;
     for k in kinds {
         e = e.with_null(*k);
     }
@@ -92,10 +100,32 @@ impl Context {
         Ok(Problem::new(
             self.inputs.clone(),
             self.y.clone(),
-            ModelParams::nominal(),
-            base_effects(kinds),
+            self.params,
+            base_effects(&self.effects, kinds),
             free_params(kinds),
         )?)
+    }
+
+    /// The base values of the 9 identified muscle parameters (the baseline's first start).
+    pub fn base_muscles(&self) -> [f64; 9] {
+        ParamId::identified().map(|p| p.get(&self.params, &self.effects))
+    }
+
+    /// Whether sample `i` is compared with the model.
+    pub fn is_observed(&self, i: usize) -> bool {
+        self.observed.as_ref().is_none_or(|o| o[i])
+    }
+
+    /// RMS of `a − b` over the observed samples.
+    pub fn observed_rms(&self, a: &[f64], b: &[f64]) -> f64 {
+        let (mut ss, mut cnt) = (0.0, 0usize);
+        for (i, (x, y)) in a.iter().zip(b).enumerate() {
+            if self.is_observed(i) {
+                ss += (x - y) * (x - y);
+                cnt += 1;
+            }
+        }
+        (ss / cnt.max(1) as f64).sqrt()
     }
 
     fn residual_fn<'a>(
@@ -183,15 +213,7 @@ impl Context {
             })?;
         out.evaluations = evaluations;
         let pred = problem.predict(&out.x)?;
-        let n = pred.len();
-        let rms = (self
-            .y
-            .iter()
-            .zip(&pred)
-            .map(|(a, b)| (a - b) * (a - b))
-            .sum::<f64>()
-            / n as f64)
-            .sqrt();
+        let rms = self.observed_rms(&self.y, &pred);
         let mut fit = Fit {
             kinds: kinds.to_vec(),
             free: problem.free().to_vec(),

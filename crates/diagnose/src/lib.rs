@@ -84,6 +84,7 @@ pub mod noise;
 pub mod power;
 mod profile;
 mod progress;
+mod recording;
 mod report;
 mod rules;
 pub mod scenarios;
@@ -96,22 +97,25 @@ use std::ops::ControlFlow;
 use std::time::Instant;
 
 use experiment::{Trial, Unloaded};
+use muscle_model::{Effects, ModelParams};
 
 pub use analysis::{AcfPoint, Bin, ResidualAnalysis, Series};
 pub use error::DiagnoseError;
 pub use noise::{NoiseModelSource, Transient, TrialNoiseModel};
 pub use profile::ProfileSettings;
 pub use progress::{no_observer, DiagnosisProgress, DiagnosisStage};
+pub use recording::DiagnosisRecording;
 pub use report::{
-    detection_limit_unit, CandidateReport, Diagnosis, Gain, ModelReport, NearTie, ParamInterval,
-    Verdict,
+    detection_limit_unit, CandidateReport, Diagnosis, Gain, ModelReport, NearTie, NotTestable,
+    ParamInterval, Verdict, NO_JOINT_ANGLE,
 };
 pub use segment::{PhaseLabel, Segmentation};
 pub use settings::{CvFolds, DiagnoseSettings, MIN_CV_CYCLES};
 
 use progress::notify;
 
-/// Diagnoses a measured trial (and its unloaded run when available).
+/// Diagnoses a measured trial (and its unloaded run when available): the model's inputs
+/// from the trial, nominal muscle parameters, no effect, every sample compared.
 ///
 /// # Errors
 /// Invalid trial or unloaded run (EMG columns, no motion, sampling rates that differ),
@@ -122,11 +126,83 @@ pub fn run(
     settings: &DiagnoseSettings,
     observer: &mut dyn FnMut(&DiagnosisProgress) -> ControlFlow<()>,
 ) -> Result<Diagnosis, DiagnoseError> {
+    run_with_model(
+        trial,
+        unloaded,
+        &ModelParams::nominal(),
+        &Effects::none(),
+        settings,
+        observer,
+    )
+}
+
+/// [`run`] with base parameters `params` (the start and bounds' centre of the 9 identified
+/// muscle parameters; every other value, fixed muscles included, held) and base effects
+/// `effects` (carried at their values, not candidates), as a session's trial CSV is
+/// diagnosed with the session's model.
+///
+/// # Errors
+/// As [`run`].
+pub fn run_with_model(
+    trial: &Trial,
+    unloaded: Option<&Unloaded>,
+    params: &ModelParams,
+    effects: &Effects,
+    settings: &DiagnoseSettings,
+    observer: &mut dyn FnMut(&DiagnosisProgress) -> ControlFlow<()>,
+) -> Result<Diagnosis, DiagnoseError> {
     let t0 = Instant::now();
     // Settings and inputs: refuse what the decision rule cannot use before any simulation.
     settings.validate()?;
     let (inputs, seg) = context::prepare(trial, settings)?;
+    let target = context::Target {
+        torque_nm: &trial.torque_nm,
+        observed: None,
+        params: *params,
+        effects: *effects,
+    };
+    diagnose_target(target, unloaded, inputs, seg, settings, observer, t0)
+}
 
+/// Diagnoses a recording given as model inputs ([`DiagnosisRecording`]), such as a CEINMS
+/// trial: no unloaded run (the noise model is fitted to the baseline's residual), samples of
+/// weight 0 left out of every fit, score, test and held-out error, and, when the angle never
+/// changes over the compared samples, the effects that need a joint angle reported in
+/// [`Diagnosis::not_testable`] instead of being tested.
+///
+/// # Errors
+/// Invalid settings, a torque or weights whose length is not the inputs', a weight that is
+/// not finite or not ≥ 0, no sample of positive weight, a moving angle that cannot be
+/// segmented, a baseline that cannot be simulated, or a stop by the observer.
+pub fn run_prepared(
+    recording: &DiagnosisRecording,
+    settings: &DiagnoseSettings,
+    observer: &mut dyn FnMut(&DiagnosisProgress) -> ControlFlow<()>,
+) -> Result<Diagnosis, DiagnoseError> {
+    let t0 = Instant::now();
+    settings.validate()?;
+    let observed = recording.observed()?;
+    let inputs = recording.inputs.clone();
+    let seg = context::segment(&inputs, observed.as_deref())?;
+    let target = context::Target {
+        torque_nm: &recording.torque_nm,
+        observed,
+        params: recording.params,
+        effects: recording.effects,
+    };
+    diagnose_target(target, None, inputs, seg, settings, observer, t0)
+}
+
+/// The stages of a diagnosis (module docs) on prepared inputs.
+fn diagnose_target(
+    target: context::Target<'_>,
+    unloaded: Option<&Unloaded>,
+    inputs: muscle_model::TrialInputs,
+    seg: Segmentation,
+    settings: &DiagnoseSettings,
+    observer: &mut dyn FnMut(&DiagnosisProgress) -> ControlFlow<()>,
+    t0: Instant,
+) -> Result<Diagnosis, DiagnoseError> {
     // Noise: the dynamometer's systematic part leaves the torque, its random part whitens
     // the residual of every fit.
     notify(
@@ -135,7 +211,7 @@ pub fn run(
         "fitting the noise model".into(),
         0,
     )?;
-    let (ctx, mut evaluations) = context::trial_context(trial, unloaded, inputs, seg, settings)?;
+    let (ctx, mut evaluations) = context::trial_context(target, unloaded, inputs, seg, settings)?;
 
     // Baseline: the 9 muscle parameters without any effect.
     notify(
@@ -148,6 +224,7 @@ pub fn run(
     evaluations += baseline.evaluations;
     let nobs = ctx.plan.n_obs();
     let eligible = baseline::eligible_candidates(&ctx, settings);
+    let not_testable = baseline::untestable_without_angle(&ctx, settings);
 
     // Selection: forward rounds of score test, refit and cross-validation, then the exchange.
     let mut selection = selection::select(
@@ -203,6 +280,13 @@ pub fn run(
 
     // Report.
     let mut diagnosis = assemble::diagnosis(ctx, selection, ra, &intervals, settings, evaluations);
+    diagnosis.not_testable = not_testable
+        .into_iter()
+        .map(|k| NotTestable {
+            effect: k.name().to_string(),
+            reason: NO_JOINT_ANGLE.to_string(),
+        })
+        .collect();
     diagnosis.wall_s = t0.elapsed().as_secs_f64();
     Ok(diagnosis)
 }

@@ -48,7 +48,6 @@
 use experiment::{DynamometerSettings, Trial};
 use muscle_model::{Ar1White, EffectKind};
 
-use crate::baseline::nominal_muscles;
 use crate::context::prepare;
 use crate::fit::{latin_hypercube, Context};
 use crate::noise::{NoiseModelSource, Transient, TrialNoiseModel};
@@ -127,8 +126,11 @@ pub fn noncentrality(
         cv_lm: lm,
         extended_extra_starts: settings.extended_extra_starts,
         start_seed: settings.start_seed,
+        params: muscle_model::ModelParams::nominal(),
+        effects: muscle_model::Effects::none(),
+        observed: None,
     };
-    let mut x0 = nominal_muscles().to_vec();
+    let mut x0 = ctx.base_muscles().to_vec();
     for k in null {
         x0.extend(&k.null_values()[..k.params().len()]);
     }

@@ -222,6 +222,21 @@ pub struct Diagnosis {
     pub evaluations: usize,
     /// Wall time (s).
     pub wall_s: f64,
+    /// Candidate effects this recording cannot test (an empty list is not written).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub not_testable: Vec<NotTestable>,
+}
+
+/// Why a candidate effect is not tested on a recording.
+pub const NO_JOINT_ANGLE: &str = "not testable on this trial: no joint angle";
+
+/// A candidate effect the recording cannot test, and why.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct NotTestable {
+    /// Effect name.
+    pub effect: String,
+    /// Why it is not tested (e.g. [`NO_JOINT_ANGLE`]).
+    pub reason: String,
 }
 
 fn fmt_effect(
@@ -282,6 +297,31 @@ impl Diagnosis {
         serde_json::to_value(self).unwrap_or(serde_json::Value::Null)
     }
 
+    /// A caution when the noise model was fitted to the trial's own residual and its AR(1)
+    /// correlation time `−Δt/ln φ` exceeds a quarter of the recording: the recording then
+    /// holds fewer than four independent stretches of noise, a misfit as slow as the
+    /// recording counts as noise, and every test loses power (what a short real recording
+    /// without an unloaded run gives).
+    fn slow_noise_caution(&self) -> Option<String> {
+        let t = &self.residual_analysis.series.time_s;
+        let phi = self.noise.phi;
+        if self.noise.source != crate::noise::NoiseModelSource::TrialResidual
+            || t.len() < 2
+            || !(phi > 0.0 && phi < 1.0)
+        {
+            return None;
+        }
+        let dt = t[1] - t[0];
+        let tc = -dt / phi.ln();
+        let span = t[t.len() - 1] - t[0];
+        (tc > 0.25 * span).then(|| {
+            format!(
+                "caution      noise correlation time {tc:.2} s against a {span:.2} s recording: \
+                 a slow misfit counts as noise, the tests have little power"
+            )
+        })
+    }
+
     /// A terminal summary of at most 20 lines.
     pub fn summary_lines(&self) -> Vec<String> {
         let mut l = Vec::new();
@@ -303,6 +343,9 @@ impl Diagnosis {
             self.noise.sd_ar_nm,
             self.noise.sd_white_nm
         ));
+        if let Some(line) = self.slow_noise_caution() {
+            l.push(line);
+        }
         l.push(format!(
             "baseline     RMS {:.2} N·m, held-out RMS {:.2} N·m ({})",
             self.baseline.rms_nm, self.baseline.heldout_rms_nm, self.cv_folds
@@ -364,6 +407,15 @@ impl Diagnosis {
             ra.extended_time_structure_lm,
             ra.time_structure_df
         ));
+        if !self.not_testable.is_empty() {
+            let names: Vec<&str> = self
+                .not_testable
+                .iter()
+                .map(|t| t.effect.as_str())
+                .collect();
+            let reason = &self.not_testable[0].reason;
+            l.push(format!("not tested   {} ({reason})", names.join(", ")));
+        }
         l.push(
             "candidates   effect                   evidence  held-out  ΔBIC  could be missed below"
                 .into(),

@@ -370,6 +370,9 @@ fn absorbed(ctx: &Context, fit: &Fit, kind: EffectKind, values: [f64; 2]) -> Opt
         cv_lm: ctx.cv_lm,
         extended_extra_starts: 0,
         start_seed: ctx.start_seed,
+        params: ctx.params,
+        effects: ctx.effects,
+        observed: ctx.observed.clone(),
     };
     let refit = clean
         .fit_from(&fit.kinds, std::slice::from_ref(&fit.x), false)

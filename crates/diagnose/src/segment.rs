@@ -201,6 +201,18 @@ impl Segmentation {
         })
     }
 
+    /// The segmentation of `n` samples of a recording without joint motion: one hold, no
+    /// cycle, no event.
+    pub fn still(n: usize) -> Self {
+        Segmentation {
+            phase: vec![PhaseLabel::Hold; n],
+            cycle: vec![None; n],
+            cycles: Vec::new(),
+            events: Vec::new(),
+            cruise_speed: 0.0,
+        }
+    }
+
     /// Indices of the active (not relaxed) cycles.
     pub fn active_cycles(&self) -> Vec<usize> {
         (0..self.cycles.len())

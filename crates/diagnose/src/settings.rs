@@ -112,6 +112,22 @@ impl CvFolds {
         }
     }
 
+    /// [`CvFolds::describe`] for a recording of `n` samples at `fs` Hz: the blocks of a
+    /// recording too short for one block per fold are named with their own length.
+    pub fn describe_for(&self, cycles: usize, n: usize, fs: f64) -> String {
+        match self.resolve(cycles) {
+            CvFolds::Blocks { block_s, folds } => {
+                let len = block_len(block_s, folds, n, fs);
+                if len == ((block_s * fs).round() as usize).max(1) {
+                    self.describe(cycles)
+                } else {
+                    format!("{folds} folds of {:.3} s blocks", len as f64 / fs)
+                }
+            }
+            _ => self.describe(cycles),
+        }
+    }
+
     /// The held-out mask of every fold for `n` samples at `fs` Hz, given the cycle of each
     /// sample (`None` outside the cycles).
     pub fn held_out_masks(&self, n: usize, fs: f64, cycle: &[Option<usize>]) -> Vec<Vec<bool>> {
@@ -121,12 +137,24 @@ impl CvFolds {
                 .map(|k| cycle.iter().map(|c| *c == Some(k)).collect())
                 .collect(),
             CvFolds::Blocks { block_s, folds } => {
-                let len = ((block_s * fs).round() as usize).max(1);
+                let len = block_len(block_s, folds, n, fs);
                 (0..folds)
                     .map(|k| (0..n).map(|i| (i / len) % folds == k).collect())
                     .collect()
             }
         }
+    }
+}
+
+/// Samples per block of [`CvFolds::Blocks`]: `block_s` at `fs`, or, when `n` samples do not
+/// fill one block per fold (a stance phase of half a second), `n / (2·folds)`, so that every
+/// fold holds out two blocks spread over the recording rather than some folds nothing.
+fn block_len(block_s: f64, folds: usize, n: usize, fs: f64) -> usize {
+    let len = ((block_s * fs).round() as usize).max(1);
+    if n < folds * len {
+        (n / (2 * folds)).max(1)
+    } else {
+        len
     }
 }
 

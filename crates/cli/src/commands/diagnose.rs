@@ -1,5 +1,6 @@
 //! `surae diagnose`: what the baseline model gets wrong, which catalogued
-//! effect explains it, and what the extension buys out of sample.
+//! effect explains it, and what the extension buys out of sample; with `--session`, every
+//! trial of a session on its own (`session_run`).
 
 use super::{load_trial, load_unloaded, trial_inputs, ModelArgs};
 use crate::error::{CmdResult, Failure};
@@ -7,7 +8,10 @@ use crate::figures::{self, FigureSet};
 use crate::output::OutDir;
 use crate::progress::ProgressDisplay;
 use diagnose::{DiagnoseSettings, Diagnosis};
+use std::ops::Range;
 use std::path::{Path, PathBuf};
+
+mod session_run;
 
 /// Files `surae diagnose` writes.
 const PLANNED: &[&str] = &[
@@ -24,12 +28,20 @@ const PLANNED: &[&str] = &[
 #[derive(clap::Args, Debug)]
 pub struct DiagnoseArgs {
     /// Trial CSV (format in docs/formats.md); the bundled seed trial (and its unloaded run) when omitted.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "session")]
     pub trial: Option<PathBuf>,
     /// Unloaded run CSV: its cycle-locked error is removed from the measured
     /// torque and its noise sets the likelihood. Strongly recommended.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "session")]
     pub unloaded: Option<PathBuf>,
+    /// Session manifest (docs/formats.md): every trial diagnosed on its own with the
+    /// session's parameters, into `--out DIR/<trial>/`, and `DIR/diagnosis_session.json`.
+    #[arg(long)]
+    pub session: Option<PathBuf>,
+    /// With `--session`: parameters replacing the session's (parameters JSON, `.osim`, CEINMS
+    /// subject XML), or an `identify.json` whose identified values are set over them.
+    #[arg(long, requires = "session")]
+    pub params: Option<PathBuf>,
     /// Seed (the diagnosis itself is deterministic; kept for scripts that pass one).
     #[arg(long, default_value_t = 42)]
     pub seed: u64,
@@ -47,6 +59,14 @@ pub struct DiagnoseArgs {
 
 /// Runs the command.
 pub fn run(args: DiagnoseArgs) -> CmdResult {
+    if let Some(session) = &args.session {
+        if args.knee.knee_angle_deg.is_some() {
+            return Err(Failure::bad(
+                "--knee-angle-deg: with --session, each trial's knee angle is in the manifest",
+            ));
+        }
+        return session_run::run(&args, session);
+    }
     let loaded = load_trial(args.trial.as_deref())?;
     let unloaded = load_unloaded(args.unloaded.as_deref(), args.trial.is_some())?;
     if let Some((u, name)) = &unloaded {
@@ -97,27 +117,23 @@ pub fn run(args: DiagnoseArgs) -> CmdResult {
     })?;
     progress.finish();
 
-    let mut doc = d.to_json_value();
-    if let Some(obj) = doc.as_object_mut() {
-        obj.insert("trial".into(), serde_json::json!(loaded.name));
-        obj.insert(
-            "unloaded".into(),
-            serde_json::json!(unloaded.as_ref().map(|(_, n)| n.clone())),
-        );
-        // the correction subtracted, in the same form `identify` reports it; its AR(1)
-        // correlation time is per sample of the recording the noise was fitted on
-        let fitted_on = match &unloaded {
-            Some((u, _)) => u.sample_rate_hz(),
-            None => loaded.trial.sample_rate_hz(),
-        };
-        obj.insert(
-            "dynamometer".into(),
-            serde_json::json!(d.noise.dynamometer(1.0 / fitted_on)),
-        );
-    }
-    let text = serde_json::to_string_pretty(&doc).map_err(Failure::internal)? + "\n";
+    // the correction subtracted, in the same form `identify` reports it; its AR(1)
+    // correlation time is per sample of the recording the noise was fitted on
+    let fitted_on = match &unloaded {
+        Some((u, _)) => u.sample_rate_hz(),
+        None => loaded.trial.sample_rate_hz(),
+    };
+    let unloaded_name = unloaded.as_ref().map(|(_, n)| n.as_str());
+    let text = diagnosis_json(&d, &loaded.name, unloaded_name, fitted_on, None)?;
     let path = out.write("diagnosis.json", text.as_bytes())?;
-    let files = write_figures(&out, &loaded.name, &loaded.trial.torque_nm, &inputs, &d)?;
+    let files = write_figures(
+        &out,
+        &loaded.name,
+        &loaded.trial.torque_nm,
+        &inputs,
+        &d,
+        0..inputs.len(),
+    )?;
 
     args.report.print_json(&text);
     if show {
@@ -139,25 +155,57 @@ pub fn run(args: DiagnoseArgs) -> CmdResult {
     Ok(())
 }
 
+/// `diagnosis.json`: the diagnosis with the trial's name, its unloaded run's (or `null`), the
+/// dynamometer correction subtracted (its AR(1) correlation time per sample of a recording
+/// at `fitted_on_hz`) and, for a session's trial, where it was read from.
+fn diagnosis_json(
+    d: &Diagnosis,
+    name: &str,
+    unloaded: Option<&str>,
+    fitted_on_hz: f64,
+    source: Option<&str>,
+) -> CmdResult<String> {
+    let mut doc = d.to_json_value();
+    if let Some(obj) = doc.as_object_mut() {
+        obj.insert("trial".into(), serde_json::json!(name));
+        if let Some(src) = source {
+            obj.insert("source".into(), serde_json::json!(src));
+        }
+        obj.insert("unloaded".into(), serde_json::json!(unloaded));
+        obj.insert(
+            "dynamometer".into(),
+            serde_json::json!(d.noise.dynamometer(1.0 / fitted_on_hz)),
+        );
+    }
+    Ok(serde_json::to_string_pretty(&doc).map_err(Failure::internal)? + "\n")
+}
+
+/// The figures and `report.html` of a diagnosis, drawn over the samples `span` (the compared
+/// samples of a recording whose torque starts after its EMG). The residual against the angle
+/// is left out for a recording without a joint angle.
 fn write_figures(
     out: &OutDir,
     name: &str,
-    measured: &[f64],
+    measured_all: &[f64],
     inputs: &muscle_model::TrialInputs,
     d: &Diagnosis,
+    span: Range<usize>,
 ) -> CmdResult<Vec<PathBuf>> {
     let s = &d.residual_analysis.series;
-    let time = &s.time_s;
+    let time = &s.time_s[span.clone()];
+    let measured = &measured_all[span.clone()];
+    let baseline_residual = &s.baseline_residual_nm[span.clone()];
+    let extended_residual = &s.extended_residual_nm[span.clone()];
     // predictions of the measured torque: measured − residual (model + the
     // dynamometer's cycle-locked error)
     let baseline: Vec<f64> = measured
         .iter()
-        .zip(&s.baseline_residual_nm)
+        .zip(baseline_residual)
         .map(|(m, r)| m - r)
         .collect();
     let extended: Vec<f64> = measured
         .iter()
-        .zip(&s.extended_residual_nm)
+        .zip(extended_residual)
         .map(|(m, r)| m - r)
         .collect();
     let mut set = FigureSet::new(out, &format!("surae diagnose — {name}"));
@@ -193,6 +241,14 @@ fn write_figures(
     });
     for p in story {
         set.page().paragraph(p);
+    }
+    if !d.not_testable.is_empty() {
+        let names: Vec<&str> = d.not_testable.iter().map(|t| t.effect.as_str()).collect();
+        set.page().paragraph(format!(
+            "Not tested: {} ({}).",
+            names.join(", "),
+            d.not_testable[0].reason
+        ));
     }
     set.page().preformatted(d.summary_lines().join("\n"));
     let rows: Vec<Vec<String>> = d
@@ -244,14 +300,16 @@ fn write_figures(
         )
         .map_err(|e| Failure::internal(e.to_string()))?;
 
-    let angle = &s.angle_deg;
-    let env = figures::envelopes(inputs);
+    let angle = &s.angle_deg[span.clone()];
+    let env: Vec<(&str, &[f64])> = figures::envelopes(inputs)
+        .into_iter()
+        .map(|(m, e)| (m, &e[span.clone()]))
+        .collect();
     let phase_names: Vec<&str> = diagnose::segment::PhaseLabel::ALL
         .iter()
         .map(|p| p.name())
         .collect();
-    let phase: Vec<usize> = s
-        .phase
+    let phase: Vec<usize> = s.phase[span.clone()]
         .iter()
         .map(|p| {
             diagnose::segment::PhaseLabel::ALL
@@ -271,19 +329,21 @@ fn write_figures(
             &env,
         ),
     )?;
-    set.add(
-        "residual_vs_angle",
-        "Baseline residual against ankle angle, coloured by phase",
-        report::figures::residual_vs_angle(angle, &s.baseline_residual_nm, &phase, &phase_names),
-    )?;
+    if d.not_testable.is_empty() {
+        set.add(
+            "residual_vs_angle",
+            "Baseline residual against ankle angle, coloured by phase",
+            report::figures::residual_vs_angle(angle, baseline_residual, &phase, &phase_names),
+        )?;
+    }
     set.add(
         "residual_vs_time",
         "Residual of the baseline and the extended model against time",
         report::figures::residual_vs_time(
             time,
             &[
-                ("baseline", &s.baseline_residual_nm),
-                ("extended", &s.extended_residual_nm),
+                ("baseline", baseline_residual),
+                ("extended", extended_residual),
             ],
         ),
     )?;

@@ -1,0 +1,278 @@
+//! `surae diagnose --session`: every trial of a session diagnosed on its own with the
+//! session's model, into `DIR/<trial>/` (`diagnosis.json`, figures, `report.html`), and
+//! `DIR/diagnosis_session.json` with each trial's verdict, named causes and held-out gain.
+//!
+//! A trial CSV is diagnosed as `--trial` (with its `--unloaded` run and knee angle) is; a
+//! CEINMS trial folder as prepared model inputs: its own lengths, moment arms and fixed
+//! muscles, no ankle angle (the effects that need one are not tested), no unloaded run (the
+//! noise model is fitted to the baseline's residual), and only the samples where the moment
+//! file has data compared. Every trial is diagnosed before anything is written.
+
+use super::super::session::{file_stem, load_session, LoadedSession, SessionTrial};
+use super::super::ModelArgs;
+use super::{diagnosis_json, write_figures, DiagnoseArgs, PLANNED};
+use crate::error::{CmdResult, Failure};
+use crate::output::OutDir;
+use crate::progress::ProgressDisplay;
+use diagnose::{DiagnoseSettings, Diagnosis, DiagnosisRecording};
+use muscle_model::TrialInputs;
+use serde_json::{json, Value};
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+/// The file listing every trial's diagnosis.
+const SESSION_FILE: &str = "diagnosis_session.json";
+
+/// One trial diagnosed, with what its files need.
+struct Diagnosed {
+    stem: String,
+    d: Diagnosis,
+    /// The measured torque as recorded, on the inputs' grid.
+    measured: Vec<f64>,
+    inputs: TrialInputs,
+    /// The unloaded run's file, when the trial has one.
+    unloaded: Option<String>,
+    /// Sampling rate of the recording the noise model was fitted on (Hz).
+    fitted_on_hz: f64,
+    /// The samples compared with the model (figures are drawn over them).
+    span: Range<usize>,
+}
+
+/// Runs `diagnose --session`.
+pub(super) fn run(args: &DiagnoseArgs, session_path: &Path) -> CmdResult {
+    let model = ModelArgs {
+        params: args.params.clone(),
+        emg_is_envelope: args.emg_is_envelope,
+        ..ModelArgs::default()
+    };
+    let session = load_session(session_path, &model, None)?;
+    let out_dir = args
+        .out
+        .clone()
+        .unwrap_or_else(|| crate::default_out("diagnose"));
+    let stems = trial_stems(&session)?;
+    let mut planned = vec![SESSION_FILE.to_string()];
+    for stem in &stems {
+        planned.extend(PLANNED.iter().map(|f| format!("{stem}/{f}")));
+    }
+    let planned_refs: Vec<&str> = planned.iter().map(String::as_str).collect();
+    let input_refs: Vec<&Path> = session.inputs_read.iter().map(|p| p.as_path()).collect();
+    let out = OutDir::prepare(&out_dir, &input_refs, &planned_refs)?;
+
+    let show = args.report.show();
+    let mut done = Vec::with_capacity(session.trials.len());
+    for (k, (t, stem)) in session.trials.iter().zip(&stems).enumerate() {
+        let label = format!("diag {}/{}", k + 1, session.trials.len());
+        done.push(diagnose_trial(&session, k, t, stem, args, show, &label)?);
+    }
+
+    // every trial diagnosed: now the files
+    let mut rows = Vec::with_capacity(done.len());
+    for (t, r) in session.trials.iter().zip(&done) {
+        let dir = OutDir::prepare(&out.path(&r.stem), &input_refs, PLANNED)?;
+        let text = diagnosis_json(
+            &r.d,
+            &t.name,
+            r.unloaded.as_deref(),
+            r.fitted_on_hz,
+            Some(&t.source),
+        )?;
+        dir.write("diagnosis.json", text.as_bytes())?;
+        write_figures(&dir, &t.name, &r.measured, &r.inputs, &r.d, r.span.clone())?;
+        rows.push(session_row(t, r)?);
+    }
+    let doc = json!({
+        "session": session_path.display().to_string(),
+        "params": args.params.as_ref().map(|p| p.display().to_string())
+            .or_else(|| session.manifest.params.as_ref().map(|p| p.display().to_string())),
+        "trials": rows,
+    });
+    let text = serde_json::to_string_pretty(&doc).map_err(Failure::internal)? + "\n";
+    let path = out.write(SESSION_FILE, text.as_bytes())?;
+
+    args.report.print_json(&text);
+    if show {
+        let say = |s: &str| args.report.say(s);
+        for (t, r) in session.trials.iter().zip(&done) {
+            say(&format!("diagnose: {} ({})", t.name, t.source));
+            if t.ceinms.is_some() {
+                say("  (inverse-dynamics moment: no noise reference, the noise model is fitted to the baseline's residual)");
+            } else if r.unloaded.is_none() {
+                say("  (no unloaded run: the dynamometer's own error cannot be told from a torque offset)");
+            }
+            for l in r.d.summary_lines() {
+                say(&l);
+            }
+        }
+        say(&format!(
+            "wrote {} and a folder per trial in {}",
+            path.display(),
+            out_dir.display()
+        ));
+    }
+    Ok(())
+}
+
+/// The trials' folder names; two names that become the same folder are an error.
+fn trial_stems(session: &LoadedSession) -> CmdResult<Vec<String>> {
+    let mut stems: Vec<String> = Vec::with_capacity(session.trials.len());
+    for t in &session.trials {
+        let stem = file_stem(&t.name);
+        if let Some(other) = session
+            .trials
+            .iter()
+            .zip(&stems)
+            .find(|(_, s)| **s == stem)
+            .map(|(o, _)| o)
+        {
+            return Err(Failure::bad(format!(
+                "{}: trials `{}` and `{}` would share the output folder {stem}/",
+                session.manifest.path.display(),
+                other.name,
+                t.name
+            )));
+        }
+        stems.push(stem);
+    }
+    Ok(stems)
+}
+
+/// Diagnoses trial `k` of the session with the session's parameters and effects.
+fn diagnose_trial(
+    session: &LoadedSession,
+    k: usize,
+    t: &SessionTrial,
+    stem: &str,
+    args: &DiagnoseArgs,
+    show: bool,
+    label: &str,
+) -> CmdResult<Diagnosed> {
+    let entry = &session.manifest.trials[k];
+    let progress = ProgressDisplay::new(show, 0, label);
+    let mut observer = |p: &diagnose::DiagnosisProgress| {
+        progress.message(format!(
+            "{}: {} ({} simulations)",
+            t.name, p.message, p.evaluations
+        ));
+        progress.flow()
+    };
+    let fail = |e: diagnose::DiagnoseError, progress: &ProgressDisplay| {
+        if progress.stop_requested() {
+            Failure::Interrupted
+        } else {
+            Failure::bad(format!("{}: {e}", t.source))
+        }
+    };
+    let diagnosed = match &t.ceinms {
+        Some(c) => {
+            let rec = DiagnosisRecording::new(c.inputs.clone(), c.torque_nm.clone())
+                .with_weights(c.weights.clone())
+                .with_model(session.params, session.effects);
+            let d = diagnose::run_prepared(&rec, &DiagnoseSettings::default(), &mut observer)
+                .map_err(|e| fail(e, &progress))?;
+            Diagnosed {
+                stem: stem.to_string(),
+                d,
+                measured: c.torque_nm.clone(),
+                inputs: c.inputs.clone(),
+                unloaded: None,
+                fitted_on_hz: c.inputs.fs(),
+                span: weighted_span(&c.weights),
+            }
+        }
+        None => {
+            // the trial as `--trial`/`--unloaded` read it, so that its diagnosis is theirs
+            let path = entry.source.path();
+            let trial = experiment::read_trial(path).map_err(Failure::bad)?;
+            let unloaded = match &entry.unloaded {
+                Some(u) => Some(experiment::read_unloaded(u).map_err(Failure::bad)?),
+                None => None,
+            };
+            let settings = DiagnoseSettings {
+                input_options: experiment::InputOptions {
+                    emg_is_envelope: args.emg_is_envelope,
+                    knee_angle_deg: entry.knee_angle_deg,
+                    ..experiment::InputOptions::default()
+                },
+                ..DiagnoseSettings::default()
+            };
+            let d = diagnose::run_with_model(
+                &trial,
+                unloaded.as_ref(),
+                &session.params,
+                &session.effects,
+                &settings,
+                &mut observer,
+            )
+            .map_err(|e| fail(e, &progress))?;
+            let fitted_on_hz = unloaded
+                .as_ref()
+                .map_or(trial.sample_rate_hz(), |u| u.sample_rate_hz());
+            let inputs = t.problem.inputs().clone();
+            let n = inputs.len();
+            Diagnosed {
+                stem: stem.to_string(),
+                d,
+                measured: trial.torque_nm,
+                inputs,
+                unloaded: entry.unloaded.as_ref().map(|p| p.display().to_string()),
+                fitted_on_hz,
+                span: 0..n,
+            }
+        }
+    };
+    progress.finish();
+    Ok(diagnosed)
+}
+
+/// From the first to the last sample of positive weight.
+fn weighted_span(w: &[f64]) -> Range<usize> {
+    let first = w.iter().position(|v| *v > 0.0).unwrap_or(0);
+    let last = w.iter().rposition(|v| *v > 0.0).map_or(w.len(), |i| i + 1);
+    first..last.max(first)
+}
+
+/// The trial's line of `diagnosis_session.json`. For a CEINMS trial it adds the moment's RMS
+/// error and R² of the baseline and final models at the moment file's own samples, the
+/// numbers `identify` and `simulate` report.
+fn session_row(t: &SessionTrial, r: &Diagnosed) -> CmdResult<Value> {
+    let d = &r.d;
+    let moment_fit = match &t.ceinms {
+        Some(_) => {
+            let s = &d.residual_analysis.series;
+            let pred = |res: &[f64]| -> Vec<f64> {
+                r.measured.iter().zip(res).map(|(m, e)| m - e).collect()
+            };
+            let (rb, r2b) = t.fit_of(&pred(&s.baseline_residual_nm))?;
+            let (re, r2e) = t.fit_of(&pred(&s.extended_residual_nm))?;
+            json!({
+                "baseline": {"rms_nm": rb, "r2": r2b},
+                "extended": {"rms_nm": re, "r2": r2e},
+            })
+        }
+        None => Value::Null,
+    };
+    let folder: PathBuf = PathBuf::from(&r.stem);
+    // the AR(1) correlation time of the noise model, `−Δt/ln φ` (s)
+    let phi = d.noise.phi;
+    let corr_time_s = (phi > 0.0 && phi < 1.0).then(|| -1.0 / (r.fitted_on_hz * phi.ln()));
+    Ok(json!({
+        "name": t.name,
+        "source": t.source,
+        "folder": folder.display().to_string(),
+        "verdict": d.verdict,
+        "causes": d.causes,
+        "unexplained_structure": d.unexplained_structure,
+        "structure_p_value": d.residual_analysis.structure_p_value,
+        "not_testable": d.not_testable.iter().map(|x| x.effect.clone()).collect::<Vec<_>>(),
+        "baseline_rms_nm": d.baseline.rms_nm,
+        "baseline_heldout_rms_nm": d.baseline.heldout_rms_nm,
+        "extended_heldout_rms_nm": d.extended.heldout_rms_nm,
+        "heldout_rms_reduction_pct": d.gain.heldout_rms_reduction_pct,
+        "heldout_deviance_reduction": d.gain.heldout_deviance_reduction,
+        "delta_bic": d.gain.delta_bic,
+        "noise_source": d.noise.source,
+        "noise_corr_time_s": corr_time_s,
+        "moment_fit": moment_fit,
+    }))
+}
