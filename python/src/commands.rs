@@ -301,11 +301,14 @@ pub fn identify<'py>(
 ///
 /// trial, unloaded, seed, emg_is_envelope, knee_angle_deg, out, progress: as for identify;
 /// out keeps diagnosis.json, the figures and report.html.
+/// session: a session manifest path in place of trial: every trial diagnosed on its own with
+///     the session's model (params: a parameters file or an identify.json set over it);
+///     returns diagnosis_session.json (each trial's diagnosis.json stays in out/<trial>).
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
 #[pyo3(signature = (
     trial=None, unloaded=None, seed=42, *, emg_is_envelope=false, knee_angle_deg=None,
-    out=None, progress=None
+    session=None, params=None, out=None, progress=None
 ))]
 pub fn diagnose<'py>(
     py: Python<'py>,
@@ -314,6 +317,8 @@ pub fn diagnose<'py>(
     seed: u64,
     emg_is_envelope: bool,
     knee_angle_deg: Option<f64>,
+    session: Option<&Bound<'py, PyAny>>,
+    params: Option<&Bound<'py, PyAny>>,
     out: Option<&Bound<'py, PyAny>>,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
@@ -321,13 +326,25 @@ pub fn diagnose<'py>(
     let mut staging = Staging::new()?;
     let trial = trial_arg(trial, &mut staging)?;
     let unloaded = unloaded_arg(unloaded, &mut staging)?;
+    let session = match session.filter(|s| !s.is_none()) {
+        Some(s) => Some(path_arg(s, "session")?),
+        None => None,
+    };
+    let params = staging.json(json_arg(params, "params")?, "params")?;
     let out = match out.filter(|o| !o.is_none()) {
         Some(o) => path_arg(o, "out")?,
         None => staging.dir.path().join("out"),
     };
+    let file = if session.is_some() {
+        "diagnosis_session.json"
+    } else {
+        "diagnosis.json"
+    };
     let args = DiagnoseArgs {
         trial,
         unloaded,
+        session,
+        params,
         seed,
         emg_is_envelope,
         knee: KneeArgs { knee_angle_deg },
@@ -337,7 +354,7 @@ pub fn diagnose<'py>(
             json: false,
         },
     };
-    run_to_json(py, staging, out, "diagnosis.json", progress, move || {
+    run_to_json(py, staging, out, file, progress, move || {
         cli::commands::diagnose::run(args)
     })
 }

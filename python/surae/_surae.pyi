@@ -142,6 +142,8 @@ def diagnose(
     *,
     emg_is_envelope: bool = False,
     knee_angle_deg: Optional[float] = None,
+    session: Optional[_PathLike] = None,
+    params: Optional[_JsonArg] = None,
     out: Optional[_PathLike] = None,
     progress: _ProgressArg = None,
 ) -> Dict[str, Any]:
@@ -150,4 +152,9 @@ def diagnose(
     Runs the code of ``surae diagnose``: residual analysis, the named cause(s), the extended
     model and its held-out gain. Arguments as for :func:`identify`; ``out`` receives
     ``diagnosis.json``, the figures and ``report.html``.
+
+    session: a session manifest path in place of ``trial``: every trial is diagnosed on its
+        own with the session's model; returns ``diagnosis_session.json`` (each trial's
+        ``diagnosis.json`` is in ``out/<trial>``). params: with ``session``, a parameters
+        file, dict or ``identify.json`` set over the session's parameters.
     """
