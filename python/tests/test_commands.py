@@ -115,3 +115,25 @@ def test_command_line_warnings_become_python_warnings(repo, tmp_path):
     with pytest.warns(UserWarning, match="ignored unknown columns: foo"):
         d = surae.diagnose(trial, surae.bundled_unloaded())
     assert d["trial"] == str(trial)
+
+
+def test_identify_session_equals_the_cli(cli, repo, tmp_path):
+    seed = repo / "fixtures" / "seed"
+    manifest = tmp_path / "session.json"
+    manifest.write_text(
+        '{"trials": [{"name": "seed", "trial": "%s", "unloaded": "%s"}]}'
+        % (seed / "trial.csv", seed / "unloaded.csv")
+    )
+    out = tmp_path / "cli"
+    r = cli(
+        "identify", "--method", "sa", "--session", manifest, "--chains", "2", "--quiet",
+        "--out", out,
+    )
+    assert r.returncode == 0, r.stderr
+    ref = read_json(out / "identify.json")
+    got = surae.identify(session=manifest, method="sa", chains=2)
+    assert without(got, "wall_s") == without(ref, "wall_s")
+    assert [t["name"] for t in got["trials"]] == ["seed"]
+    # a session of one trial identifies what the trial does
+    alone = surae.identify(seed / "trial.csv", seed / "unloaded.csv", method="sa", chains=2)
+    assert got["params"] == alone["params"]
