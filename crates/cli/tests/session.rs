@@ -3,28 +3,11 @@
 //! recordings) with a CEINMS subject XML as the parameters are predicted and identified; bad
 //! sessions are one-line errors that write nothing.
 
-use ceinms_files::format_table;
 use experiment::{synthesize, write_trial, write_unloaded, SynthConfig};
-use muscle_model::{simulate, Effects, ModelParams, Muscle, SimSettings};
-use serde_json::Value;
-use std::path::{Path, PathBuf};
-use std::process::Output;
+use muscle_model::{Effects, ModelParams, Muscle};
+use std::path::Path;
 mod common;
-use common::surae;
-
-fn ok(o: &Output) {
-    assert!(
-        o.status.success(),
-        "exit {:?}\nstdout: {}\nstderr: {}",
-        o.status.code(),
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-}
-
-fn json(path: &Path) -> Value {
-    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
-}
+use common::{ceinms_folder, json, ok, subject_xml, surae, truth_with_tibialis, CeinmsFolder};
 
 #[test]
 fn a_session_of_one_trial_identifies_what_the_trial_does() {
@@ -56,124 +39,22 @@ fn a_session_of_one_trial_identifies_what_the_trial_does() {
     assert!(d.join("by_session/torque_fit_seed5.svg").exists());
 }
 
-/// A synthetic trial written as a CEINMS folder: envelopes at the trial's rate, the
-/// musculotendon lengths and moment arms of sol, gm, gl and a tibialis anterior at 250 Hz
-/// (CEINMS's sign: plantarflexion negative), and `truth`'s moment on the 250 Hz grid.
-fn ceinms_folder(dir: &Path, seed: u64, truth: &ModelParams) -> PathBuf {
-    std::fs::create_dir_all(dir).unwrap();
-    let syn = synthesize(&SynthConfig::new("seed".parse().unwrap(), seed)).unwrap();
-    let t = syn.inputs.times().to_vec();
-    let ta_env: Vec<f64> = t.iter().map(|t| 0.15 + 0.1 * (2.0 * t).sin()).collect();
-    let inputs = syn
-        .inputs
-        .clone()
-        .with_envelope("tibant_r", ta_env.clone())
-        .unwrap();
-    let write = |file: &str, names: &[&str], time: &[f64], cols: &[Vec<f64>]| {
-        let cols: Vec<&[f64]> = cols.iter().map(Vec::as_slice).collect();
-        std::fs::write(dir.join(file), format_table(names, time, &cols).unwrap()).unwrap();
-    };
-    let env = |m: Muscle| inputs.envelope(m).to_vec();
-    write(
-        "emg.txt",
-        &["sol_r", "gasmed_r", "gaslat_r", "tibant_r"],
-        &t,
-        &[env(Muscle::Sol), env(Muscle::Gm), env(Muscle::Gl), ta_env],
-    );
-    let gt: Vec<f64> = (0..)
-        .map(|k| t[0] + k as f64 / 250.0)
-        .take_while(|&s| s <= t[t.len() - 1])
-        .collect();
-    let q: Vec<f64> = gt.iter().map(|&s| inputs.angle_value_at(s)).collect();
-    let mut lmt = Vec::new();
-    let mut ma = Vec::new();
-    for m in Muscle::ALL {
-        let p = truth.muscle(m);
-        lmt.push(q.iter().map(|&q| p.lmt(q)).collect::<Vec<_>>());
-        ma.push(q.iter().map(|&q| -p.moment_arm(q)).collect::<Vec<_>>());
-    }
-    lmt.push(q.iter().map(|&q| 0.32 - 0.035 * q).collect());
-    ma.push(vec![0.035; gt.len()]);
-    let names = ["sol_r", "gasmed_r", "gaslat_r", "tibant_r"];
-    write("lmt.txt", &names, &gt, &lmt);
-    write("R_ankle_feMa.txt", &names, &gt, &ma);
-    // the truth's moment, with the tibialis on the same series the reader will build
-    let mut model_inputs = inputs.clone();
-    let resample = |v: &[f64]| numerics::interpolate::resample_linear(&gt, v, &t).unwrap();
-    for (k, n) in names.iter().enumerate() {
-        let name = match *n {
-            "sol_r" => "sol",
-            "gasmed_r" => "gm",
-            "gaslat_r" => "gl",
-            other => other,
-        };
-        model_inputs = model_inputs
-            .with_geometry(
-                name,
-                muscle_model::GeometrySeries {
-                    lmt_m: resample(&lmt[k]),
-                    moment_arm_m: resample(&ma[k]).iter().map(|r| -r).collect(),
-                },
-            )
-            .unwrap();
-    }
-    let sim = simulate(
-        &model_inputs,
-        truth,
-        &Effects::none(),
-        &SimSettings::default(),
-    )
-    .unwrap();
-    let moment = numerics::interpolate::resample_linear(&t, &sim.torque, &gt)
-        .unwrap()
-        .iter()
-        .map(|x| -x)
-        .collect();
-    write("R_ankle_feTorque.txt", &["R_ankle_fe"], &gt, &[moment]);
-    dir.to_path_buf()
-}
-
-/// A CEINMS subject XML holding `p`'s sol, gm, gl (strength coefficient 1) and tibialis.
-fn subject_xml(p: &ModelParams) -> String {
-    let mut s = String::from("<?xml version=\"1.0\"?>\n<subject>\n<mtuDefault><emDelay>0</emDelay></mtuDefault>\n<mtuSet>\n");
-    let mut mtu = |name: &str, m: &muscle_model::MuscleParams| {
-        s += &format!(
-            "<mtu><name>{name}</name><c1>-0.5</c1><c2>-0.5</c2><shapeFactor>-1</shapeFactor>\
-             <optimalFibreLength>{}</optimalFibreLength><pennationAngle>{}</pennationAngle>\
-             <tendonSlackLength>{}</tendonSlackLength><maxIsometricForce>{}</maxIsometricForce>\
-             <strengthCoefficient>1</strengthCoefficient></mtu>\n",
-            m.lom_m, m.alpha_deg, m.lst_m, m.fom_n
-        );
-    };
-    mtu("sol_r", p.muscle(Muscle::Sol));
-    mtu("gasmed_r", p.muscle(Muscle::Gm));
-    mtu("gaslat_r", p.muscle(Muscle::Gl));
-    mtu("tibant_r", &p.fixed.get("tibant_r").unwrap().params);
-    s + "</mtuSet>\n</subject>\n"
-}
-
-fn truth() -> ModelParams {
-    let mut p = ModelParams::nominal();
-    let ta = muscle_model::MuscleParams {
-        fom_n: 905.0,
-        lom_m: 0.098,
-        lst_m: 0.223,
-        alpha_deg: 5.0,
-        vmax_lom_per_s: 10.0,
-        lmt_poly_m: [f64::NAN; 4],
-        knee_moment_arm_m: 0.0,
-    };
-    p.fixed.insert("tibant_r", ta).unwrap();
-    p
-}
-
 #[test]
 fn ceinms_folders_are_predicted_and_identified() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let truth = truth();
-    ceinms_folder(&d.join("walk_a"), 21, &truth);
-    ceinms_folder(&d.join("walk_b"), 22, &truth);
+    let truth = truth_with_tibialis();
+    let none = Effects::none();
+    let folder = |seed| CeinmsFolder {
+        seed,
+        seconds: f64::INFINITY,
+        truth: &truth,
+        effects: &none,
+        noise: false,
+        lead_in_s: 0.0,
+    };
+    ceinms_folder(&d.join("walk_a"), &folder(21));
+    ceinms_folder(&d.join("walk_b"), &folder(22));
     std::fs::write(d.join("subject.xml"), subject_xml(&truth)).unwrap();
     let mut off = truth;
     off.muscle_mut(Muscle::Sol).lst_m *= 1.03;
