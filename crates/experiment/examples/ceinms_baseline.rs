@@ -164,27 +164,13 @@ fn run(dir: &std::path::Path, joint: &str) -> Result<(), experiment::ExperimentE
         if intercept {
             println!("  c = {:.2} N·m", b[names.len()]);
         }
-        let (mut rms_sum, mut r2_sum) = (0.0, 0.0);
+        let mut scores = Scores::default();
         for (name, d, tau) in &per_trial {
             let d = if per_channel { pool(d) } else { d.clone() };
-            let pred: Vec<f64> = (0..tau.len())
-                .map(|i| {
-                    let s: f64 = d.iter().zip(&b).map(|(c, f)| c[i] * f).sum();
-                    s + if intercept { b[names.len()] } else { 0.0 }
-                })
-                .collect();
-            let (rms, r2) = moment_fit(tau, &pred);
-            rms_sum += rms;
-            r2_sum += r2;
-            println!("  {name:<16} RMS {rms:6.2} N·m  R² {r2:.3}");
+            let c = if intercept { b[names.len()] } else { 0.0 };
+            scores.add(name, tau, &linear(&d, &b, c));
         }
-        let n = per_trial.len() as f64;
-        println!(
-            "  {:<16} RMS {:6.2} N·m  R² {:.3}",
-            "mean",
-            rms_sum / n,
-            r2_sum / n
-        );
+        scores.print_mean();
     }
     // each trial predicted by the regression fitted on the others: what the baseline does on
     // a trial it has not seen, the measure a calibration is judged by
@@ -194,7 +180,7 @@ fn run(dir: &std::path::Path, joint: &str) -> Result<(), experiment::ExperimentE
              predicting the one left out)",
             if per_channel { "EMG channel" } else { "muscle" }
         );
-        let (mut rms_sum, mut r2_sum) = (0.0, 0.0);
+        let mut scores = Scores::default();
         for (k, (name, d, tau)) in per_trial.iter().enumerate() {
             let mut cols: Vec<Vec<f64>> = Vec::new();
             let mut yk = Vec::new();
@@ -213,21 +199,42 @@ fn run(dir: &std::path::Path, joint: &str) -> Result<(), experiment::ExperimentE
             }
             let b = least_squares(&cols, &yk)?;
             let d = if per_channel { pool(d) } else { d.clone() };
-            let pred: Vec<f64> = (0..tau.len())
-                .map(|i| d.iter().zip(&b).map(|(c, f)| c[i] * f).sum())
-                .collect();
-            let (rms, r2) = moment_fit(tau, &pred);
-            rms_sum += rms;
-            r2_sum += r2;
-            println!("  {name:<16} RMS {rms:6.2} N·m  R² {r2:.3}");
+            scores.add(name, tau, &linear(&d, &b, 0.0));
         }
-        let n = per_trial.len() as f64;
+        scores.print_mean();
+    }
+    Ok(())
+}
+
+/// `c + Σ_k b_k·d_k` at every sample.
+fn linear(d: &[Vec<f64>], b: &[f64], c: f64) -> Vec<f64> {
+    (0..d[0].len())
+        .map(|i| c + d.iter().zip(b).map(|(col, f)| col[i] * f).sum::<f64>())
+        .collect()
+}
+
+/// Per-trial RMS and R², printed as they come, and their means.
+#[derive(Default)]
+struct Scores {
+    rms: Vec<f64>,
+    r2: Vec<f64>,
+}
+
+impl Scores {
+    fn add(&mut self, name: &str, measured: &[f64], predicted: &[f64]) {
+        let (rms, r2) = moment_fit(measured, predicted);
+        println!("  {name:<16} RMS {rms:6.2} N·m  R² {r2:.3}");
+        self.rms.push(rms);
+        self.r2.push(r2);
+    }
+
+    fn print_mean(&self) {
+        let n = self.rms.len() as f64;
         println!(
             "  {:<16} RMS {:6.2} N·m  R² {:.3}",
             "mean",
-            rms_sum / n,
-            r2_sum / n
+            self.rms.iter().sum::<f64>() / n,
+            self.r2.iter().sum::<f64>() / n
         );
     }
-    Ok(())
 }
