@@ -327,3 +327,47 @@ fn muscle_analysis_geometry_replaces_the_polynomial() {
     assert!(rms(&poly, &series) < 0.05, "{}", rms(&poly, &series));
     assert!(rms(&poly, &flipped) > 10.0, "{}", rms(&poly, &flipped));
 }
+
+#[test]
+fn an_identify_json_is_a_params_file_for_a_single_trial_too() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    ok(&surae(
+        &[
+            "identify", "--method", "sa", "--chains", "1", "--out", "fit", "--quiet",
+        ],
+        d,
+    ));
+    let fit = json(&d.join("fit/identify.json"));
+    // the same values as a parameters JSON
+    let mut muscles = serde_json::Map::new();
+    for (name, v) in fit["params"].as_object().unwrap() {
+        let (m, field) = name.split_once('.').unwrap();
+        muscles
+            .entry(m.to_string())
+            .or_insert_with(|| serde_json::json!({}))[field] = v.clone();
+    }
+    std::fs::write(
+        d.join("p.json"),
+        serde_json::json!({ "muscles": muscles }).to_string(),
+    )
+    .unwrap();
+    ok(&surae(
+        &[
+            "simulate",
+            "--params",
+            "fit/identify.json",
+            "--out",
+            "a.csv",
+        ],
+        d,
+    ));
+    ok(&surae(
+        &["simulate", "--params", "p.json", "--out", "b.csv"],
+        d,
+    ));
+    ok(&surae(&["simulate", "--out", "nominal.csv"], d));
+    let read = |f: &str| std::fs::read_to_string(d.join(f)).unwrap();
+    assert_eq!(read("a.csv"), read("b.csv"));
+    assert_ne!(read("a.csv"), read("nominal.csv"));
+}

@@ -102,8 +102,10 @@ pub fn out_file(out: Option<&Path>, command: &str, default_file: &str) -> PathBu
 /// Model options shared by the commands that simulate.
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct ModelArgs {
-    /// Parameters JSON (docs/formats.md; any subset, the rest is nominal), or an OpenSim
-    /// model (`.osim`) whose soleus and gastrocnemii give F0, LOM, LST, α0 and vmax.
+    /// Parameters JSON (docs/formats.md; any subset, the rest is nominal), an OpenSim model
+    /// (`.osim`) whose soleus and gastrocnemii give F0, LOM, LST, α0 and vmax, a CEINMS
+    /// subject XML, or an `identify.json` whose identified values are set over the nominal
+    /// ones.
     #[arg(long)]
     pub params: Option<PathBuf>,
     /// With an `.osim` `--params`: the model's names of sol, gm and gl when they are not
@@ -171,8 +173,9 @@ pub fn read_json(path: &Path) -> CmdResult<serde_json::Value> {
     })
 }
 
-/// Reads `--params` and `--effects` (nominal / none when absent); also returns
-/// the paths read, so outputs never overwrite them.
+/// Reads `--params` (any file [`session::load_params_file`] takes) and `--effects` (nominal /
+/// none when absent; an `identify.json`'s effects when it carries them and no `--effects` is
+/// given); also returns the paths read, so outputs never overwrite them.
 pub fn load_model_config(
     args: &ModelArgs,
 ) -> CmdResult<(
@@ -182,37 +185,29 @@ pub fn load_model_config(
 )> {
     let mut read = Vec::new();
     let names = osim_names(args)?;
-    let params = match &args.params {
-        Some(p) if is_osim(p) => {
-            let text = read_text(p)?;
-            read.push(p.clone());
-            opensim_files::osim_params(
-                &text,
-                &p.display().to_string(),
-                &names,
-                &muscle_model::ModelParams::nominal(),
-            )
-            .map_err(Failure::bad)?
-        }
+    let nominal = muscle_model::ModelParams::nominal();
+    let (params, effects_of_params) = match &args.params {
         Some(p) => {
-            let value = read_json(p)?;
             read.push(p.clone());
-            muscle_model::ModelParams::nominal()
-                .merged_json(&value)
-                .map_err(|e| Failure::bad(format!("{}: {e}", p.display())))?
+            session::load_params_file(p, &names, &[], &nominal)?
         }
-        None => muscle_model::ModelParams::nominal(),
+        None => (nominal, None),
     };
     let effects = match &args.effects {
         Some(p) => {
-            let value = read_json(p)?;
             read.push(p.clone());
-            muscle_model::Effects::from_json(&value)
-                .map_err(|e| Failure::bad(format!("{}: {e}", p.display())))?
+            read_effects(p)?
         }
-        None => muscle_model::Effects::none(),
+        None => effects_of_params.unwrap_or_else(muscle_model::Effects::none),
     };
     Ok((params, effects, read))
+}
+
+/// An effects JSON file (docs/formats.md).
+pub fn read_effects(path: &Path) -> CmdResult<muscle_model::Effects> {
+    let value = read_json(path)?;
+    muscle_model::Effects::from_json(&value)
+        .map_err(|e| Failure::bad(format!("{}: {e}", path.display())))
 }
 
 /// Whether `path` names an OpenSim model (`.osim`).

@@ -265,8 +265,7 @@ pub fn load_session(
     let effects = match effects_path {
         Some(p) => {
             read.push(p.clone());
-            let v = read_json(p)?;
-            Effects::from_json(&v).map_err(|e| Failure::bad(format!("{}: {e}", p.display())))?
+            super::read_effects(p)?
         }
         None => effects_from_params.unwrap_or_else(Effects::none),
     };
