@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{ErrorKind, ExperimentError, Result};
 use crate::files::Unloaded;
-use crate::protocol::{Protocol, ProtocolTrace};
+use crate::protocol::{MotionSettings, Protocol, ProtocolTrace};
 use crate::seeds::{rng, Stream};
 
 /// Parameters of the dynamometer error. `Default` is the nominal error of docs/formats.md, "Synthetic trials".
@@ -243,7 +243,20 @@ pub fn dynamometer_error(
 /// # Errors
 /// Invalid settings.
 pub fn unloaded_run(s: &DynamometerSettings, seed: u64) -> Result<Unloaded> {
-    let trace = Protocol::unloaded().trace()?;
+    unloaded_run_with(s, seed, &MotionSettings::default())
+}
+
+/// [`unloaded_run`] with the motion of a trial at another speed (the unloaded run of a session
+/// trial is recorded at that trial's speed, so its transients are those of the trial).
+///
+/// # Errors
+/// Invalid settings.
+pub fn unloaded_run_with(
+    s: &DynamometerSettings,
+    seed: u64,
+    motion: &MotionSettings,
+) -> Result<Unloaded> {
+    let trace = Protocol::unloaded().trace_with(motion)?;
     let mut torque = dynamometer_error(&trace, s, seed, Recording::Unloaded)?;
     quantise_in_place(&mut torque, s);
     Ok(Unloaded {

@@ -70,7 +70,8 @@ pub use correction::{
 };
 pub use dynamometer::{
     dynamometer_error, quantise, quantise_in_place, random_error, random_error_with,
-    systematic_error, systematic_error_at, unloaded_run, DynamometerSettings, Recording,
+    systematic_error, systematic_error_at, unloaded_run, unloaded_run_with, DynamometerSettings,
+    Recording,
 };
 pub use emg::{
     gastrocnemius_drive_factor, synthetic_emg, synthetic_emg_at_knee, EmgChannel, EmgMuscle,
@@ -88,6 +89,7 @@ pub use model_inputs::{
 };
 pub use protocol::{
     Events, MotionPhase, MotionSettings, Protocol, ProtocolTrace, Segment, SynthProtocol,
+    NOMINAL_SPEED_DEG_S, SPEED_RANGE_DEG_S,
 };
 pub use seeds::{rng, Stream};
 pub use synth::{random_params, round_decimals, sorted_json, synthesize, SynthConfig, Synthetic};

@@ -394,18 +394,55 @@ impl ProtocolTrace {
     }
 }
 
-/// The protocol of a synthetic trial: a motion ([`Protocol`]) with the knee held at a constant
-/// flexion (degrees; 0 extended).
+/// Slowest and fastest cruise speed a protocol may ask for (°/s): isokinetic dynamometers
+/// run from a few degrees per second up to several hundred.
+pub const SPEED_RANGE_DEG_S: (f64, f64) = (5.0, 300.0);
+
+/// The nominal cruise speed (°/s) of [`MotionSettings::default`].
+pub const NOMINAL_SPEED_DEG_S: f64 = 30.0;
+
+/// The protocol of a synthetic trial: a motion ([`Protocol`]) at a cruise speed with the knee
+/// held at a constant flexion (degrees; 0 extended).
 ///
-/// Written `<protocol>` for the extended knee, `knee<DEG>` for the seed motion with the knee
-/// flexed by `DEG` (`knee90`), and `<protocol>@knee<DEG>` otherwise (`relaxed+2@knee90`);
-/// `seed@knee<DEG>` is also read.
+/// Two spellings are read:
+/// - `<motion>[@knee<DEG>][@<SPEED>]`, e.g. `seed`, `relaxed+2@knee90`, `seed@knee0@60`;
+/// - the protocol-design shorthand `knee<DEG>[@<SPEED>][x<N>]`: the seed motion (`N` = 1) or
+///   `N` maximal cycles back to back (`cycles+N`), e.g. `knee90`, `knee0@60`, `knee0@30x3`.
+///
+/// `SPEED` is the cruise speed in °/s (default 30). A protocol is written back in the shortest
+/// form that reads as itself (`knee90`, `knee0@60`, `relaxed+2@knee90`, `seed`).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SynthProtocol {
     /// The motion and when the subject pushes.
     pub protocol: Protocol,
     /// Knee flexion throughout the trial (degrees; 0 extended, > 0 flexed).
     pub knee_angle_deg: f64,
+    /// Cruise speed of the sweeps (°/s; [`NOMINAL_SPEED_DEG_S`] unless said).
+    #[serde(default = "nominal_speed")]
+    pub speed_deg_s: f64,
+}
+
+fn nominal_speed() -> f64 {
+    NOMINAL_SPEED_DEG_S
+}
+
+impl SynthProtocol {
+    /// The motion settings of this protocol: [`MotionSettings::default`] at its speed.
+    #[must_use]
+    pub fn motion(&self) -> MotionSettings {
+        MotionSettings {
+            speed_deg_s: self.speed_deg_s,
+            ..MotionSettings::default()
+        }
+    }
+
+    /// The trial's motion sampled at 2048 Hz ([`Protocol::trace_with`] at this speed).
+    ///
+    /// # Errors
+    /// An invalid speed or cycle count.
+    pub fn trace(&self) -> Result<ProtocolTrace> {
+        self.protocol.trace_with(&self.motion())
+    }
 }
 
 impl From<Protocol> for SynthProtocol {
@@ -413,6 +450,7 @@ impl From<Protocol> for SynthProtocol {
         Self {
             protocol,
             knee_angle_deg: 0.0,
+            speed_deg_s: NOMINAL_SPEED_DEG_S,
         }
     }
 }
@@ -420,10 +458,18 @@ impl From<Protocol> for SynthProtocol {
 impl fmt::Display for SynthProtocol {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let k = self.knee_angle_deg;
+        let v = self.speed_deg_s;
+        if v == NOMINAL_SPEED_DEG_S {
+            return match self.protocol {
+                _ if k == 0.0 => write!(f, "{}", self.protocol),
+                Protocol::Seed => write!(f, "knee{k}"),
+                p => write!(f, "{p}@knee{k}"),
+            };
+        }
         match self.protocol {
-            _ if k == 0.0 => write!(f, "{}", self.protocol),
-            Protocol::Seed => write!(f, "knee{k}"),
-            p => write!(f, "{p}@knee{k}"),
+            Protocol::Seed => write!(f, "knee{k}@{v}"),
+            Protocol::Cycles { cycles } => write!(f, "knee{k}@{v}x{cycles}"),
+            p => write!(f, "{p}@knee{k}@{v}"),
         }
     }
 }
@@ -432,21 +478,88 @@ impl FromStr for SynthProtocol {
     type Err = ExperimentError;
     fn from_str(s: &str) -> Result<Self> {
         let s = s.trim();
-        let (motion, knee) = match s.split_once('@') {
-            Some((m, k)) => (m.trim(), Some(k.trim())),
-            None if s.starts_with("knee") => ("seed", Some(s)),
-            None => (s, None),
+        let bad = |reason: String| {
+            ExperimentError::invalid("protocol", ErrorKind::InvalidProtocol, reason)
         };
-        let protocol: Protocol = motion.parse()?;
-        let knee_angle_deg = match knee {
-            None => 0.0,
-            Some(k) => parse_knee(k, s)?,
+        let mut parts = s.split('@').map(str::trim);
+        let first = parts.next().unwrap_or("");
+        let rest: Vec<&str> = parts.collect();
+        let mut knee = None;
+        let mut speed = None;
+        let protocol = if first.starts_with("knee") {
+            // Shorthand: knee<DEG>[@<SPEED>][x<N>], the x<N> on the last part.
+            if rest.len() > 1 {
+                return Err(bad(format!(
+                    "'{s}': the shorthand is 'knee<degrees>[@<speed>][x<cycles>]', e.g. 'knee0@30x3'"
+                )));
+            }
+            let last = rest.first().copied().unwrap_or(first);
+            let (body, cycles) = match last.split_once('x') {
+                Some((b, n)) => {
+                    let n: usize = n.trim().parse().map_err(|_| {
+                        bad(format!(
+                            "'{s}': the number of cycles after 'x' must be a whole number"
+                        ))
+                    })?;
+                    if !(1..=MAX_CYCLES).contains(&n) {
+                        return Err(bad(format!(
+                            "'{s}': the number of cycles must be 1..={MAX_CYCLES}"
+                        )));
+                    }
+                    (b.trim(), n)
+                }
+                None => (last, 1),
+            };
+            if rest.is_empty() {
+                knee = Some(parse_knee(body, s)?);
+            } else {
+                knee = Some(parse_knee(first, s)?);
+                speed = Some(parse_speed(body, s)?);
+            }
+            if cycles == 1 {
+                Protocol::Seed
+            } else {
+                Protocol::Cycles { cycles }
+            }
+        } else {
+            let protocol: Protocol = first.parse()?;
+            for part in rest {
+                if part.starts_with("knee") && knee.is_none() {
+                    knee = Some(parse_knee(part, s)?);
+                } else if !part.starts_with("knee") && speed.is_none() {
+                    speed = Some(parse_speed(part, s)?);
+                } else {
+                    return Err(bad(format!(
+                        "'{s}': expected '<motion>[@knee<degrees>][@<speed>]', e.g. 'seed@knee90@60'"
+                    )));
+                }
+            }
+            protocol
         };
         Ok(Self {
             protocol,
-            knee_angle_deg,
+            knee_angle_deg: knee.unwrap_or(0.0),
+            speed_deg_s: speed.unwrap_or(NOMINAL_SPEED_DEG_S),
         })
     }
+}
+
+/// `<SPEED>` → a cruise speed in °/s within [`SPEED_RANGE_DEG_S`].
+fn parse_speed(v: &str, whole: &str) -> Result<f64> {
+    let bad =
+        |reason: String| ExperimentError::invalid("protocol", ErrorKind::InvalidProtocol, reason);
+    let speed: f64 = v.trim().parse().map_err(|_| {
+        bad(format!(
+            "'{whole}': '{v}' is not a speed; the speed is written in degrees per second after '@', e.g. 'knee0@60'"
+        ))
+    })?;
+    let (lo, hi) = SPEED_RANGE_DEG_S;
+    if !(speed.is_finite() && (lo..=hi).contains(&speed)) {
+        return Err(bad(format!(
+            "'{whole}': the speed must be within [{lo}, {hi}] °/s"
+        )));
+    }
+    Ok(speed)
 }
 
 /// `knee<DEG>` → DEG, a finite angle inside the knee's range.

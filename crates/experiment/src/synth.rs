@@ -18,7 +18,8 @@
 //! 5. simulate the true parameters and effects ([`muscle_model::simulate()`]);
 //! 6. add the dynamometer error ([`dynamometer_error`], [`Recording::Trial`] streams of the
 //!    seed) and quantise with the 12-bit ADC: the trial's torque;
-//! 7. the unloaded run: [`unloaded_run`] with the same seed (independent noise streams).
+//! 7. the unloaded run: [`crate::unloaded_run`] at the trial's speed ([`unloaded_run_with`]) with
+//!    the same seed (independent noise streams).
 //!
 //! Everything is sequential and seeded: the result depends only on the configuration.
 //!
@@ -43,13 +44,13 @@ use rand::Rng;
 use serde_json::{json, Map, Value};
 
 use crate::dynamometer::{
-    dynamometer_error, quantise_in_place, unloaded_run, DynamometerSettings, Recording,
+    dynamometer_error, quantise_in_place, unloaded_run_with, DynamometerSettings, Recording,
 };
 use crate::emg::{synthetic_emg_at_knee, EmgSettings};
 use crate::error::{ErrorKind, ExperimentError, Result};
 use crate::files::{Trial, Unloaded};
 use crate::model_inputs::{model_inputs, InputOptions};
-use crate::protocol::{Protocol, SynthProtocol};
+use crate::protocol::{Protocol, SynthProtocol, NOMINAL_SPEED_DEG_S};
 
 /// Decimals of the raw EMG columns written by the synthesis (1e-4 in the EMG unit).
 pub const DEFAULT_EMG_DECIMALS: u32 = 4;
@@ -65,6 +66,8 @@ pub struct SynthConfig {
     /// a `knee_angle_deg` column and the gastrocnemii's drive is lowered
     /// ([`crate::gastrocnemius_drive_factor`]).
     pub knee_angle_deg: f64,
+    /// Cruise speed of the sweeps (°/s; 30 nominal). The unloaded run moves at the same speed.
+    pub speed_deg_s: f64,
     /// The true model parameters. Besides sol, gm and gl they may hold one fixed muscle, `ta`
     /// (with its length polynomial), driven by the synthetic `emg_ta`.
     pub params: ModelParams,
@@ -93,6 +96,7 @@ impl SynthConfig {
         Self {
             protocol,
             knee_angle_deg: 0.0,
+            speed_deg_s: NOMINAL_SPEED_DEG_S,
             params: ModelParams::nominal(),
             effects: Effects::none(),
             dynamometer: DynamometerSettings::default(),
@@ -104,10 +108,14 @@ impl SynthConfig {
         }
     }
 
-    /// A configuration for a protocol with its knee angle (otherwise as [`SynthConfig::new`]).
+    /// A configuration for a protocol with its knee angle and speed (otherwise as
+    /// [`SynthConfig::new`]).
     #[must_use]
     pub fn for_protocol(protocol: SynthProtocol, seed: u64) -> Self {
-        Self::new(protocol.protocol, seed).with_knee_angle_deg(protocol.knee_angle_deg)
+        let mut cfg =
+            Self::new(protocol.protocol, seed).with_knee_angle_deg(protocol.knee_angle_deg);
+        cfg.speed_deg_s = protocol.speed_deg_s;
+        cfg
     }
 
     /// The same configuration with the knee flexed by `deg` degrees throughout.
@@ -118,12 +126,13 @@ impl SynthConfig {
     }
 
     /// The protocol with its knee angle (`knee90`, `relaxed+2@knee90`, or the bare protocol for
-    /// the extended knee).
+    /// the extended knee; `knee0@60` at another speed).
     #[must_use]
     pub fn synth_protocol(&self) -> SynthProtocol {
         SynthProtocol {
             protocol: self.protocol,
             knee_angle_deg: self.knee_angle_deg,
+            speed_deg_s: self.speed_deg_s,
         }
     }
 
@@ -156,7 +165,8 @@ impl SynthConfig {
     /// `{"angle_decimals", "dynamometer", "effects", "emg", "emg_decimals", "params",
     /// "protocol", "seed", "sim"}` with `params` the full parameters JSON and
     /// `effects` the effects JSON (both in docs/formats.md); `"knee_angle_deg"` too when the
-    /// knee is flexed (absent for the extended knee).
+    /// knee is flexed (absent for the extended knee), and `"speed_deg_s"` when the speed is not
+    /// the nominal 30 °/s.
     #[must_use]
     pub fn truth_json(&self) -> Value {
         let mut v = json!({
@@ -173,6 +183,11 @@ impl SynthConfig {
         if self.knee_angle_deg != 0.0 {
             if let Value::Object(m) = &mut v {
                 m.insert("knee_angle_deg".into(), json!(self.knee_angle_deg));
+            }
+        }
+        if self.speed_deg_s != NOMINAL_SPEED_DEG_S {
+            if let Value::Object(m) = &mut v {
+                m.insert("speed_deg_s".into(), json!(self.speed_deg_s));
             }
         }
         sorted_json(&v)
@@ -225,7 +240,7 @@ pub fn synthesize(cfg: &SynthConfig) -> Result<Synthetic> {
         ));
     }
     check_fixed_muscles(&cfg.params)?;
-    let trace = cfg.protocol.trace()?;
+    let trace = cfg.synth_protocol().trace()?;
     let emg = synthetic_emg_at_knee(&trace, &cfg.effective_emg(), cfg.seed, cfg.knee_angle_deg)?;
     let mut emg = emg;
     for ch in &mut emg.channels {
@@ -256,7 +271,8 @@ pub fn synthesize(cfg: &SynthConfig) -> Result<Synthetic> {
     quantise_in_place(&mut torque, &cfg.dynamometer);
     trial.torque_nm = torque;
     trial.validate("<synthetic trial>")?;
-    let mut unloaded = unloaded_run(&cfg.dynamometer, cfg.seed)?;
+    let mut unloaded =
+        unloaded_run_with(&cfg.dynamometer, cfg.seed, &cfg.synth_protocol().motion())?;
     for a in &mut unloaded.ankle_angle_deg {
         *a = round_decimals(*a, cfg.angle_decimals);
     }

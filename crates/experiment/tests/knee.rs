@@ -93,6 +93,15 @@ fn knee_protocol_strings_read_and_write_back() {
         ),
         ("seed", "seed", Protocol::Seed, 0.0),
         ("knee0", "seed", Protocol::Seed, 0.0),
+        ("knee0@30", "seed", Protocol::Seed, 0.0),
+        ("knee0x3", "cycles+3", Protocol::Cycles { cycles: 3 }, 0.0),
+        (
+            "knee0@30x3",
+            "cycles+3",
+            Protocol::Cycles { cycles: 3 },
+            0.0,
+        ),
+        ("knee90@30", "knee90", Protocol::Seed, 90.0),
     ] {
         let p: SynthProtocol = text.parse().unwrap();
         assert_eq!((p.protocol, p.knee_angle_deg), (protocol, knee), "{text}");
@@ -103,7 +112,13 @@ fn knee_protocol_strings_read_and_write_back() {
         "knee",
         "kneeabc",
         "knee200",
-        "seed@90",
+        "seed@knee90@knee30",
+        "seed@60@90",
+        "knee0@1000",
+        "knee0@2",
+        "knee0@fast",
+        "knee0@30x0",
+        "knee0@30@60",
         "walk@knee90",
         "knee-40",
     ] {
@@ -251,4 +266,62 @@ fn the_knee90_fixture_is_consistent() {
     let rms = (r.iter().map(|x| x * x).sum::<f64>() / n).sqrt();
     assert!((-3.0..0.0).contains(&mean), "mean residual {mean} N·m");
     assert!(rms < 4.0, "residual RMS {rms} N·m");
+}
+
+#[test]
+fn protocol_speeds_parse_print_and_move_the_trial_and_its_unloaded_run() {
+    for (text, shown, protocol, knee, speed) in [
+        ("knee0@60", "knee0@60", Protocol::Seed, 0.0, 60.0),
+        ("seed@60", "knee0@60", Protocol::Seed, 0.0, 60.0),
+        ("seed@knee90@60", "knee90@60", Protocol::Seed, 90.0, 60.0),
+        (
+            "knee90@120x2",
+            "knee90@120x2",
+            Protocol::Cycles { cycles: 2 },
+            90.0,
+            120.0,
+        ),
+        (
+            "relaxed+2@knee45@60",
+            "relaxed+2@knee45@60",
+            Protocol::Relaxed { cycles: 2 },
+            45.0,
+            60.0,
+        ),
+    ] {
+        let p: SynthProtocol = text.parse().unwrap();
+        assert_eq!(
+            (p.protocol, p.knee_angle_deg, p.speed_deg_s),
+            (protocol, knee, speed),
+            "{text}"
+        );
+        assert_eq!(p.to_string(), shown, "{text}");
+        assert_eq!(shown.parse::<SynthProtocol>().unwrap(), p, "{text}");
+    }
+    // At 60 °/s the sweeps take half as long; the unloaded run follows the trial's speed.
+    let slow = synthesize(&SynthConfig::for_protocol("knee0@30".parse().unwrap(), 5)).unwrap();
+    let fast = synthesize(&SynthConfig::for_protocol("knee0@60".parse().unwrap(), 5)).unwrap();
+    let sweep = |t: &[f64], a: &[f64]| {
+        let moving: Vec<f64> = t
+            .iter()
+            .zip(a.windows(2))
+            .filter(|(_, w)| w[0] != w[1])
+            .map(|(t, _)| *t)
+            .collect();
+        moving.last().unwrap() - moving.first().unwrap()
+    };
+    let (ts, tf) = (
+        sweep(&slow.trial.time_s, &slow.trial.ankle_angle_deg),
+        sweep(&fast.trial.time_s, &fast.trial.ankle_angle_deg),
+    );
+    // 2 × (35° / v + 0.05 s ramp): 2.433 s at 30 °/s, 1.267 s at 60 °/s.
+    assert!((ts - 2.0 * (35.0 / 30.0 + 0.05)).abs() < 0.01, "{ts}");
+    assert!((tf - 2.0 * (35.0 / 60.0 + 0.05)).abs() < 0.01, "{tf}");
+    let (us, uf) = (
+        sweep(&slow.unloaded.time_s, &slow.unloaded.ankle_angle_deg),
+        sweep(&fast.unloaded.time_s, &fast.unloaded.ankle_angle_deg),
+    );
+    assert!(uf < 0.6 * us, "{uf} {us}");
+    assert_eq!(fast.truth_json["speed_deg_s"], 60.0);
+    assert!(slow.truth_json.get("speed_deg_s").is_none());
 }
