@@ -59,6 +59,7 @@ pub mod model_inputs;
 pub mod protocol;
 pub mod seeds;
 pub mod synth;
+pub mod synth_session;
 pub mod transient;
 
 pub use ceinms::{
@@ -85,12 +86,16 @@ pub use files::{
     write_f64, write_trial, write_unloaded, ReadOptions, Trial, Unloaded,
 };
 pub use model_inputs::{
-    model_inputs, model_inputs_named, InputOptions, KNEE_AGREEMENT_DEG, KNEE_RANGE_DEG,
+    envelope_peaks, model_inputs, model_inputs_named, model_inputs_referenced, EmgReferences,
+    InputOptions, KNEE_AGREEMENT_DEG, KNEE_RANGE_DEG,
 };
 pub use protocol::{
     Events, MotionPhase, MotionSettings, Protocol, ProtocolTrace, Segment, SynthProtocol,
     NOMINAL_SPEED_DEG_S, SPEED_RANGE_DEG_S,
 };
 pub use seeds::{rng, Stream};
-pub use synth::{random_params, round_decimals, sorted_json, synthesize, SynthConfig, Synthetic};
+pub use synth::{
+    random_params, round_decimals, sorted_json, synthesize, synthesize_referenced,
+    synthetic_recording, SynthConfig, Synthetic,
+};
 pub use transient::{Transient, TRANSIENT_MIN_EVIDENCE};

@@ -99,11 +99,11 @@ impl ColumnRef<'_> {
     }
 }
 
-/// One channel → normalised envelope; `mvc` its MVC reference, if any.
-fn channel_envelope(
+/// One channel → its envelope before normalisation (the filters, or the column itself when
+/// it already holds an envelope), after the checks every channel gets.
+fn raw_envelope(
     raw: &[f64],
     col: &ColumnRef<'_>,
-    mvc: Option<f64>,
     filter: Option<&EnvelopeFilter>,
 ) -> Result<Vec<f64>> {
     if let Some(i) = raw.iter().position(|x| !x.is_finite()) {
@@ -120,7 +120,7 @@ fn channel_envelope(
     }
     match filter {
         Some(f) => {
-            let mut env = f.envelope(raw).map_err(|e| col.signal_error(&e))?;
+            let env = f.envelope(raw).map_err(|e| col.signal_error(&e))?;
             // A constant (DC-only) or slowly drifting channel has nothing in the
             // 10–350 Hz band: normalising its numerical noise would fake activity.
             let raw_amp = raw.iter().fold(0.0f64, |a, x| a.max(x.abs()));
@@ -132,26 +132,176 @@ fn channel_envelope(
                         .into(),
                 ));
             }
-            let reference = mvc.map_or(Normalisation::TrialMax, Normalisation::Mvc);
-            normalise(&mut env, reference).map_err(|e| col.signal_error(&e))?;
             Ok(env)
         }
-        None => {
-            let mut env = raw.to_vec();
-            match mvc {
-                Some(v) => {
-                    normalise(&mut env, Normalisation::Mvc(v)).map_err(|e| col.signal_error(&e))?;
+        None => Ok(raw.to_vec()),
+    }
+}
+
+/// One channel → normalised envelope; `mvc` its reference (an MVC value or the session's
+/// largest envelope), if any, else the trial maximum.
+fn channel_envelope(
+    raw: &[f64],
+    col: &ColumnRef<'_>,
+    mvc: Option<f64>,
+    filter: Option<&EnvelopeFilter>,
+) -> Result<Vec<f64>> {
+    let mut env = raw_envelope(raw, col, filter)?;
+    if filter.is_some() {
+        let reference = mvc.map_or(Normalisation::TrialMax, Normalisation::Mvc);
+        normalise(&mut env, reference).map_err(|e| col.signal_error(&e))?;
+        return Ok(env);
+    }
+    match mvc {
+        Some(v) => {
+            normalise(&mut env, Normalisation::Mvc(v)).map_err(|e| col.signal_error(&e))?;
+        }
+        None => env.iter_mut().for_each(|x| *x = x.clamp(0.0, 1.0)),
+    }
+    if env.iter().all(|&x| x == 0.0) {
+        return Err(col.error(
+            ErrorKind::ZeroChannel,
+            "envelope is zero everywhere after clamping to [0, 1]".into(),
+        ));
+    }
+    Ok(env)
+}
+
+/// Normalisation references of EMG channels by name (`sol`, `gm`, `gl`, `ta`, or a further
+/// channel's `<name>`): the value each channel's envelope is divided by.
+///
+/// A session normalises every trial's channel by one reference, so that a weaker trial stays
+/// weaker: the largest envelope of that channel over the session's MVC trials when it has
+/// them, else over all its trials ([`EmgReferences::largest`] of [`envelope_peaks`]). Per-trial
+/// normalisation would scale every trial's peak to 1 and erase, for instance, the lower
+/// gastrocnemius drive of a flexed knee.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct EmgReferences {
+    by_channel: std::collections::BTreeMap<String, f64>,
+}
+
+impl EmgReferences {
+    /// The reference of one channel, if any.
+    #[must_use]
+    pub fn get(&self, channel: &str) -> Option<f64> {
+        self.by_channel.get(channel).copied()
+    }
+
+    /// Sets one channel's reference.
+    pub fn set(&mut self, channel: &str, value: f64) {
+        self.by_channel.insert(channel.to_string(), value);
+    }
+
+    /// The channels and their references, by name.
+    pub fn iter(&self) -> impl Iterator<Item = (&str, f64)> {
+        self.by_channel.iter().map(|(k, v)| (k.as_str(), *v))
+    }
+
+    /// True when no channel has a reference.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.by_channel.is_empty()
+    }
+
+    /// Per channel, the largest reference over `sets` (a channel present in any set).
+    #[must_use]
+    pub fn largest<'a>(sets: impl IntoIterator<Item = &'a EmgReferences>) -> Self {
+        let mut out = Self::default();
+        for s in sets {
+            for (k, v) in s.iter() {
+                let e = out.by_channel.entry(k.to_string()).or_insert(v);
+                if v > *e {
+                    *e = v;
                 }
-                None => env.iter_mut().for_each(|x| *x = x.clamp(0.0, 1.0)),
             }
-            if env.iter().all(|&x| x == 0.0) {
-                return Err(col.error(
-                    ErrorKind::ZeroChannel,
-                    "envelope is zero everywhere after clamping to [0, 1]".into(),
-                ));
-            }
-            Ok(env)
         }
+        out
+    }
+}
+
+/// The largest envelope of each of the trial's EMG channels before normalisation (the value
+/// [`model_inputs`] divides by without a reference). With
+/// [`InputOptions::emg_is_envelope`] the columns' own maxima.
+///
+/// # Errors
+/// As [`model_inputs`] for the EMG columns.
+pub fn envelope_peaks(trial: &Trial, opts: &InputOptions, path: &str) -> Result<EmgReferences> {
+    let filter = envelope_filter(trial, opts, path)?;
+    let mut out = EmgReferences::default();
+    for (col, raw) in emg_columns(trial, path) {
+        let env = raw_envelope(raw, &col, filter.as_ref())?;
+        let max = env.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let name = col.name.strip_prefix(EMG_PREFIX).unwrap_or(&col.name);
+        out.set(name, max);
+    }
+    Ok(out)
+}
+
+/// The EMG filter of a trial (none when the columns hold envelopes).
+fn envelope_filter(
+    trial: &Trial,
+    opts: &InputOptions,
+    path: &str,
+) -> Result<Option<EnvelopeFilter>> {
+    let n = trial.len();
+    if n < 2 {
+        return Err(ExperimentError::File {
+            path: path.to_string(),
+            kind: ErrorKind::TooShort,
+            reason: format!("{n} samples: at least 2 are needed"),
+        });
+    }
+    if opts.emg_is_envelope {
+        return Ok(None);
+    }
+    let fs = trial.sample_rate_hz();
+    EnvelopeFilter::new(fs, &EnvelopeSettings::default())
+        .map(Some)
+        .map_err(|e| ExperimentError::File {
+            path: path.to_string(),
+            kind: ErrorKind::InvalidSettings,
+            reason: format!("cannot design the EMG filters at {fs} Hz: {e}"),
+        })
+}
+
+/// The trial's EMG columns with the names and 1-based indices errors use (the canonical
+/// column order: `emg_sol` 4, `emg_gm` 5, `emg_gl` 6, `emg_ta` 7, then the further channels).
+fn emg_columns<'a>(trial: &'a Trial, path: &'a str) -> Vec<(ColumnRef<'a>, &'a [f64])> {
+    let mut out = Vec::with_capacity(4 + trial.emg_other.len());
+    for (m, raw) in [
+        (EmgMuscle::Sol, &trial.emg_sol),
+        (EmgMuscle::Gm, &trial.emg_gm),
+        (EmgMuscle::Gl, &trial.emg_gl),
+    ] {
+        out.push((muscle_column(m, path), raw.as_slice()));
+    }
+    if let Some(raw) = &trial.emg_ta {
+        out.push((muscle_column(EmgMuscle::Ta, path), raw.as_slice()));
+    }
+    let ta_cols = usize::from(trial.emg_ta.is_some());
+    for (i, (name, raw)) in trial.emg_other.iter().enumerate() {
+        out.push((
+            ColumnRef {
+                path,
+                column: 7 + ta_cols + i,
+                name: format!("{EMG_PREFIX}{name}"),
+            },
+            raw.as_slice(),
+        ));
+    }
+    out
+}
+
+fn muscle_column(m: EmgMuscle, path: &str) -> ColumnRef<'_> {
+    ColumnRef {
+        path,
+        column: match m {
+            EmgMuscle::Sol => 4,
+            EmgMuscle::Gm => 5,
+            EmgMuscle::Gl => 6,
+            EmgMuscle::Ta => 7,
+        },
+        name: m.column().to_string(),
     }
 }
 
@@ -175,67 +325,48 @@ pub fn model_inputs(trial: &Trial, opts: &InputOptions) -> Result<TrialInputs> {
 /// # Errors
 /// As [`model_inputs`].
 pub fn model_inputs_named(trial: &Trial, opts: &InputOptions, path: &str) -> Result<TrialInputs> {
-    let n = trial.len();
-    if n < 2 {
-        return Err(ExperimentError::File {
-            path: path.to_string(),
-            kind: ErrorKind::TooShort,
-            reason: format!("{n} samples: at least 2 are needed"),
-        });
-    }
+    model_inputs_referenced(trial, opts, &EmgReferences::default(), path)
+}
+
+/// [`model_inputs_named`] with normalisation references: a channel with a reference in
+/// `refs` is divided by it (in place of its MVC option or its trial maximum), then clamped to
+/// `[0, 1]`. A reference equal to the trial's own maximum gives exactly [`model_inputs`]'s
+/// envelopes.
+///
+/// # Errors
+/// As [`model_inputs`]; a reference that is not finite and > 0.
+pub fn model_inputs_referenced(
+    trial: &Trial,
+    opts: &InputOptions,
+    refs: &EmgReferences,
+    path: &str,
+) -> Result<TrialInputs> {
+    let filter = envelope_filter(trial, opts, path)?;
     let fs = trial.sample_rate_hz();
-    let filter = if opts.emg_is_envelope {
-        None
-    } else {
-        Some(
-            EnvelopeFilter::new(fs, &EnvelopeSettings::default()).map_err(|e| {
-                ExperimentError::File {
-                    path: path.to_string(),
-                    kind: ErrorKind::InvalidSettings,
-                    reason: format!("cannot design the EMG filters at {fs} Hz: {e}"),
-                }
-            })?,
-        )
-    };
-    // 1-based indices in the canonical column order: the six required columns, then
-    // emg_ta, the further EMG channels and knee_angle_deg, each when present
-    let ta_cols = usize::from(trial.emg_ta.is_some());
-    let emg_ref = |m: EmgMuscle| ColumnRef {
-        path,
-        column: match m {
-            EmgMuscle::Sol => 4,
-            EmgMuscle::Gm => 5,
-            EmgMuscle::Gl => 6,
-            EmgMuscle::Ta => 7,
-        },
-        name: m.column().to_string(),
-    };
     let mut env: [Vec<f64>; 3] = Default::default();
-    for (slot, (m, raw)) in env.iter_mut().zip([
-        (EmgMuscle::Sol, &trial.emg_sol),
-        (EmgMuscle::Gm, &trial.emg_gm),
-        (EmgMuscle::Gl, &trial.emg_gl),
-    ]) {
-        *slot = channel_envelope(raw, &emg_ref(m), opts.mvc_of(m), filter.as_ref())?;
-    }
-    let env_ta = match &trial.emg_ta {
-        Some(raw) => Some(channel_envelope(
-            raw,
-            &emg_ref(EmgMuscle::Ta),
-            opts.mvc_of(EmgMuscle::Ta),
-            filter.as_ref(),
-        )?),
-        None => None,
-    };
+    let mut env_ta = None;
     let mut others = Vec::with_capacity(trial.emg_other.len());
-    for (i, (name, raw)) in trial.emg_other.iter().enumerate() {
-        let col = ColumnRef {
-            path,
-            column: 7 + ta_cols + i,
-            name: format!("{EMG_PREFIX}{name}"),
-        };
-        others.push((name, channel_envelope(raw, &col, None, filter.as_ref())?));
+    for (i, (col, raw)) in emg_columns(trial, path).into_iter().enumerate() {
+        let name = col
+            .name
+            .strip_prefix(EMG_PREFIX)
+            .unwrap_or(&col.name)
+            .to_string();
+        let muscle = EmgMuscle::ALL
+            .iter()
+            .copied()
+            .find(|m| m.column() == col.name);
+        let reference = refs
+            .get(&name)
+            .or_else(|| muscle.and_then(|m| opts.mvc_of(m)));
+        let e = channel_envelope(raw, &col, reference, filter.as_ref())?;
+        match (i, muscle) {
+            (0..=2, _) => env[i] = e,
+            (_, Some(EmgMuscle::Ta)) => env_ta = Some(e),
+            _ => others.push((name, e)),
+        }
     }
+    let ta_cols = usize::from(trial.emg_ta.is_some());
     let knee_col = ColumnRef {
         path,
         column: 7 + ta_cols + trial.emg_other.len(),
@@ -254,7 +385,7 @@ pub fn model_inputs_named(trial: &Trial, opts: &InputOptions, path: &str) -> Res
     };
     let mut inputs = TrialInputs::new(fs, trial.time_s[0], angle, env, env_ta).map_err(invalid)?;
     for (name, env) in others {
-        inputs = inputs.with_envelope(name, env).map_err(invalid)?;
+        inputs = inputs.with_envelope(&name, env).map_err(invalid)?;
     }
     if let Some(k) = knee {
         inputs = inputs.with_knee_angle(k).map_err(invalid)?;

@@ -49,8 +49,8 @@ use crate::dynamometer::{
 use crate::emg::{synthetic_emg_at_knee, EmgSettings};
 use crate::error::{ErrorKind, ExperimentError, Result};
 use crate::files::{Trial, Unloaded};
-use crate::model_inputs::{model_inputs, InputOptions};
-use crate::protocol::{Protocol, SynthProtocol, NOMINAL_SPEED_DEG_S};
+use crate::model_inputs::{model_inputs, model_inputs_referenced, EmgReferences, InputOptions};
+use crate::protocol::{Protocol, ProtocolTrace, SynthProtocol, NOMINAL_SPEED_DEG_S};
 
 /// Decimals of the raw EMG columns written by the synthesis (1e-4 in the EMG unit).
 pub const DEFAULT_EMG_DECIMALS: u32 = 4;
@@ -232,6 +232,30 @@ pub fn round_decimals(x: f64, d: u32) -> f64 {
 /// Invalid protocol, EMG or dynamometer settings, more than 15 decimals, invalid parameters or
 /// effects, or a failed simulation ([`ErrorKind::InvalidSettings`], naming the cause).
 pub fn synthesize(cfg: &SynthConfig) -> Result<Synthetic> {
+    let (trace, trial) = synthetic_recording(cfg)?;
+    let inputs = model_inputs(&trial, &InputOptions::default())?;
+    finish(cfg, &trace, trial, inputs)
+}
+
+/// [`synthesize`] with the EMG normalised by given references (one per channel, e.g. the
+/// largest envelope over a session's trials, [`crate::synth_session`]) instead of the trial's
+/// own maxima: the true torque is computed from the envelopes a session-wide normalisation
+/// gives, so that identifying the session recovers the truth.
+///
+/// # Errors
+/// As [`synthesize`]; a reference that is not finite and > 0.
+pub fn synthesize_referenced(cfg: &SynthConfig, refs: &EmgReferences) -> Result<Synthetic> {
+    let (trace, trial) = synthetic_recording(cfg)?;
+    let inputs = model_inputs_referenced(&trial, &InputOptions::default(), refs, "<trial>")?;
+    finish(cfg, &trace, trial, inputs)
+}
+
+/// The trial as recorded before its torque: protocol trace, rounded raw EMG and angle, knee
+/// column (steps 1–4 of the module documentation; the torque is zeros).
+///
+/// # Errors
+/// As [`synthesize`].
+pub fn synthetic_recording(cfg: &SynthConfig) -> Result<(ProtocolTrace, Trial)> {
     if cfg.emg_decimals > 15 || cfg.angle_decimals > 15 {
         return Err(ExperimentError::invalid(
             "synthesis settings",
@@ -255,7 +279,16 @@ pub fn synthesize(cfg: &SynthConfig) -> Result<Synthetic> {
     if cfg.knee_angle_deg != 0.0 {
         trial.knee_angle_deg = Some(vec![cfg.knee_angle_deg; trial.len()]);
     }
-    let inputs = model_inputs(&trial, &InputOptions::default())?;
+    Ok((trace, trial))
+}
+
+/// Steps 5–7: the true torque on `inputs`, the dynamometer error, the unloaded run.
+fn finish(
+    cfg: &SynthConfig,
+    trace: &ProtocolTrace,
+    mut trial: Trial,
+    inputs: TrialInputs,
+) -> Result<Synthetic> {
     let out = simulate(&inputs, &cfg.params, &cfg.effects, &cfg.sim).map_err(|e| {
         ExperimentError::invalid(
             "true model",
@@ -264,7 +297,7 @@ pub fn synthesize(cfg: &SynthConfig) -> Result<Synthetic> {
         )
     })?;
     let model_torque = out.torque;
-    let mut torque = dynamometer_error(&trace, &cfg.dynamometer, cfg.seed, Recording::Trial)?;
+    let mut torque = dynamometer_error(trace, &cfg.dynamometer, cfg.seed, Recording::Trial)?;
     for (t, m) in torque.iter_mut().zip(&model_torque) {
         *t += m;
     }

@@ -75,6 +75,8 @@ pub struct LoadedSession {
     pub free: Vec<ParamId>,
     /// The trials, in the manifest's order.
     pub trials: Vec<SessionTrial>,
+    /// How the trial CSVs' EMG was normalised.
+    pub emg: SessionEmgNormalisation,
     /// Every file read (outputs never overwrite them).
     pub inputs_read: Vec<PathBuf>,
 }
@@ -172,13 +174,6 @@ pub fn load_session(
     free: Option<&[String]>,
 ) -> CmdResult<LoadedSession> {
     let manifest = session::read_session_manifest(path).map_err(Failure::bad)?;
-    if !manifest.mvc.is_empty() {
-        crate::warn(format!(
-            "{}: mvc: MVC trials are not used yet; each trial CSV's envelopes are normalised by \
-             their own maximum",
-            manifest.path.display()
-        ));
-    }
     let mut read = vec![path.to_path_buf()];
     // the recordings first: a CEINMS subject's fixed muscles are those of its trials
     enum Loaded {
@@ -238,6 +233,17 @@ pub fn load_session(
             }
         }
     }
+
+    let csv_trials: Vec<(&str, &experiment::Trial)> = manifest
+        .trials
+        .iter()
+        .zip(&loaded)
+        .filter_map(|(entry, l)| match l {
+            Loaded::Csv(csv) => Some((entry.name.as_str(), &csv.0)),
+            Loaded::Ceinms(_) => None,
+        })
+        .collect();
+    let emg = session_emg_references(&manifest, &csv_trials, model, &mut read)?;
 
     // parameters: the session's, replaced by --params or with an identify.json over them
     let osim = opensim_files::OsimMuscleNames::renamed(
@@ -311,7 +317,9 @@ pub fn load_session(
                 };
                 let prep = identify_sa::prepare_trial(&trial, unloaded.as_ref(), &opts)
                     .map_err(|e| bad(&e))?;
-                let mut inputs = prep.problem.inputs().clone();
+                let mut inputs =
+                    experiment::model_inputs_referenced(&trial, &opts, &emg.references, &source)
+                        .map_err(Failure::bad)?;
                 if let Some(g) = &entry.geometry {
                     inputs = with_muscle_analysis(inputs, g, &params, &osim)?;
                 }
@@ -362,7 +370,138 @@ pub fn load_session(
         effects,
         free,
         trials,
+        emg,
         inputs_read: read,
+    })
+}
+
+/// Where the session's EMG references come from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EmgReferenceSource {
+    /// The largest envelope of each channel over the session's MVC trials.
+    Mvc,
+    /// The largest envelope of each channel over all the session's trial CSVs.
+    SessionMaximum,
+    /// None: the columns are envelopes already (`--emg-is-envelope`), or the session has no
+    /// trial CSV (CEINMS envelopes come normalised).
+    AsGiven,
+}
+
+/// The EMG normalisation of a session's trial CSVs: one reference per channel for all trials,
+/// so that a weaker trial stays weaker (docs/formats.md, "Session manifest").
+#[derive(Clone, Debug)]
+pub struct SessionEmgNormalisation {
+    /// Where the references come from.
+    pub source: EmgReferenceSource,
+    /// Each channel's reference, in the unit of its raw envelope.
+    pub references: experiment::EmgReferences,
+}
+
+impl SessionEmgNormalisation {
+    /// `{"source": "mvc" | "session_maximum" | "as_given", "references": {"sol": …}}`.
+    pub fn to_json(&self) -> Value {
+        let refs: serde_json::Map<String, Value> = self
+            .references
+            .iter()
+            .map(|(k, v)| (k.to_string(), json!(v)))
+            .collect();
+        let source = match self.source {
+            EmgReferenceSource::Mvc => "mvc",
+            EmgReferenceSource::SessionMaximum => "session_maximum",
+            EmgReferenceSource::AsGiven => "as_given",
+        };
+        json!({"source": source, "references": refs})
+    }
+}
+
+/// Relative excess over the MVC reference above which a trial's envelope is reported: surface
+/// EMG in a submaximal or isokinetic trial can pass an isometric MVC by a few per cent.
+const MVC_EXCESS_WARNING: f64 = 0.10;
+
+/// The references of the session's trial CSVs: the largest envelope of each channel over the
+/// MVC trials when the manifest lists them (channels the MVC trials lack fall back to the
+/// session's maximum, with a warning), else over all the trials.
+fn session_emg_references(
+    manifest: &SessionManifest,
+    trials: &[(&str, &experiment::Trial)],
+    model: &ModelArgs,
+    read: &mut Vec<PathBuf>,
+) -> CmdResult<SessionEmgNormalisation> {
+    let opts = experiment::InputOptions {
+        emg_is_envelope: model.emg_is_envelope,
+        ..experiment::InputOptions::default()
+    };
+    if model.emg_is_envelope || trials.is_empty() {
+        if !manifest.mvc.is_empty() {
+            crate::warn(format!(
+                "{}: mvc: not used: {}",
+                manifest.path.display(),
+                if trials.is_empty() {
+                    "the session has no trial CSV (CEINMS envelopes come normalised)"
+                } else {
+                    "the EMG columns are envelopes already (--emg-is-envelope)"
+                }
+            ));
+        }
+        return Ok(SessionEmgNormalisation {
+            source: EmgReferenceSource::AsGiven,
+            references: experiment::EmgReferences::default(),
+        });
+    }
+    let mut trial_peaks = Vec::with_capacity(trials.len());
+    for (entry, (_, trial)) in manifest
+        .trials
+        .iter()
+        .filter(|t| matches!(t.source, TrialSource::Csv(_)))
+        .zip(trials)
+    {
+        let name = entry.source.path().display().to_string();
+        trial_peaks.push(experiment::envelope_peaks(trial, &opts, &name).map_err(Failure::bad)?);
+    }
+    let session_max = experiment::EmgReferences::largest(&trial_peaks);
+    if manifest.mvc.is_empty() {
+        return Ok(SessionEmgNormalisation {
+            source: EmgReferenceSource::SessionMaximum,
+            references: session_max,
+        });
+    }
+    let mut mvc_peaks = Vec::with_capacity(manifest.mvc.len());
+    for p in &manifest.mvc {
+        read.push(p.clone());
+        let t = experiment::read_trial(p).map_err(Failure::bad)?;
+        mvc_peaks.push(
+            experiment::envelope_peaks(&t, &opts, &p.display().to_string())
+                .map_err(Failure::bad)?,
+        );
+    }
+    let mut refs = experiment::EmgReferences::largest(&mvc_peaks);
+    for (channel, v) in session_max.iter() {
+        match refs.get(channel) {
+            None => {
+                crate::warn(format!(
+                    "{}: mvc: no MVC trial has emg_{channel}; that channel is normalised by its                      largest envelope over the session's trials",
+                    manifest.path.display()
+                ));
+                refs.set(channel, v);
+            }
+            Some(m) if v > m * (1.0 + MVC_EXCESS_WARNING) => {
+                let (name, _) = trials
+                    .iter()
+                    .zip(&trial_peaks)
+                    .find(|(_, p)| p.get(channel) == Some(v))
+                    .map_or(("?", ()), |((n, _), _)| (n, ()));
+                crate::warn(format!(
+                    "{}: trial {name}: the emg_{channel} envelope reaches {:.0} % of the MVC                      reference; its normalised envelope is clipped at 1",
+                    manifest.path.display(),
+                    100.0 * v / m
+                ));
+            }
+            Some(_) => {}
+        }
+    }
+    Ok(SessionEmgNormalisation {
+        source: EmgReferenceSource::Mvc,
+        references: refs,
     })
 }
 
