@@ -479,19 +479,21 @@ fn session_emg_references(
         match refs.get(channel) {
             None => {
                 crate::warn(format!(
-                    "{}: mvc: no MVC trial has emg_{channel}; that channel is normalised by its                      largest envelope over the session's trials",
+                    "{}: mvc: no MVC trial has emg_{channel}; that channel is normalised by its \
+                     largest envelope over the session's trials",
                     manifest.path.display()
                 ));
                 refs.set(channel, v);
             }
             Some(m) if v > m * (1.0 + MVC_EXCESS_WARNING) => {
-                let (name, _) = trials
+                let name = trials
                     .iter()
                     .zip(&trial_peaks)
                     .find(|(_, p)| p.get(channel) == Some(v))
-                    .map_or(("?", ()), |((n, _), _)| (n, ()));
+                    .map_or("?", |((n, _), _)| *n);
                 crate::warn(format!(
-                    "{}: trial {name}: the emg_{channel} envelope reaches {:.0} % of the MVC                      reference; its normalised envelope is clipped at 1",
+                    "{}: trial {name}: the emg_{channel} envelope reaches {:.0} % of the MVC \
+                     reference; its normalised envelope is clipped at 1",
                     manifest.path.display(),
                     100.0 * v / m
                 ));

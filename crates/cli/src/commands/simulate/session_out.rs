@@ -73,6 +73,7 @@ pub(super) fn run(args: &SimulateArgs, session_path: &Path) -> CmdResult {
         "trials": rows,
         "mean_rms_nm": mean("rms_nm"),
         "mean_r2": mean("r2"),
+        "emg_normalisation": session.emg.to_json(),
     });
     let text = serde_json::to_string_pretty(&doc).map_err(Failure::internal)? + "\n";
     for (name, t) in &texts {
