@@ -116,6 +116,26 @@ fn mcmc_run(
     Ok((res.evaluations, wall, cpu, res.converged, r, e))
 }
 
+/// One joint `identify_sa::identify_set` run on `fixtures/session3` (three trials read as
+/// `surae identify --session` reads them): (evaluations, wall s, CPU s if known).
+fn sa_session_run(root: &Path) -> Result<(u64, f64, Option<f64>)> {
+    let manifest = root.join("fixtures/session3/session.json");
+    let session = cli::commands::session::load_session(&manifest, &Default::default(), None)
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let set = session.problem_set().map_err(|e| anyhow::anyhow!("{e}"))?;
+    let settings = identify_sa::SaIdentifySettings::default();
+    let cpu0 = cpu_seconds();
+    let start = Instant::now();
+    let fit = identify_sa::identify_set(&set, &settings, &identify_sa::NoObserver)?;
+    let wall = start.elapsed().as_secs_f64();
+    let cpu = cpu_seconds().zip(cpu0).map(|(b, a)| b - a);
+    eprintln!(
+        "SA, 3-trial session: {} evaluations in {wall:.2} s, torque RMS {:.3} N·m",
+        fit.evaluations, fit.rms_nm
+    );
+    Ok((fit.evaluations, wall, cpu))
+}
+
 /// One `diagnose::run` with the default settings on `fixtures/<name>` (trial + unloaded run):
 /// (wall s, CPU s if known, named causes).
 fn diagnose_run(root: &Path, name: &str) -> Result<(f64, Option<f64>, Vec<String>)> {
@@ -308,6 +328,8 @@ pub fn run(args: &mut impl Iterator<Item = String>) -> Result<bool> {
 
     eprintln!("running identify_sa::identify (4 chains, rayon) ...");
     let (sa_evals, sa_wall, sa_cpu) = sa_run(&trial_path, &trial)?;
+    eprintln!("running identify_sa::identify_set on fixtures/session3 (4 chains, rayon) ...");
+    let (ss_evals, ss_wall, ss_cpu) = sa_session_run(&root)?;
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
 
     eprintln!("running identify_mcmc::identify (default settings, 4 chains, rayon) ...");
@@ -354,9 +376,15 @@ pub fn run(args: &mut impl Iterator<Item = String>) -> Result<bool> {
         t_peer / per_eval
     );
     println!(
-        "| SA end to end (seed, unloaded-run correction, 4 chains + polish) | {sa_wall:.2} s | — | — |"
+        "| SA end to end (seed, unloaded-run correction, 4 chains + polish) | {sa_wall:.2} s wall{} | — | — |",
+        sa_cpu.map_or(String::new(), |c| format!(", {c:.1} s CPU"))
     );
     let cpu_note = |c: Option<f64>| c.map_or(String::new(), |c| format!(", {c:.1} s CPU"));
+    println!(
+        "| SA end to end, 3-trial session (`fixtures/session3`: knee0@30, knee90@30, knee0@60; {ss_evals} evaluations) | {ss_wall:.2} s wall{} ({:.1}× the seed's) | — | — |",
+        cpu_note(ss_cpu),
+        ss_wall / sa_wall
+    );
     println!(
         "| MCMC to R̂ < 1.01, ESS ≥ 400 (seed trial, default settings, {mc_evals} evaluations; converged {mc_conv}, max R̂ {mc_rhat:.4}, min bulk ESS {mc_ess:.0}) | {mc_wall:.2} s wall{} | — | — |",
         cpu_note(mc_cpu)
