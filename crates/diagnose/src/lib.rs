@@ -91,6 +91,7 @@ pub mod scenarios;
 mod score;
 pub mod segment;
 mod selection;
+mod session;
 mod settings;
 
 use std::ops::ControlFlow;
@@ -110,6 +111,10 @@ pub use report::{
     ParamInterval, Verdict, NO_JOINT_ANGLE,
 };
 pub use segment::{PhaseLabel, Segmentation};
+pub use session::{
+    diagnose_session, effect_scope, EffectScope, HeldoutScheme, SessionCandidate, SessionCause,
+    SessionDiagnosis, SessionHeldout, SessionMember, SessionTrialFit, TrialHeldout,
+};
 pub use settings::{CvFolds, DiagnoseSettings, MIN_CV_CYCLES};
 
 use progress::notify;
