@@ -198,6 +198,27 @@ pub fn run_prepared(
     diagnose_target(target, None, inputs, seg, settings, observer, t0)
 }
 
+/// [`run_prepared`] with the recording's unloaded run (a session's trial CSV, its inputs as
+/// the session prepared them).
+pub(crate) fn run_member(
+    recording: &DiagnosisRecording,
+    unloaded: Option<&Unloaded>,
+    settings: &DiagnoseSettings,
+    observer: &mut dyn FnMut(&DiagnosisProgress) -> ControlFlow<()>,
+) -> Result<Diagnosis, DiagnoseError> {
+    let t0 = Instant::now();
+    let observed = recording.observed()?;
+    let inputs = recording.inputs.clone();
+    let seg = context::segment(&inputs, observed.as_deref())?;
+    let target = context::Target {
+        torque_nm: &recording.torque_nm,
+        observed,
+        params: recording.params,
+        effects: recording.effects,
+    };
+    diagnose_target(target, unloaded, inputs, seg, settings, observer, t0)
+}
+
 /// The stages of a diagnosis (module docs) on prepared inputs.
 fn diagnose_target(
     target: context::Target<'_>,

@@ -28,7 +28,7 @@ use crate::analysis;
 use crate::baseline::eligible_candidates;
 use crate::context::{self, Target};
 use crate::progress::{notify, DiagnosisProgress, DiagnosisStage};
-use crate::{DiagnoseError, DiagnoseSettings, Diagnosis, DiagnosisRecording, Verdict};
+use crate::{DiagnoseError, DiagnoseSettings, DiagnosisRecording, Verdict};
 use joint::{Joint, Member};
 use select::JointSelection;
 
@@ -50,35 +50,32 @@ pub struct SessionMember<'a> {
     pub unloaded: Option<&'a Unloaded>,
 }
 
-/// Diagnoses a session jointly (module docs). `per_trial` are the trials' own diagnoses, in
-/// the order of `members`; a session of one trial is its own diagnosis.
+/// Diagnoses a session jointly (module docs); a session of one trial is that trial's own
+/// diagnosis ([`SessionDiagnosis::of_one_trial`] of it diagnosed as a prepared recording with
+/// its unloaded run).
 ///
 /// # Errors
-/// Invalid settings, no trial, diagnoses that do not match the trials, a trial that cannot be
-/// prepared (its torque, weights, motion or unloaded run; the error names the trial), trials
-/// whose base models differ, a baseline that cannot be simulated, or a stop by the observer.
+/// Invalid settings, no trial, a trial that cannot be prepared (its torque, weights, motion
+/// or unloaded run; the error names the trial), trials whose base models differ, a baseline
+/// that cannot be simulated, or a stop by the observer.
 pub fn diagnose_session(
     members: &[SessionMember<'_>],
-    per_trial: &[Diagnosis],
     settings: &DiagnoseSettings,
     observer: &mut dyn FnMut(&DiagnosisProgress) -> ControlFlow<()>,
 ) -> Result<SessionDiagnosis, DiagnoseError> {
     let t0 = Instant::now();
     settings.validate()?;
-    if members.is_empty() || per_trial.len() != members.len() {
-        return Err(DiagnoseError::Recording {
-            reason: format!(
-                "a session needs one diagnosis per trial ({} trials, {} diagnoses)",
-                members.len(),
-                per_trial.len()
-            ),
-        });
-    }
-    if members.len() == 1 {
-        return Ok(SessionDiagnosis::of_one_trial(
-            &members[0].name,
-            &per_trial[0],
-        ));
+    match members {
+        [] => {
+            return Err(DiagnoseError::Recording {
+                reason: "a session needs at least one trial".into(),
+            })
+        }
+        [one] => {
+            let d = crate::run_member(&one.recording, one.unloaded, settings, observer)?;
+            return Ok(SessionDiagnosis::of_one_trial(&one.name, &d));
+        }
+        _ => {}
     }
     let first = &members[0].recording;
     if let Some(m) = members
@@ -273,7 +270,7 @@ fn assemble(
         delta_bic: fin.bic(n) - base.bic(n),
         baseline_params: Joint::muscle_values(base),
         extended_params: Joint::muscle_values(fin),
-        trials,
+        trial_fits: trials,
         candidates,
         evaluations: 0,
         wall_s: 0.0,

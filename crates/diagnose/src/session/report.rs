@@ -123,7 +123,7 @@ pub struct SessionDiagnosis {
     /// The shared muscle parameters of the final model.
     pub extended_params: BTreeMap<String, f64>,
     /// Per trial, the in-sample fit of the joint models.
-    pub trials: Vec<SessionTrialFit>,
+    pub trial_fits: Vec<SessionTrialFit>,
     /// Every term scored, best evidence first.
     pub candidates: Vec<SessionCandidate>,
     /// Model simulations of the joint diagnosis.
@@ -206,7 +206,7 @@ impl SessionDiagnosis {
             delta_bic: d.gain.delta_bic,
             baseline_params: d.baseline.params.clone(),
             extended_params: d.extended.params.clone(),
-            trials: vec![SessionTrialFit {
+            trial_fits: vec![SessionTrialFit {
                 name: name.to_string(),
                 baseline_rms_nm: d.baseline.rms_nm,
                 extended_rms_nm: d.extended.rms_nm,
@@ -266,7 +266,7 @@ impl SessionDiagnosis {
             -self.heldout.rms_reduction_pct,
             self.delta_bic
         ));
-        for (t, h) in self.trials.iter().zip(&self.heldout.per_trial) {
+        for (t, h) in self.trial_fits.iter().zip(&self.heldout.per_trial) {
             l.push(format!(
                 "  {:<14} RMS {:.3} → {:.3} N·m, held out {:.3} → {:.3} N·m",
                 t.name, t.baseline_rms_nm, t.extended_rms_nm, h.baseline_rms_nm, h.extended_rms_nm
