@@ -53,6 +53,13 @@
 //!    confounding test; they are several times too small for the pennation angles and tendon
 //!    slack lengths (docs/diagnosis.md).
 //!
+//! # Sessions
+//!
+//! [`diagnose_session`] diagnoses several trials of one subject together: shared muscle
+//! parameters, the subject's effects shared and each trial's setup effects its own
+//! ([`effect_scope`]), the gain measured by leaving one trial out (docs/diagnosis.md,
+//! "Sessions").
+//!
 //! # Example
 //!
 //! ```no_run
