@@ -2,10 +2,11 @@
 //! each with its unloaded run at its own speed, nominal true parameters, the default
 //! dynamometer noise): a delay hidden in every trial is named once, for the subject, near its
 //! true value; an offset hidden in one trial is named for that trial only; a session without
-//! an effect is adequate. The `#[ignore]`d study repeats the three over more seeds.
+//! an effect is adequate; a session of one trial is that trial's own diagnosis. The
+//! `#[ignore]`d study repeats the three sessions over more seeds.
 
 use diagnose::{
-    diagnose_session, no_observer, DiagnoseSettings, DiagnosisRecording, EffectScope,
+    diagnose_session, no_observer, run, DiagnoseSettings, DiagnosisRecording, EffectScope,
     HeldoutScheme, SessionDiagnosis, SessionMember, Verdict,
 };
 use experiment::{model_inputs, synthesize, InputOptions, SynthConfig, Synthetic};
@@ -147,6 +148,27 @@ fn an_offset_hidden_in_one_trial_is_named_for_that_trial() {
 fn a_session_without_an_effect_is_adequate() {
     let d = diagnose(&session(7, |_| Effects::none()));
     check_clean(&d, 7);
+}
+
+#[test]
+fn a_session_of_one_trial_is_its_own_diagnosis() {
+    let trials = session(7, |_| effects(DELAY));
+    let s = &trials[0];
+    let one = SessionMember {
+        name: "knee0_30".into(),
+        recording: DiagnosisRecording::new(
+            model_inputs(&s.trial, &InputOptions::default()).unwrap(),
+            s.trial.torque_nm.clone(),
+        ),
+        unloaded: Some(&s.unloaded),
+    };
+    let settings = DiagnoseSettings::default();
+    let d = diagnose_session(&[one], &settings, &mut no_observer).unwrap();
+    let alone = run(&s.trial, Some(&s.unloaded), &settings, &mut no_observer).unwrap();
+    assert_eq!(d, SessionDiagnosis::of_one_trial("knee0_30", &alone));
+    assert_eq!(d.verdict, Verdict::Deficient);
+    assert_eq!(d.causes[0].effect, "electromechanical_delay");
+    assert_eq!(d.heldout.scheme, HeldoutScheme::WithinTrial);
 }
 
 /// The three cases over 10 further seeds each (about 3 minutes on 2 cores):

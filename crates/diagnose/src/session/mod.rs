@@ -23,6 +23,7 @@ use std::ops::ControlFlow;
 use std::time::Instant;
 
 use experiment::Unloaded;
+use muscle_model::ParamId;
 
 use crate::analysis;
 use crate::baseline::eligible_candidates;
@@ -56,8 +57,8 @@ pub struct SessionMember<'a> {
 ///
 /// # Errors
 /// Invalid settings, no trial, a trial that cannot be prepared (its torque, weights, motion
-/// or unloaded run; the error names the trial), trials whose base models differ, a baseline
-/// that cannot be simulated, or a stop by the observer.
+/// or unloaded run; the error names the trial), trials whose 9 muscle parameters have
+/// different base values, a baseline that cannot be simulated, or a stop by the observer.
 pub fn diagnose_session(
     members: &[SessionMember<'_>],
     settings: &DiagnoseSettings,
@@ -77,14 +78,16 @@ pub fn diagnose_session(
         }
         _ => {}
     }
-    let first = &members[0].recording;
-    if let Some(m) = members
-        .iter()
-        .find(|m| m.recording.params != first.params || m.recording.effects != first.effects)
-    {
+    // the shared muscle parameters start from, and are bounded around, one set of base values
+    let base = |m: &SessionMember<'_>| {
+        let r = &m.recording;
+        ParamId::identified().map(|p| p.get(&r.params, &r.effects).to_bits())
+    };
+    if let Some(m) = members.iter().find(|m| base(m) != base(&members[0])) {
         return Err(DiagnoseError::Recording {
             reason: format!(
-                "trial `{}`: a session's trials share one base model, this one has another",
+                "trial `{}`: the trials of a session share their muscle parameters, this one \
+                 has other base values",
                 m.name
             ),
         });
