@@ -483,3 +483,36 @@ impl<'a> Joint<'a> {
             .collect()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::{Layout, Term};
+    use muscle_model::EffectKind;
+
+    #[test]
+    fn terms_follow_the_muscle_parameters_in_order() {
+        let layout = Layout::new(vec![
+            Term {
+                kind: EffectKind::ElectromechanicalDelay,
+                trial: None,
+            },
+            Term {
+                kind: EffectKind::TorqueOffset,
+                trial: Some(1),
+            },
+        ])
+        .with(Term {
+            kind: EffectKind::Gravity,
+            trial: Some(0),
+        });
+        assert_eq!(layout.dim, 13);
+        assert_eq!(
+            (0..3).map(|i| layout.slots(i)).collect::<Vec<_>>(),
+            [9..10, 10..11, 11..13]
+        );
+        assert_eq!(layout.term_of(3), None);
+        assert_eq!(layout.term_of(9), Some(0));
+        assert_eq!(layout.term_of(12), Some(2));
+        assert_eq!(layout.term_of(13), None);
+    }
+}
