@@ -1,8 +1,9 @@
 //! `surae diagnose --session`: a CEINMS trial folder (written here from a synthetic trial,
 //! never from real recordings) with a hidden electromechanical delay is diagnosed with the
 //! delay named; the same folder without the delay is adequate, with the effects that need a
-//! joint angle reported as not testable; a session of trial CSVs gives what `--trial` and
-//! `--unloaded` give.
+//! joint angle reported as not testable; a session of one trial CSV gives what `--trial` and
+//! `--unloaded` give; a synthetic 3-trial session (knee0@30, knee90@30, knee0@60 with their
+//! unloaded runs) with a delay hidden in every trial names it once, for the subject.
 
 use muscle_model::Effects;
 use serde_json::Value;
@@ -163,6 +164,76 @@ fn a_session_of_trial_csvs_diagnoses_what_trial_and_unloaded_do() {
     assert_eq!(row["causes"], b["causes"]);
     assert!(row["not_testable"].as_array().unwrap().is_empty());
     assert!(row["moment_fit"].is_null());
+    // the session's own verdict and causes are the trial's
+    let all = json(&d.join("by_session/diagnosis_session.json"));
+    assert_eq!(all["verdict"], b["verdict"]);
+    let causes: Vec<&Value> = all["causes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| &c["effect"])
+        .collect();
+    let named: Vec<&Value> = b["causes"].as_array().unwrap().iter().collect();
+    assert_eq!(causes, named);
+    assert_eq!(all["heldout"]["scheme"], "within_trial");
+    assert_eq!(
+        all["heldout"]["extended_rms_nm"],
+        b["extended"]["heldout_rms_nm"]
+    );
+}
+
+#[test]
+fn a_three_trial_session_names_a_shared_delay_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let delay = Effects::from_json_str(r#"{"electromechanical_delay": {"delay_ms": 40}}"#).unwrap();
+    let mut entries = Vec::new();
+    for (k, (protocol, name)) in [
+        ("knee0@30", "knee0_30"),
+        ("knee90@30", "knee90_30"),
+        ("knee0@60", "knee0_60"),
+    ]
+    .iter()
+    .enumerate()
+    {
+        let cfg = experiment::SynthConfig::for_protocol(protocol.parse().unwrap(), 7 + k as u64)
+            .with_effects(delay);
+        let syn = experiment::synthesize(&cfg).unwrap();
+        experiment::write_trial(d.join(format!("{name}.csv")), &syn.trial).unwrap();
+        experiment::write_unloaded(d.join(format!("{name}_unloaded.csv")), &syn.unloaded).unwrap();
+        entries.push(format!(
+            r#"{{"name": "{name}", "trial": "{name}.csv", "unloaded": "{name}_unloaded.csv"}}"#
+        ));
+    }
+    std::fs::write(
+        d.join("s.json"),
+        format!(r#"{{"subject": "S", "trials": [{}]}}"#, entries.join(", ")),
+    )
+    .unwrap();
+    ok(&surae(
+        &["diagnose", "--session", "s.json", "--out", "o", "--quiet"],
+        d,
+    ));
+    let all = json(&d.join("o/diagnosis_session.json"));
+    assert_eq!(all["verdict"], "deficient", "{}", all["causes"]);
+    let causes = all["causes"].as_array().unwrap();
+    assert_eq!(causes.len(), 1, "{}", all["causes"]);
+    assert_eq!(causes[0]["effect"], "electromechanical_delay");
+    assert_eq!(causes[0]["scope"], "subject");
+    let ms = causes[0]["values"]["delay_ms"].as_f64().unwrap();
+    assert!((ms - 40.0).abs() < 5.0, "delay {ms} ms");
+    assert_eq!(all["heldout"]["scheme"], "leave_one_trial_out");
+    assert!(all["heldout"]["rms_reduction_pct"].as_f64().unwrap() > 0.0);
+    assert_eq!(all["heldout"]["per_trial"].as_array().unwrap().len(), 3);
+    assert_eq!(all["trial_fits"].as_array().unwrap().len(), 3);
+    // each trial diagnosed on its own too, into its folder
+    let rows = all["trials"].as_array().unwrap();
+    assert_eq!(rows.len(), 3);
+    for row in rows {
+        assert_eq!(row["causes"][0], "electromechanical_delay", "{row}");
+        let folder = row["folder"].as_str().unwrap();
+        assert!(d.join("o").join(folder).join("diagnosis.json").exists());
+    }
 }
 
 #[test]

@@ -450,15 +450,9 @@ impl GravitySlots {
     /// `(A, B)` → `(m, φ°)` with `φ ∈ [−90°, 90°]` (the sign of `m` is that of `A`).
     fn to_polar(self, z: &[f64]) -> Vec<f64> {
         let mut x = z.to_vec();
-        // `+ 0.0` turns −0 into +0, so that a zero A reads as φ = ±90° (or 0), not ±180°
-        let (a, b) = (z[self.moment] + 0.0, z[self.phase] + 0.0);
-        let (m, phi) = if a >= 0.0 {
-            (a.hypot(b), (-b).atan2(a))
-        } else {
-            (-a.hypot(b), b.atan2(-a))
-        };
+        let (m, phi) = gravity_to_polar(z[self.moment], z[self.phase]);
         x[self.moment] = m;
-        x[self.phase] = phi.to_degrees();
+        x[self.phase] = phi;
         x
     }
 
@@ -472,6 +466,19 @@ impl GravitySlots {
         jac.set_column(self.moment, &(&ja * c - &jb * s));
         jac.set_column(self.phase, &((&ja * s + &jb * c) * (-m * deg)));
     }
+}
+
+/// A gravity term's linear coordinates `(A, B)` as `(m, φ°)` with `φ ∈ [−90°, 90°]` (the sign
+/// of `m` is that of `A`).
+pub(crate) fn gravity_to_polar(a: f64, b: f64) -> (f64, f64) {
+    // `+ 0.0` turns −0 into +0, so that a zero A reads as φ = ±90° (or 0), not ±180°
+    let (a, b) = (a + 0.0, b + 0.0);
+    let (m, phi) = if a >= 0.0 {
+        (a.hypot(b), (-b).atan2(a))
+    } else {
+        (-a.hypot(b), b.atan2(-a))
+    };
+    (m, phi.to_degrees())
 }
 
 /// `k` Latin-hypercube points in the box `bounds` (`numerics::latin_hypercube`, strata shuffled

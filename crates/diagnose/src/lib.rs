@@ -53,6 +53,13 @@
 //!    confounding test; they are several times too small for the pennation angles and tendon
 //!    slack lengths (docs/diagnosis.md).
 //!
+//! # Sessions
+//!
+//! [`diagnose_session`] diagnoses several trials of one subject together: shared muscle
+//! parameters, the subject's effects shared and each trial's setup effects its own
+//! ([`effect_scope`]), the gain measured by leaving one trial out (docs/diagnosis.md,
+//! "Sessions").
+//!
 //! # Example
 //!
 //! ```no_run
@@ -91,6 +98,7 @@ pub mod scenarios;
 mod score;
 pub mod segment;
 mod selection;
+mod session;
 mod settings;
 
 use std::ops::ControlFlow;
@@ -110,6 +118,10 @@ pub use report::{
     ParamInterval, Verdict, NO_JOINT_ANGLE,
 };
 pub use segment::{PhaseLabel, Segmentation};
+pub use session::{
+    diagnose_session, effect_scope, EffectScope, HeldoutScheme, SessionCandidate, SessionCause,
+    SessionDiagnosis, SessionHeldout, SessionMember, SessionTrialFit, TrialHeldout,
+};
 pub use settings::{CvFolds, DiagnoseSettings, MIN_CV_CYCLES};
 
 use progress::notify;
@@ -191,6 +203,27 @@ pub fn run_prepared(
         effects: recording.effects,
     };
     diagnose_target(target, None, inputs, seg, settings, observer, t0)
+}
+
+/// [`run_prepared`] with the recording's unloaded run (a session's trial CSV, its inputs as
+/// the session prepared them).
+pub(crate) fn run_member(
+    recording: &DiagnosisRecording,
+    unloaded: Option<&Unloaded>,
+    settings: &DiagnoseSettings,
+    observer: &mut dyn FnMut(&DiagnosisProgress) -> ControlFlow<()>,
+) -> Result<Diagnosis, DiagnoseError> {
+    let t0 = Instant::now();
+    let observed = recording.observed()?;
+    let inputs = recording.inputs.clone();
+    let seg = context::segment(&inputs, observed.as_deref())?;
+    let target = context::Target {
+        torque_nm: &recording.torque_nm,
+        observed,
+        params: recording.params,
+        effects: recording.effects,
+    };
+    diagnose_target(target, unloaded, inputs, seg, settings, observer, t0)
 }
 
 /// The stages of a diagnosis (module docs) on prepared inputs.

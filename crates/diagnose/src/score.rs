@@ -29,7 +29,7 @@ pub(crate) struct Score {
     pub start: [f64; 2],
 }
 
-fn one_sided(kind: EffectKind) -> bool {
+pub(crate) fn one_sided(kind: EffectKind) -> bool {
     matches!(
         kind,
         EffectKind::PassiveJointTorque
@@ -40,7 +40,7 @@ fn one_sided(kind: EffectKind) -> bool {
 }
 
 /// Raw (unwhitened) sensitivity variants of a candidate: each is (columns, maps β → values).
-fn variants(
+pub(crate) fn variants(
     ctx: &Context,
     fit: &Fit,
     kind: EffectKind,
@@ -150,13 +150,23 @@ impl Projector {
         Projector { q, r, s2, n }
     }
 
+    /// The projector of a whitened Jacobian `jac` and residual `white` over `n` observed
+    /// samples (a session's trials stacked).
+    pub fn from_parts(jac: &DMatrix<f64>, white: &[f64], n: usize) -> Self {
+        let m = jac.ncols();
+        let q = jac.clone().qr().q();
+        let r = DVector::from_column_slice(white);
+        let s2 = (r.norm_squared() / (n - m).max(1) as f64).max(1e-12);
+        Projector { q, r, s2, n }
+    }
+
     fn perp(&self, v: &DVector<f64>) -> DVector<f64> {
         let c = self.q.tr_mul(v);
         v - &self.q * c
     }
 
     /// (LM, β, cos to span(J)) for whitened columns.
-    fn test(&self, cols: &[DVector<f64>], one_sided: bool) -> Option<(f64, Vec<f64>, f64)> {
+    pub fn test(&self, cols: &[DVector<f64>], one_sided: bool) -> Option<(f64, Vec<f64>, f64)> {
         let p = cols.len();
         let pc: Vec<DVector<f64>> = cols.iter().map(|c| self.perp(c)).collect();
         let mut a = vec![0.0; p * p];

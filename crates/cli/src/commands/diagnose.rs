@@ -1,6 +1,6 @@
 //! `surae diagnose`: what the baseline model gets wrong, which catalogued
-//! effect explains it, and what the extension buys out of sample; with `--session`, every
-//! trial of a session on its own (`session_run`).
+//! effect explains it, and what the extension buys out of sample; with `--session`, the
+//! session's trials jointly and every trial on its own (`session_run`).
 
 use super::{load_trial, load_unloaded, trial_inputs, ModelArgs};
 use crate::error::{CmdResult, Failure};
@@ -34,8 +34,10 @@ pub struct DiagnoseArgs {
     /// torque and its noise sets the likelihood. Strongly recommended.
     #[arg(long, conflicts_with = "session")]
     pub unloaded: Option<PathBuf>,
-    /// Session manifest (docs/formats.md): every trial diagnosed on its own with the
-    /// session's parameters, into `--out DIR/<trial>/`, and `DIR/diagnosis_session.json`.
+    /// Session manifest (docs/formats.md): the trials diagnosed jointly (shared muscle
+    /// parameters and subject effects, per-trial offset and gravity, held-out gain by leaving
+    /// one trial out) into `DIR/diagnosis_session.json`, and every trial on its own with the
+    /// session's parameters into `--out DIR/<trial>/`.
     #[arg(long)]
     pub session: Option<PathBuf>,
     /// With `--session`: parameters replacing the session's (parameters JSON, `.osim`, CEINMS

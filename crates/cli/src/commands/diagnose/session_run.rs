@@ -1,12 +1,18 @@
-//! `surae diagnose --session`: every trial of a session diagnosed on its own with the
-//! session's model, into `DIR/<trial>/` (`diagnosis.json`, figures, `report.html`), and
-//! `DIR/diagnosis_session.json` with each trial's verdict, named causes and held-out gain.
+//! `surae diagnose --session`: the session diagnosed jointly (shared muscle parameters, the
+//! subject's effects shared, each trial's setup effects its own, the held-out gain by leaving
+//! one trial out; `diagnose::diagnose_session`), and every trial of it diagnosed on its own
+//! with the session's model, into `DIR/<trial>/` (`diagnosis.json`, figures, `report.html`).
+//! `DIR/diagnosis_session.json` holds the session's verdict, causes with their scope and
+//! values, per-trial fits and held-out errors, and each trial's own verdict, causes and
+//! held-out gain (docs/diagnosis.md, "Sessions").
 //!
 //! A trial CSV is diagnosed as `--trial` (with its `--unloaded` run and knee angle) is; a
 //! CEINMS trial folder as prepared model inputs: its own lengths, moment arms and fixed
 //! muscles, no ankle angle (the effects that need one are not tested), no unloaded run (the
 //! noise model is fitted to the baseline's residual), and only the samples where the moment
-//! file has data compared. Every trial is diagnosed before anything is written.
+//! file has data compared. The joint diagnosis reads the trials as the session prepared them
+//! (its inputs, the measured torque as recorded, each trial's unloaded run). Everything is
+//! diagnosed before anything is written.
 
 use super::super::session::{file_stem, load_session, LoadedSession, SessionTrial};
 use super::super::ModelArgs;
@@ -14,7 +20,7 @@ use super::{diagnosis_json, write_figures, DiagnoseArgs, PLANNED};
 use crate::error::{CmdResult, Failure};
 use crate::output::OutDir;
 use crate::progress::ProgressDisplay;
-use diagnose::{DiagnoseSettings, Diagnosis, DiagnosisRecording};
+use diagnose::{DiagnoseSettings, Diagnosis, DiagnosisRecording, SessionDiagnosis, SessionMember};
 use muscle_model::TrialInputs;
 use serde_json::{json, Value};
 use std::ops::Range;
@@ -32,6 +38,8 @@ struct Diagnosed {
     inputs: TrialInputs,
     /// The unloaded run's file, when the trial has one.
     unloaded: Option<String>,
+    /// The unloaded run itself.
+    unloaded_run: Option<experiment::Unloaded>,
     /// Sampling rate of the recording the noise model was fitted on (Hz).
     fitted_on_hz: f64,
     /// The samples compared with the model (figures are drawn over them).
@@ -65,6 +73,7 @@ pub(super) fn run(args: &DiagnoseArgs, session_path: &Path) -> CmdResult {
         let label = format!("diag {}/{}", k + 1, session.trials.len());
         done.push(diagnose_trial(&session, k, t, stem, args, show, &label)?);
     }
+    let joint = diagnose_jointly(&session, &done, show)?;
 
     // every trial diagnosed: now the files
     let mut rows = Vec::with_capacity(done.len());
@@ -81,12 +90,16 @@ pub(super) fn run(args: &DiagnoseArgs, session_path: &Path) -> CmdResult {
         write_figures(&dir, &t.name, &r.measured, &r.inputs, &r.d, r.span.clone())?;
         rows.push(session_row(t, r)?);
     }
-    let doc = json!({
+    let mut doc = json!({
         "session": session_path.display().to_string(),
         "params": args.params.as_ref().map(|p| p.display().to_string())
             .or_else(|| session.manifest.params.as_ref().map(|p| p.display().to_string())),
-        "trials": rows,
     });
+    let joint_json = serde_json::to_value(&joint).map_err(Failure::internal)?;
+    if let (Some(o), Value::Object(j)) = (doc.as_object_mut(), joint_json) {
+        o.extend(j);
+        o.insert("trials".into(), Value::Array(rows));
+    }
     let text = serde_json::to_string_pretty(&doc).map_err(Failure::internal)? + "\n";
     let path = out.write(SESSION_FILE, text.as_bytes())?;
 
@@ -103,6 +116,15 @@ pub(super) fn run(args: &DiagnoseArgs, session_path: &Path) -> CmdResult {
             for l in r.d.summary_lines() {
                 say(&l);
             }
+        }
+        if session.trials.len() > 1 {
+            say(&format!(
+                "diagnose: session of {} trials, diagnosed jointly",
+                session.trials.len()
+            ));
+        }
+        for l in joint.summary_lines() {
+            say(&l);
         }
         say(&format!(
             "wrote {} and a folder per trial in {}",
@@ -176,6 +198,7 @@ fn diagnose_trial(
                 measured: c.torque_nm.clone(),
                 inputs: c.inputs.clone(),
                 unloaded: None,
+                unloaded_run: None,
                 fitted_on_hz: c.inputs.fs(),
                 span: weighted_span(&c.weights),
             }
@@ -216,6 +239,7 @@ fn diagnose_trial(
                 measured: trial.torque_nm,
                 inputs,
                 unloaded: entry.unloaded.as_ref().map(|p| p.display().to_string()),
+                unloaded_run: unloaded,
                 fitted_on_hz,
                 span: 0..n,
             }
@@ -223,6 +247,51 @@ fn diagnose_trial(
     };
     progress.finish();
     Ok(diagnosed)
+}
+
+/// The joint diagnosis of the session from its trials as the session prepared them (a session
+/// of one trial is that trial's diagnosis in `done`, as `--trial` gives it).
+fn diagnose_jointly(
+    session: &LoadedSession,
+    done: &[Diagnosed],
+    show: bool,
+) -> CmdResult<SessionDiagnosis> {
+    if let ([t], [r]) = (session.trials.as_slice(), done) {
+        // the trial's diagnosis as `--trial` gives it
+        return Ok(SessionDiagnosis::of_one_trial(&t.name, &r.d));
+    }
+    let members: Vec<SessionMember<'_>> = session
+        .trials
+        .iter()
+        .zip(done)
+        .map(|(t, r)| {
+            let mut rec = DiagnosisRecording::new(t.problem.inputs().clone(), t.raw_torque.clone())
+                .with_model(session.params, session.effects);
+            if let Some(c) = &t.ceinms {
+                rec = rec.with_weights(c.weights.clone());
+            }
+            SessionMember {
+                name: t.name.clone(),
+                recording: rec,
+                unloaded: r.unloaded_run.as_ref(),
+            }
+        })
+        .collect();
+    let progress = ProgressDisplay::new(show, 0, "diag session");
+    let mut observer = |p: &diagnose::DiagnosisProgress| {
+        progress.message(format!("{} ({} simulations)", p.message, p.evaluations));
+        progress.flow()
+    };
+    let d = diagnose::diagnose_session(&members, &DiagnoseSettings::default(), &mut observer)
+        .map_err(|e| {
+            if progress.stop_requested() {
+                Failure::Interrupted
+            } else {
+                Failure::bad(format!("{}: {e}", session.manifest.path.display()))
+            }
+        })?;
+    progress.finish();
+    Ok(d)
 }
 
 /// From the first to the last sample of positive weight.
