@@ -187,29 +187,19 @@ fn a_three_trial_session_names_a_shared_delay_once() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let delay = Effects::from_json_str(r#"{"electromechanical_delay": {"delay_ms": 40}}"#).unwrap();
-    let mut entries = Vec::new();
-    for (k, (protocol, name)) in [
-        ("knee0@30", "knee0_30"),
-        ("knee90@30", "knee90_30"),
-        ("knee0@60", "knee0_60"),
-    ]
-    .iter()
-    .enumerate()
-    {
-        let cfg = experiment::SynthConfig::for_protocol(protocol.parse().unwrap(), 7 + k as u64)
-            .with_effects(delay);
-        let syn = experiment::synthesize(&cfg).unwrap();
-        experiment::write_trial(d.join(format!("{name}.csv")), &syn.trial).unwrap();
-        experiment::write_unloaded(d.join(format!("{name}_unloaded.csv")), &syn.unloaded).unwrap();
-        entries.push(format!(
-            r#"{{"name": "{name}", "trial": "{name}.csv", "unloaded": "{name}_unloaded.csv"}}"#
-        ));
-    }
-    std::fs::write(
-        d.join("s.json"),
-        format!(r#"{{"subject": "S", "trials": [{}]}}"#, entries.join(", ")),
+    let protocols: Vec<experiment::SynthProtocol> = ["knee0@30", "knee90@30", "knee0@60"]
+        .iter()
+        .map(|p| p.parse().unwrap())
+        .collect();
+    let session = experiment::synth_session::synthesize_session(
+        &protocols,
+        7,
+        &muscle_model::ModelParams::nominal(),
+        &delay,
     )
     .unwrap();
+    let manifest = experiment::synth_session::write_session(d, "S", &protocols, &session).unwrap();
+    std::fs::rename(manifest, d.join("s.json")).unwrap();
     ok(&surae(
         &["diagnose", "--session", "s.json", "--out", "o", "--quiet"],
         d,

@@ -9,7 +9,11 @@ use diagnose::{
     diagnose_session, no_observer, run, DiagnoseSettings, DiagnosisRecording, EffectScope,
     HeldoutScheme, SessionDiagnosis, SessionMember, Verdict,
 };
-use experiment::{model_inputs, synthesize, InputOptions, SynthConfig, Synthetic};
+use experiment::synth_session::session_trial_config;
+use experiment::{
+    envelope_peaks, model_inputs, synthesize, synthesize_referenced, synthetic_recording,
+    EmgReferences, InputOptions, SynthConfig, SynthProtocol, Synthetic,
+};
 use muscle_model::{Effects, ModelParams};
 
 /// The session's protocols and the names its trials take.
@@ -19,32 +23,42 @@ const PROTOCOLS: [(&str, &str); 3] = [
     ("knee0@60", "knee0_60"),
 ];
 
-/// The three trials, trial `k` made from seed `seed + k` with `effects(k)` hidden in it.
+/// The three trials of one synthetic subject, trial `k` made from seed `seed + k` with
+/// `effects(k)` hidden in it, the EMG normalised over the three trials as a session is read
+/// (the flexed knee's gastrocnemius envelopes stay at about 0.7 of the extended knee's).
 fn session(seed: u64, effects: impl Fn(usize) -> Effects) -> Vec<Synthetic> {
-    PROTOCOLS
+    let protocols: Vec<SynthProtocol> = PROTOCOLS.iter().map(|(p, _)| p.parse().unwrap()).collect();
+    let configs: Vec<SynthConfig> = protocols
         .iter()
         .enumerate()
-        .map(|(k, (p, _))| {
-            let cfg = SynthConfig::for_protocol(p.parse().unwrap(), seed + k as u64)
-                .with_effects(effects(k));
-            synthesize(&cfg).unwrap()
+        .map(|(k, p)| {
+            session_trial_config(p, k, seed, &ModelParams::nominal(), &Effects::none())
+                .with_effects(effects(k))
         })
+        .collect();
+    let peaks: Vec<EmgReferences> = configs
+        .iter()
+        .map(|c| {
+            let (_, t) = synthetic_recording(c).unwrap();
+            envelope_peaks(&t, &InputOptions::default(), "<trial>").unwrap()
+        })
+        .collect();
+    let refs = EmgReferences::largest(&peaks);
+    configs
+        .iter()
+        .map(|c| synthesize_referenced(c, &refs).unwrap())
         .collect()
 }
 
-/// The joint diagnosis with default settings, the trials' envelopes normalised by each
-/// trial's maximum (the synthetic EMG has the same drive in every trial).
+/// The joint diagnosis with default settings, on the session-normalised inputs.
 fn diagnose(trials: &[Synthetic]) -> SessionDiagnosis {
     let members: Vec<SessionMember<'_>> = trials
         .iter()
         .zip(PROTOCOLS)
         .map(|(s, (_, name))| SessionMember {
             name: name.to_string(),
-            recording: DiagnosisRecording::new(
-                model_inputs(&s.trial, &InputOptions::default()).unwrap(),
-                s.trial.torque_nm.clone(),
-            )
-            .with_model(ModelParams::nominal(), Effects::none()),
+            recording: DiagnosisRecording::new(s.inputs.clone(), s.trial.torque_nm.clone())
+                .with_model(ModelParams::nominal(), Effects::none()),
             unloaded: Some(&s.unloaded),
         })
         .collect();
@@ -152,8 +166,9 @@ fn a_session_without_an_effect_is_adequate() {
 
 #[test]
 fn a_session_of_one_trial_is_its_own_diagnosis() {
-    let trials = session(7, |_| effects(DELAY));
-    let s = &trials[0];
+    let cfg =
+        SynthConfig::for_protocol(PROTOCOLS[0].0.parse().unwrap(), 7).with_effects(effects(DELAY));
+    let s = &synthesize(&cfg).unwrap();
     let one = SessionMember {
         name: "knee0_30".into(),
         recording: DiagnosisRecording::new(

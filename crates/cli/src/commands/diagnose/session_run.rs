@@ -215,7 +215,10 @@ fn diagnose_trial(
                 input_options: experiment::InputOptions {
                     emg_is_envelope: args.emg_is_envelope,
                     knee_angle_deg: entry.knee_angle_deg,
-                    ..experiment::InputOptions::default()
+                    // the session's references, so that each trial is read as in the joint
+                    // diagnosis (a session of one: its own maxima, exactly as `--trial`)
+                    mvc: experiment::EmgMuscle::ALL
+                        .map(|m| session.emg.references.get(m.name())),
                 },
                 ..DiagnoseSettings::default()
             };
