@@ -29,8 +29,8 @@ pub const DEFAULT_EMG_SEED: u64 = 1;
 /// How many EMG realisations (seeds) each trial's information is averaged over. One
 /// realisation's sds differ from another's by up to a factor 2 (the synthetic drive's slow
 /// wobble decides how well force–length and force–velocity effects are told apart); the mean
-/// of 8 moves by a few % from one set of seeds to another (tested).
-pub const DEFAULT_EMG_DRAWS: usize = 8;
+/// of 16 moves by about 10 % at most from one set of seeds to another (tested).
+pub const DEFAULT_EMG_DRAWS: usize = 16;
 
 /// The prior sd of a trial's offset left after the unloaded run's correction (N·m), the value
 /// the MCMC identification integrates out.

@@ -34,7 +34,7 @@ pub struct DesignArgs {
     pub osim_muscles: Vec<String>,
     /// Prior sd of each trial's constant torque offset left after the unloaded run's
     /// correction (N·m), integrated out; 0 treats the offset as known.
-    #[arg(long, default_value_t = design::OFFSET_PRIOR_SD_NM, value_name = "NM")]
+    #[arg(long, default_value_t = design::OFFSET_PRIOR_SD_NM, value_name = "NM", allow_negative_numbers = true)]
     pub offset_sd: f64,
     /// EMG realisations (synthetic EMG seeds) each trial's information is averaged over.
     #[arg(long, default_value_t = design::DEFAULT_EMG_DRAWS, value_name = "N")]
@@ -56,7 +56,7 @@ pub fn run(args: DesignArgs) -> CmdResult {
         .iter()
         .map(|p| {
             p.parse::<DesignProtocol>()
-                .map_err(|e| Failure::bad(format!("--protocol {e}")))
+                .map_err(|e| Failure::bad(format!("--{e}")))
         })
         .collect::<CmdResult<Vec<_>>>()?;
     if !(args.offset_sd.is_finite() && args.offset_sd >= 0.0) {
