@@ -28,8 +28,9 @@ struct Variant {
     moving_only: bool,
     /// White noise of the same marginal sd instead of AR(1)+white.
     white: bool,
-    /// Default (fast) integration and a step of 10⁻⁵ of the bound width.
-    jittery: bool,
+    /// Default (fast) integration and this step (share of the bound width) instead of tight
+    /// integration and the default step.
+    jittery: Option<f64>,
     emg_seed: u64,
     emg_draws: usize,
 }
@@ -67,7 +68,7 @@ fn main() -> Result<(), design::DesignError> {
         session_drive: false,
         moving_only: false,
         white: false,
-        jittery: false,
+        jittery: None,
         emg_seed: design::DEFAULT_EMG_SEED,
         emg_draws: design::DEFAULT_EMG_DRAWS,
     };
@@ -99,13 +100,18 @@ fn main() -> Result<(), design::DesignError> {
             ..base
         },
         Variant {
-            label: "fast integration, step 1e-5 of the width",
-            jittery: true,
+            label: "fast integration, step 1e-3 of the width",
+            jittery: Some(1e-3),
             ..base
         },
         Variant {
-            label: "EMG seeds 9-16",
-            emg_seed: 9,
+            label: "fast integration, step 1e-5 of the width",
+            jittery: Some(1e-5),
+            ..base
+        },
+        Variant {
+            label: "EMG seeds 17-32",
+            emg_seed: 17,
             ..base
         },
         Variant {
@@ -128,9 +134,9 @@ fn main() -> Result<(), design::DesignError> {
             offset: v.offset,
             ..DesignSettings::default()
         };
-        if v.jittery {
+        if let Some(step) = v.jittery {
             settings.jacobian.sim = SimSettings::default();
-            settings.jacobian.rel_step = 1e-5;
+            settings.jacobian.rel_step = step;
         }
         let mut infos = BTreeMap::new();
         for t in protocols.iter().flat_map(|p| &p.trials) {
