@@ -1,4 +1,4 @@
-//! `surae design`: the issue's table for one and three trials, the noise of an unloaded run,
+//! `surae design`: the reference table for one and three trials, the noise of an unloaded run,
 //! and bad input.
 
 mod common;
@@ -19,7 +19,7 @@ const PARAMS: [&str; 9] = [
     "gl.alpha_deg",
 ];
 
-/// The issue's linearised sds (% of nominal) for knee0@30 and knee0@30+knee90@30+knee0@60.
+/// Reference linearised sds (% of nominal), from a separate hand analysis, for knee0@30 and knee0@30+knee90@30+knee0@60.
 const TABLE_ONE: [f64; 9] = [0.62, 7.2, 6.5, 2.6, 16.0, 13.0, 4.5, 22.0, 14.0];
 const TABLE_THREE: [f64; 9] = [0.09, 0.66, 3.1, 0.85, 4.6, 5.6, 2.0, 9.8, 6.8];
 
@@ -33,14 +33,14 @@ fn sd(row: &Value, key: &str, p: &str) -> f64 {
     row[key][p].as_f64().unwrap()
 }
 
-/// The sds the model gives against the issue's table. The tendon slack lengths of all three
+/// The sds the model gives against the reference table. The tendon slack lengths of all three
 /// muscles and the gastrocnemii's F0 reproduce it within ±40 % for both protocols. The
 /// pennation angles do not: a ±20 % change of α0 moves the torque by 2.1 (sol), 0.55 (gm) and
 /// 0.06 N·m RMS (gl) (`surae sensitivity`), far too little against 1.26 N·m of correlated noise
 /// for the table's 13–14 % (docs/design.md); so the gastrocnemii's α0 stay unidentifiable and
 /// the soleus's three parameters identifiable with three trials.
 #[test]
-fn issue_table_rows_for_one_and_three_trials() {
+fn reference_table_rows_for_one_and_three_trials() {
     let dir = tempfile::tempdir().unwrap();
     let o = surae(
         &[

@@ -23,7 +23,7 @@ struct Variant {
     label: &'static str,
     offset: OffsetTreatment,
     /// Gastrocnemii's envelopes scaled by the synthetic drive factor at the trial's knee angle.
-    session_drive: bool,
+    shared_normalisation: bool,
     /// Only the samples where the ankle moves count.
     moving_only: bool,
     /// White noise of the same marginal sd instead of AR(1)+white.
@@ -65,7 +65,7 @@ fn main() -> Result<(), design::DesignError> {
     let base = Variant {
         label: "design default (offset prior sd 0.5 N·m)",
         offset: OffsetTreatment::Prior { sd_nm: 0.5 },
-        session_drive: false,
+        shared_normalisation: false,
         moving_only: false,
         white: false,
         jittery: None,
@@ -85,8 +85,8 @@ fn main() -> Result<(), design::DesignError> {
             ..base
         },
         Variant {
-            label: "gastrocnemius drive 0.7x at knee 90 (session normalisation)",
-            session_drive: true,
+            label: "gastrocnemius drive 0.7x at knee 90 (EMG normalised over all trials)",
+            shared_normalisation: true,
             ..base
         },
         Variant {
@@ -147,7 +147,7 @@ fn main() -> Result<(), design::DesignError> {
             let mut draws = Vec::new();
             for k in 0..v.emg_draws as u64 {
                 let mut inputs = trial_inputs(t, settings.emg_seed + k)?;
-                if v.session_drive {
+                if v.shared_normalisation {
                     inputs = scaled_drive(&inputs, t.knee_angle_deg);
                 }
                 let jac = torque_jacobian(&name, &inputs, &params, &settings.jacobian)?;
