@@ -30,6 +30,8 @@ enum Command {
     /// What the model gets wrong: residual analysis, the named cause(s), the
     /// extended model and its held-out gain (writes diagnosis.json).
     Diagnose(commands::diagnose::DiagnoseArgs),
+    /// Expected posterior sd of each parameter for candidate protocols, before testing.
+    Design(commands::design::DesignArgs),
 }
 
 fn main() {
@@ -62,6 +64,7 @@ fn main() {
         Command::Sensitivity(a) => commands::sensitivity::run(a),
         Command::Identify(a) => commands::identify::run(a),
         Command::Diagnose(a) => commands::diagnose::run(a),
+        Command::Design(a) => commands::design::run(a),
     };
     match result {
         Ok(()) => {

@@ -1,5 +1,6 @@
 //! One module per `surae` subcommand.
 
+pub mod design;
 pub mod diagnose;
 pub mod envelope;
 pub mod identify;

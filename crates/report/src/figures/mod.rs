@@ -7,10 +7,12 @@
 //! [`MAX_LINE_POINTS`] points per line) and scatter plots are thinned by a fixed stride, so a
 //! figure stays well under 1 MB and the same input always gives the same bytes.
 
+mod design;
 mod diagnosis;
 mod mcmc;
 mod time;
 
+pub use design::{design_sds, DesignSeries};
 pub use diagnosis::{candidate_ranking, sensitivity_curves, Candidate, SensitivityPoint};
 pub use mcmc::{corner, histograms, rhat_history, traces};
 pub use time::{fit_comparison, residual_vs_angle, residual_vs_time, torque_fit};

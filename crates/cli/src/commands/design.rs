@@ -1,0 +1,288 @@
+//! `surae design`: the expected posterior sd of each identified parameter under candidate
+//! protocols, from the Fisher information of the model (crate `design`, `docs/design.md`).
+
+use std::path::{Path, PathBuf};
+
+use design::{
+    trial_informations, uncertainty_of, DesignNoise, DesignProtocol, DesignSettings,
+    OffsetTreatment, ProtocolUncertainty,
+};
+use serde_json::{json, Map, Value};
+
+use super::{load_model_config, ModelArgs, ReportArgs};
+use crate::error::{CmdResult, Failure};
+use crate::output::OutDir;
+
+/// Arguments of `surae design`.
+#[derive(clap::Args, Debug)]
+pub struct DesignArgs {
+    /// A candidate protocol: trials separated by commas, each `knee<deg>@<speed>` with an
+    /// optional `x<cycles>` (e.g. `knee0@30,knee90@30,knee0@60`, `knee0@30x2`). Repeat the
+    /// option to compare protocols.
+    #[arg(long, required = true, value_name = "P")]
+    pub protocol: Vec<String>,
+    /// An unloaded run (CSV) whose random error (AR(1) + white) replaces the synthetic
+    /// dynamometer's noise.
+    #[arg(long, value_name = "U.csv")]
+    pub unloaded: Option<PathBuf>,
+    /// The design point: a parameters JSON, an OpenSim model (`.osim`), a CEINMS subject XML or
+    /// an `identify.json` (nominal parameters when omitted).
+    #[arg(long, value_name = "P.json|.osim")]
+    pub params: Option<PathBuf>,
+    /// With an `.osim` `--params`: the model's names of sol, gm and gl.
+    #[arg(long, value_delimiter = ',', value_name = "MUSCLE=NAME")]
+    pub osim_muscles: Vec<String>,
+    /// Prior sd of each trial's constant torque offset left after the unloaded run's
+    /// correction (N·m), integrated out; 0 treats the offset as known.
+    #[arg(long, default_value_t = design::OFFSET_PRIOR_SD_NM, value_name = "NM", allow_negative_numbers = true)]
+    pub offset_sd: f64,
+    /// EMG realisations (synthetic EMG seeds) each trial's information is averaged over.
+    #[arg(long, default_value_t = design::DEFAULT_EMG_DRAWS, value_name = "N")]
+    pub emg_draws: usize,
+    /// First EMG seed (realisation k uses seed + k).
+    #[arg(long, default_value_t = design::DEFAULT_EMG_SEED)]
+    pub emg_seed: u64,
+    /// Output folder (default `out/design`): `design.json`, `design.svg`.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub report: ReportArgs,
+}
+
+/// Runs the command.
+pub fn run(args: DesignArgs) -> CmdResult {
+    let protocols = args
+        .protocol
+        .iter()
+        .map(|p| {
+            p.parse::<DesignProtocol>()
+                .map_err(|e| Failure::bad(format!("--{e}")))
+        })
+        .collect::<CmdResult<Vec<_>>>()?;
+    if !(args.offset_sd.is_finite() && args.offset_sd >= 0.0) {
+        return Err(Failure::bad(format!(
+            "--offset-sd {}: must be finite and ≥ 0",
+            args.offset_sd
+        )));
+    }
+    if !(1..=1000).contains(&args.emg_draws) {
+        return Err(Failure::bad(format!(
+            "--emg-draws {}: must be 1 to 1000",
+            args.emg_draws
+        )));
+    }
+    let model = ModelArgs {
+        params: args.params.clone(),
+        osim_muscles: args.osim_muscles.clone(),
+        ..ModelArgs::default()
+    };
+    let (mut params, _, read) = load_model_config(&model)?;
+    if !params.fixed.is_empty() {
+        let names: Vec<&str> = params.fixed.iter().map(|f| f.name).collect();
+        crate::warn(format!(
+            "{}: the fixed muscles {} are left out (the design's synthetic trials have EMG for \
+             sol, gm and gl only)",
+            args.params
+                .as_deref()
+                .map_or_else(String::new, |p| p.display().to_string()),
+            names.join(", ")
+        ));
+        params.fixed = Default::default();
+    }
+    let (noise, noise_source) = match &args.unloaded {
+        Some(p) => (noise_of_unloaded(p)?, Value::from(p.display().to_string())),
+        None => (DesignNoise::synthetic(), Value::from("synthetic")),
+    };
+    let offset = if args.offset_sd > 0.0 {
+        OffsetTreatment::Prior {
+            sd_nm: args.offset_sd,
+        }
+    } else {
+        OffsetTreatment::Known
+    };
+    let settings = DesignSettings {
+        offset,
+        emg_seed: args.emg_seed,
+        emg_draws: args.emg_draws,
+        ..DesignSettings::default()
+    };
+
+    let out_dir = args
+        .out
+        .clone()
+        .unwrap_or_else(|| crate::default_out("design"));
+    let mut inputs: Vec<&Path> = read.iter().map(PathBuf::as_path).collect();
+    inputs.extend(args.unloaded.as_deref());
+    let out = OutDir::prepare(&out_dir, &inputs, &["design.json", "design.svg"])?;
+
+    let distinct: std::collections::BTreeSet<String> = protocols
+        .iter()
+        .flat_map(DesignProtocol::trial_names)
+        .collect();
+    if args.report.show() {
+        eprintln!(
+            "design: {} protocol(s), {} distinct trial(s) × {} EMG realisation(s) …",
+            protocols.len(),
+            distinct.len(),
+            args.emg_draws
+        );
+    }
+    let infos = trial_informations(&protocols, &params, &noise, &settings)
+        .map_err(|e| Failure::bad(format!("design: {e}")))?;
+    let mut rows = Vec::with_capacity(protocols.len());
+    let mut known = Vec::with_capacity(protocols.len());
+    for p in &protocols {
+        let u = uncertainty_of(p, &infos, &params, offset)
+            .map_err(|e| Failure::bad(format!("design: {e}")))?;
+        let k = uncertainty_of(p, &infos, &params, OffsetTreatment::Known)
+            .map_err(|e| Failure::bad(format!("design: {e}")))?;
+        rows.push(u);
+        known.push(k);
+    }
+
+    let doc = json!({
+        "protocols": rows.iter().zip(&known).map(|(u, k)| protocol_json(u, k)).collect::<Vec<_>>(),
+        "noise": {
+            "source": noise_source,
+            "ar1_sd_nm": noise.ar1_sd_nm,
+            "ar1_corr_time_s": noise.ar1_corr_time_s,
+            "white_sd_nm": noise.white_sd_nm,
+        },
+        "params": args.params.as_deref().map_or(Value::from("nominal"), |p| Value::from(p.display().to_string())),
+        "offset_prior_sd_nm": args.offset_sd,
+        "emg": {"first_seed": args.emg_seed, "draws": args.emg_draws},
+        "jacobian": {"rel_step": settings.jacobian.rel_step, "rtol": settings.jacobian.sim.rtol},
+    });
+    let text = serde_json::to_string_pretty(&doc).map_err(Failure::internal)? + "\n";
+    let json_path = out.write("design.json", text.as_bytes())?;
+
+    let names: Vec<String> = rows[0]
+        .params
+        .iter()
+        .map(|q| short_label(&q.name))
+        .collect();
+    let name_refs: Vec<&str> = names.iter().map(String::as_str).collect();
+    let sds: Vec<Vec<f64>> = rows
+        .iter()
+        .map(|u| u.params.iter().map(|q| q.sd_pct).collect())
+        .collect();
+    let prior: Vec<f64> = rows[0].params.iter().map(|q| q.prior_sd_pct).collect();
+    let series: Vec<report::figures::DesignSeries<'_>> = rows
+        .iter()
+        .zip(&sds)
+        .map(|(u, s)| report::figures::DesignSeries {
+            label: &u.protocol,
+            sd_pct: s,
+        })
+        .collect();
+    match report::figures::design_sds(&name_refs, &series, &prior) {
+        Ok(svg) => {
+            out.write("design.svg", svg.as_bytes())?;
+        }
+        Err(e) => crate::warn(format!("figure design not drawn: {e}")),
+    }
+
+    args.report.print_json(&text);
+    args.report.say(&format!(
+        "design: expected posterior sd, % of the value at the design point ({}; noise {}: AR(1) \
+         {:.2} N·m, {:.3} s, white {:.2} N·m; offset prior sd {} N·m)",
+        args.params
+            .as_deref()
+            .map_or_else(|| "nominal".to_string(), |p| p.display().to_string()),
+        noise_source.as_str().unwrap_or("synthetic"),
+        noise.ar1_sd_nm,
+        noise.ar1_corr_time_s,
+        noise.white_sd_nm,
+        args.offset_sd
+    ));
+    for line in table(&rows, &names) {
+        args.report.say(&line);
+    }
+    args.report.say(&format!(
+        "  (* = not identifiable: sd with the bounds' prior above half the prior sd)\n  wrote {}",
+        json_path.display()
+    ));
+    Ok(())
+}
+
+/// The random part of an unloaded run's dynamometer correction.
+fn noise_of_unloaded(path: &Path) -> CmdResult<DesignNoise> {
+    let u = experiment::read_unloaded(path).map_err(Failure::bad)?;
+    let c = experiment::DynamometerCorrection::from_unloaded(&u)
+        .map_err(|e| Failure::bad(format!("{}: {e}", path.display())))?;
+    DesignNoise::from_correction(&c).map_err(|e| Failure::bad(format!("{}: {e}", path.display())))
+}
+
+fn by_name(u: &ProtocolUncertainty, f: impl Fn(&design::ParamUncertainty) -> Value) -> Value {
+    let mut m = Map::new();
+    for q in &u.params {
+        m.insert(q.name.clone(), f(q));
+    }
+    Value::Object(m)
+}
+
+fn protocol_json(u: &ProtocolUncertainty, known: &ProtocolUncertainty) -> Value {
+    json!({
+        "protocol": u.protocol,
+        "trials": u.trials,
+        "sd_pct": by_name(u, |q| json!(q.sd_pct)),
+        "sd_pct_with_prior": by_name(u, |q| json!(q.sd_pct_with_prior)),
+        "prior_sd_pct": by_name(u, |q| json!(q.prior_sd_pct)),
+        "identifiable": by_name(u, |q| json!(q.identifiable)),
+        "sd_pct_offset_known": by_name(known, |q| json!(q.sd_pct)),
+    })
+}
+
+/// `sol LST`, `gm F0`, `gl α0`.
+fn short_label(name: &str) -> String {
+    let (m, f) = name.split_once('.').unwrap_or(("", name));
+    let sym = match f {
+        "lst_m" => "LST",
+        "fom_n" => "F0",
+        "alpha_deg" => "α0",
+        other => other,
+    };
+    format!("{m} {sym}")
+}
+
+/// Two or three significant digits, as the sds are read.
+fn cell(x: f64) -> String {
+    if x >= 100.0 {
+        format!("{x:.0}")
+    } else if x >= 10.0 {
+        format!("{x:.1}")
+    } else {
+        format!("{x:.2}")
+    }
+}
+
+fn table(rows: &[ProtocolUncertainty], names: &[String]) -> Vec<String> {
+    let w0 = rows
+        .iter()
+        .map(|u| u.protocol.chars().count())
+        .max()
+        .unwrap_or(8)
+        .max(8);
+    let mut out = Vec::new();
+    let mut head = format!("  {:<w0$}", "protocol");
+    for n in names {
+        head.push_str(&format!(" {n:>8}"));
+    }
+    out.push(head);
+    for u in rows {
+        let mut line = format!("  {:<w0$}", u.protocol);
+        for q in &u.params {
+            let mark = if q.identifiable { " " } else { "*" };
+            line.push_str(&format!(" {:>7}{mark}", cell(q.sd_pct)));
+        }
+        out.push(line);
+    }
+    if let Some(u) = rows.first() {
+        let mut line = format!("  {:<w0$}", "prior sd");
+        for q in &u.params {
+            line.push_str(&format!(" {:>7} ", cell(q.prior_sd_pct)));
+        }
+        out.push(line);
+    }
+    out
+}
