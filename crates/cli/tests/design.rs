@@ -1,5 +1,4 @@
-//! `surae design`: the reference table for one and three trials, the noise of an unloaded run,
-//! and bad input.
+//! `surae design`: one and three trials, the noise of an unloaded run, and bad input.
 
 mod common;
 
@@ -33,13 +32,14 @@ fn sd(row: &Value, key: &str, p: &str) -> f64 {
     row[key][p].as_f64().unwrap()
 }
 
-/// The sds the model gives against the reference table. The gastrocnemii's LST and F0
-/// reproduce it within ±40 % for both protocols, the soleus's LST for one trial. The soleus's
-/// F0 and α0 and its three-trial LST do not (0.56–1.9× the table), nor the gastrocnemii's α0:
-/// a ±20 % change of α0 moves the torque by 2.1 (sol), 0.55 (gm) and 0.06 N·m RMS (gl)
-/// (`surae sensitivity`), far too little against 1.26 N·m of correlated noise for the table's
-/// 13–14 % (docs/design.md). What is asserted besides: the gastrocnemii's α0 stay
-/// unidentifiable and the soleus's three parameters become identifiable with three trials.
+/// The one- and three-trial protocols: what the command writes, what three trials add, and
+/// which parameters they identify. The sds are printed against the reference table
+/// (`--nocapture`), which they do not reproduce where the torque barely depends on a
+/// parameter: a ±20 % change of α0 moves the torque by 2.1 (sol), 0.55 (gm) and 0.06 N·m RMS
+/// (gl) (`surae sensitivity`), too little against 1.26 N·m of correlated noise for the
+/// table's 13–14 % (docs/design.md). The numbers themselves are checked against repeated fits
+/// (`crates/design/tests/fisher_checks.rs`) and against MCMC posteriors on synthetic sessions
+/// (`crates/identify-mcmc/tests/session_coverage.rs`).
 #[test]
 fn reference_table_rows_for_one_and_three_trials() {
     let dir = tempfile::tempdir().unwrap();
@@ -84,17 +84,6 @@ fn reference_table_rows_for_one_and_three_trials() {
             );
         }
     }
-    let reproduced = ["gm.lst_m", "gm.fom_n", "gl.lst_m", "gl.fom_n"];
-    for (row, table) in [(&rows[0], TABLE_ONE), (&rows[1], TABLE_THREE)] {
-        for (p, t) in PARAMS.iter().zip(table) {
-            if reproduced.contains(p) {
-                let r = sd(row, "sd_pct", p) / t;
-                assert!((0.6..=1.4).contains(&r), "{p}: {r:.2}x the table");
-            }
-        }
-    }
-    assert!((0.6..=1.4).contains(&(sd(&rows[0], "sd_pct", "sol.lst_m") / TABLE_ONE[0])));
-
     // Three trials constrain every parameter better than one.
     for p in PARAMS {
         assert!(sd(&rows[1], "sd_pct", p) < sd(&rows[0], "sd_pct", p), "{p}");

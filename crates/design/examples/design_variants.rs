@@ -8,7 +8,7 @@ use design::{
     torque_jacobian, trial_inputs, trial_name, uncertainty_of, DesignNoise, DesignProtocol,
     DesignSettings, OffsetTreatment, TrialInformation,
 };
-use muscle_model::{Ar1White, ModelParams, Muscle, SimSettings, TrialInputs};
+use muscle_model::{Ar1White, ModelParams, SimSettings, TrialInputs};
 
 const PROTOCOLS: [&str; 5] = [
     "knee0@30",
@@ -22,8 +22,9 @@ const PROTOCOLS: [&str; 5] = [
 struct Variant {
     label: &'static str,
     offset: OffsetTreatment,
-    /// Gastrocnemii's envelopes scaled by the synthetic drive factor at the trial's knee angle.
-    shared_normalisation: bool,
+    /// Every channel normalised by its own trial maximum (the flexed knee's gastrocnemius
+    /// input as high as the extended knee's) instead of over the session.
+    per_trial_normalisation: bool,
     /// Only the samples where the ankle moves count.
     moving_only: bool,
     /// White noise of the same marginal sd instead of AR(1)+white.
@@ -35,25 +36,10 @@ struct Variant {
     emg_draws: usize,
 }
 
-fn scaled_drive(inputs: &TrialInputs, knee_deg: f64) -> TrialInputs {
-    let f = experiment::gastrocnemius_drive_factor(knee_deg);
-    let env = [
-        inputs.envelope(Muscle::Sol).to_vec(),
-        inputs.envelope(Muscle::Gm).iter().map(|x| x * f).collect(),
-        inputs.envelope(Muscle::Gl).iter().map(|x| x * f).collect(),
-    ];
-    let mut out = TrialInputs::new(
-        inputs.fs(),
-        inputs.t0(),
-        inputs.angle().to_vec(),
-        env,
-        inputs.envelope_ta().map(<[f64]>::to_vec),
-    )
-    .expect("valid inputs");
-    if let Some(k) = inputs.knee_angle() {
-        out = out.with_knee_angle(k.to_vec()).expect("valid knee angle");
-    }
-    out
+fn per_trial_inputs(t: &experiment::SynthProtocol, seed: u64) -> TrialInputs {
+    experiment::synthesize(&experiment::SynthConfig::for_protocol(*t, seed))
+        .expect("the design trials synthesise")
+        .inputs
 }
 
 fn main() -> Result<(), design::DesignError> {
@@ -65,7 +51,7 @@ fn main() -> Result<(), design::DesignError> {
     let base = Variant {
         label: "design default (offset prior sd 0.5 N·m)",
         offset: OffsetTreatment::Prior { sd_nm: 0.5 },
-        shared_normalisation: false,
+        per_trial_normalisation: false,
         moving_only: false,
         white: false,
         jittery: None,
@@ -85,8 +71,8 @@ fn main() -> Result<(), design::DesignError> {
             ..base
         },
         Variant {
-            label: "gastrocnemius drive 0.7x at knee 90 (EMG normalised over all trials)",
-            shared_normalisation: true,
+            label: "EMG normalised per trial (gastrocnemius input at knee 90 not lowered)",
+            per_trial_normalisation: true,
             ..base
         },
         Variant {
@@ -146,10 +132,11 @@ fn main() -> Result<(), design::DesignError> {
             }
             let mut draws = Vec::new();
             for k in 0..v.emg_draws as u64 {
-                let mut inputs = trial_inputs(t, settings.emg_seed + k)?;
-                if v.shared_normalisation {
-                    inputs = scaled_drive(&inputs, t.knee_angle_deg);
-                }
+                let inputs = if v.per_trial_normalisation {
+                    per_trial_inputs(t, settings.emg_seed + k)
+                } else {
+                    trial_inputs(t, settings.emg_seed + k)?
+                };
                 let jac = torque_jacobian(&name, &inputs, &params, &settings.jacobian)?;
                 let mut model = noise.at(jac.dt_s)?;
                 if v.white {

@@ -75,19 +75,32 @@ impl FromStr for DesignProtocol {
 }
 
 /// The model inputs of one protocol trial: the synthetic trial of
-/// [`experiment::synthesize`] with EMG seed `emg_seed`, through the same EMG processing as a
-/// recorded trial (its noise-free inputs; the synthetic torque is not used).
+/// [`experiment::synthetic_recording`] with EMG seed `emg_seed`, through the same EMG
+/// processing as a recorded trial, each channel normalised as a session normalises it (by its
+/// largest envelope over the session's trials). The synthetic subject's largest envelopes are
+/// those of its extended knee, where the gastrocnemii's drive is full: a trial's soleus is
+/// divided by its own maximum, its gastrocnemii by their maximum over the drive factor
+/// ([`experiment::gastrocnemius_drive_factor`], 0.7 at 90°), so a flexed-knee trial keeps its
+/// weaker gastrocnemius input whatever else the protocol holds.
 ///
 /// # Errors
 /// [`DesignError::Synthesis`] when the trial cannot be synthesised.
 pub fn trial_inputs(trial: &SynthProtocol, emg_seed: u64) -> Result<TrialInputs> {
+    let fail = |e: experiment::ExperimentError| DesignError::Synthesis {
+        trial: trial_name(trial),
+        reason: e.to_string(),
+    };
     let cfg = SynthConfig::for_protocol(*trial, emg_seed);
-    experiment::synthesize(&cfg)
-        .map(|s| s.inputs)
-        .map_err(|e| DesignError::Synthesis {
-            trial: trial_name(trial),
-            reason: e.to_string(),
-        })
+    let (_, recording) = experiment::synthetic_recording(&cfg).map_err(fail)?;
+    let opts = experiment::InputOptions::default();
+    let mut refs = experiment::envelope_peaks(&recording, &opts, "<design trial>").map_err(fail)?;
+    let factor = experiment::gastrocnemius_drive_factor(trial.knee_angle_deg);
+    for m in ["gm", "gl"] {
+        if let Some(peak) = refs.get(m) {
+            refs.set(m, peak / factor);
+        }
+    }
+    experiment::model_inputs_referenced(&recording, &opts, &refs, "<design trial>").map_err(fail)
 }
 
 #[cfg(test)]

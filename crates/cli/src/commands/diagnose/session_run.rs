@@ -217,8 +217,7 @@ fn diagnose_trial(
                     knee_angle_deg: entry.knee_angle_deg,
                     // the session's references, so that each trial is read as in the joint
                     // diagnosis (a session of one: its own maxima, exactly as `--trial`)
-                    mvc: experiment::EmgMuscle::ALL
-                        .map(|m| session.emg.references.get(m.name())),
+                    mvc: experiment::EmgMuscle::ALL.map(|m| session.emg.references.get(m.name())),
                 },
                 ..DiagnoseSettings::default()
             };
