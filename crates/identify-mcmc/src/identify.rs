@@ -5,7 +5,8 @@
 //! 1. the measured torque is corrected by the dynamometer's systematic error
 //!    ([`NoiseSpec::systematic`], e.g. the cycle-locked part estimated from the unloaded run);
 //! 2. the noise model is the one given, or (no unloaded run) fitted to the residual of a
-//!    Nelder–Mead fit of the sum of squares (`numerics`' [`nelder_mead()`]);
+//!    Nelder–Mead fit of the sum of squares (`numerics::nelder_mead`; for a session, each
+//!    trial's noise to its own residual of one joint fit);
 //! 3. a multi-start search (module `modes`) finds the modes of the posterior of LST and α0 with
 //!    F0 integrated out; the best one centres the wall-free sampling coordinates (module
 //!    `sampling_coordinates`) and all of them make the jump mixture ([`crate::MixtureProposal`]);

@@ -90,7 +90,7 @@
 //!
 //! Several trials of one subject share the muscle parameters; each keeps its own systematic
 //! correction, noise model and offset nuisance, and the log-likelihood is the sum of the
-//! trials' (their noises are independent). [`identify`] is a session of one trial.
+//! trials' (their noises are independent). [`identify()`] is a session of one trial.
 //!
 //! # Example
 //!
