@@ -36,8 +36,9 @@
 //! rest of the conditional is unchanged. The trials are evaluated one after the other inside
 //! one log density, not in parallel: the 4 chains already keep 2 cores busy, and splitting a
 //! 3-trial evaluation over the trials (rayon, summed in trial order) gave the same draws for
-//! more CPU time (60 against 57 CPU-s on one synthetic knee0@30 + knee90@30 + knee0@60 session)
-//! and twice the wall time on a shared machine (162 against 79 s).
+//! more CPU time and 2.1–2.4× the wall time on two synthetic knee0@30 + knee90@30 + knee0@60
+//! sessions (35 against 30 CPU-s, 38 against 16 s; 60 against 57 CPU-s, 162 against 79 s on a
+//! busier machine).
 
 use std::cell::RefCell;
 
