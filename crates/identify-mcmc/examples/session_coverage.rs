@@ -1,10 +1,11 @@
 //! Joint MCMC on synthetic 3-trial sessions (knee0@30, knee90@30, knee0@60): convergence,
 //! posterior sds, identifiability and 90 % interval coverage.
 //!
-//! `cargo run --release -p identify-mcmc --example session_coverage -- [N=20] [FIRST=1]`
+//! `cargo run --release -p identify-mcmc --example session_coverage -- [N=20] [FIRST=1] [nominal]`
 //! identifies replicates FIRST…FIRST+N−1 with the default settings (seed = replicate). Each
 //! replicate draws its true parameters uniformly inside the bounds
-//! (`experiment::random_params`, seeded by the replicate) and synthesises the three trials, each
+//! (`experiment::random_params`, seeded by the replicate; `nominal`: the nominal parameters,
+//! where the linearised expectation was computed) and synthesises the three trials, each
 //! with its own unloaded run and the nominal dynamometer error; each trial is corrected by its
 //! own unloaded run and keeps its own AR(1)+white noise model. Prints one line per replicate and
 //! a table: coverage per parameter, mean posterior sd in % of nominal against the linearised
@@ -22,6 +23,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     let n: u64 = args.get(1).map(|s| s.parse()).transpose()?.unwrap_or(20);
     let first: u64 = args.get(2).map(|s| s.parse()).transpose()?.unwrap_or(1);
+    let at_nominal = args.iter().any(|a| a == "nominal");
     let nominal = nominal_values();
     let mut hits = [0usize; 9];
     let mut sd_sum = [0.0f64; 9];
@@ -31,7 +33,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         (0usize, Vec::new(), 0.0f64, f64::INFINITY);
     let mut names = Vec::new();
     for rep in first..first + n {
-        let session = SyntheticSession::new(&THREE_TRIALS, rep);
+        let session = if at_nominal {
+            SyntheticSession::with_truth(&THREE_TRIALS, rep, muscle_model::ModelParams::nominal())
+        } else {
+            SyntheticSession::new(&THREE_TRIALS, rep)
+        };
         let truth = session.true_values();
         let mut settings = McmcIdentifySettings::default();
         settings.mcmc.seed = rep;

@@ -27,6 +27,11 @@ impl SyntheticSession {
     pub fn new(protocols: &[&str], replicate: u64) -> Self {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(replicate);
         let truth = random_params(&mut rng, &ModelParams::nominal());
+        Self::with_truth(protocols, replicate, truth)
+    }
+
+    /// The same with the given truth (e.g. the nominal parameters).
+    pub fn with_truth(protocols: &[&str], replicate: u64, truth: ModelParams) -> Self {
         let mut problems = Vec::new();
         let mut noises = Vec::new();
         for (k, p) in protocols.iter().enumerate() {
