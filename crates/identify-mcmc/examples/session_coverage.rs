@@ -70,6 +70,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             res.wall_s,
             rms.join("/")
         );
+        // Where the modes kept by the search lie, in % of the truth (sol, gm, gl × LST, F0, α0).
+        for md in &res.modes {
+            let off: Vec<String> =
+                md.x.iter()
+                    .zip(&truth)
+                    .map(|(x, t)| format!("{:+.1}", 100.0 * (x - t) / t))
+                    .collect();
+            println!(
+                "    mode, {:.2} log units below the best: {} %",
+                md.log_density_gap,
+                off.join(" ")
+            );
+        }
     }
     let nf = n as f64;
     println!();
