@@ -139,9 +139,9 @@ fn a_two_trial_session_reports_each_trial_and_the_correlation_matrix() {
     ] {
         assert!(d.join("out").join(f).exists(), "{f}");
     }
-    let model: &Value = &doc["model"];
-    assert!(
-        model["sol"].is_object(),
-        "the model at the posterior mean: {model}"
-    );
+    // the whole model at the posterior mean
+    let model: &Value = &doc["model"]["muscles"];
+    for (m, f) in [("sol", "lst_m"), ("gm", "fom_n"), ("gl", "alpha_deg")] {
+        assert_eq!(model[m][f], doc["params"][format!("{m}.{f}")], "{m}.{f}");
+    }
 }
