@@ -163,7 +163,16 @@ fn noise_models(
             (McmcNoiseSource::Fixed(n), _) => n,
             (McmcNoiseSource::FromResidual(kind), Some(x)) => {
                 let pred = p.predict(x)?;
-                let r: Vec<f64> = p.measured().iter().zip(&pred).map(|(m, p)| m - p).collect();
+                // Only the samples the likelihood sees (a trial with weights is measured only
+                // where its weight is positive).
+                let r: Vec<f64> = p
+                    .measured()
+                    .iter()
+                    .zip(&pred)
+                    .enumerate()
+                    .filter(|(i, _)| p.weights().is_none_or(|w| w[*i] > 0.0))
+                    .map(|(_, (m, p))| m - p)
+                    .collect();
                 let mean = r.iter().sum::<f64>() / r.len().max(1) as f64;
                 let r: Vec<f64> = r.iter().map(|v| v - mean).collect();
                 NoiseParams::fit(kind, &r, t.noise.max_lag)?

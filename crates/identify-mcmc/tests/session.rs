@@ -178,3 +178,52 @@ fn three_trial_session_converges_and_identifies_the_soleus() {
     );
     assert!((c[i][j] - strongest.r).abs() < 1e-12);
 }
+
+/// A trial measured only where its weights are positive (a moment file shorter than the EMG):
+/// its noise, fitted to its residual, comes from those samples alone, whatever the torque
+/// holds elsewhere.
+#[test]
+fn the_residual_noise_of_a_weighted_trial_ignores_the_unmeasured_samples() {
+    let session = SyntheticSession::new(&THREE_TRIALS[..1], 3);
+    let p = &session.problems[0];
+    let n = p.measured().len();
+    let cut = n / 5;
+    let weights: Vec<f64> = (0..n).map(|i| if i < cut { 0.0 } else { 1.0 }).collect();
+    let mut garbage = p.measured().to_vec();
+    for (i, v) in garbage.iter_mut().take(cut).enumerate() {
+        *v = if i % 2 == 0 { 100.0 } else { -100.0 };
+    }
+    let weighted = |measured: Vec<f64>| {
+        Problem::new(
+            p.inputs().clone(),
+            measured,
+            *p.base_params(),
+            *p.base_effects(),
+            p.free().to_vec(),
+        )
+        .unwrap()
+        .with_weights(weights.clone())
+        .unwrap()
+    };
+    let clean = weighted(p.measured().to_vec());
+    let spoiled = weighted(garbage);
+    let noise = NoiseSpec::from_residual(NoiseKind::Ar1White);
+    let mut settings = McmcIdentifySettings::fast(2);
+    settings.nelder_mead_evaluations = 150;
+    settings.mode_starts = 2;
+    settings.mcmc.warmup_min = 200;
+    settings.mcmc.block = 100;
+    settings.mcmc.max_total = 300;
+    let sd = |problem: &Problem| {
+        let trial = SessionTrialLikelihood {
+            problem,
+            noise: &noise,
+        };
+        run(&[trial], &settings).unwrap().trials[0]
+            .noise
+            .marginal_sd()
+    };
+    let (a, b) = (sd(&clean), sd(&spoiled));
+    assert!(a < 5.0, "marginal sd {a} N·m");
+    assert_eq!(a, b, "the unmeasured samples changed the noise model");
+}
