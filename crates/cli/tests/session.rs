@@ -181,15 +181,31 @@ fn bad_sessions_are_one_line_errors_and_write_nothing() {
             assert!(!d.join("o").exists(), "nothing written for {text}");
         }
     }
-    // MCMC does not take a session yet
+    // MCMC reads a session the same way
     std::fs::write(
         d.join("s.json"),
         r#"{"trials": [{"name": "a", "trial": "t.csv"}]}"#,
     )
     .unwrap();
-    let o = surae(&["identify", "--method", "mcmc", "--session", "s.json"], d);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("--method sa"));
+    let o = surae(
+        &[
+            "identify",
+            "--method",
+            "mcmc",
+            "--session",
+            "s.json",
+            "--out",
+            "o",
+        ],
+        d,
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("t.csv") && err.trim_end().lines().count() == 1,
+        "{err}"
+    );
+    assert!(!d.join("o").exists());
 }
 
 #[test]

@@ -5,7 +5,8 @@
 //! 1. the measured torque is corrected by the dynamometer's systematic error
 //!    ([`NoiseSpec::systematic`], e.g. the cycle-locked part estimated from the unloaded run);
 //! 2. the noise model is the one given, or (no unloaded run) fitted to the residual of a
-//!    Nelder–Mead fit of the sum of squares (`numerics`' [`nelder_mead()`]);
+//!    Nelder–Mead fit of the sum of squares (`numerics::nelder_mead`; for a session, each
+//!    trial's noise to its own residual of one joint fit);
 //! 3. a multi-start search (module `modes`) finds the modes of the posterior of LST and α0 with
 //!    F0 integrated out; the best one centres the wall-free sampling coordinates (module
 //!    `sampling_coordinates`) and all of them make the jump mixture ([`crate::MixtureProposal`]);
@@ -14,29 +15,24 @@
 //!    jumps (uniform prior on the bounds; a failed simulation is a rejected proposal) until
 //!    every R̂ < 1.01 and bulk ESS ≥ 400 on the model's parameters (which the chains store at
 //!    every step), or the cap;
-//! 5. the report names each parameter (`sol.lst_m`, …) with its summary, identifiability and
-//!    the strongest posterior correlations.
+//! 5. the report names each parameter (`sol.lst_m`, …) with its summary, identifiability,
+//!    the posterior correlation matrix and the strongest correlations.
+//!
+//! [`identify`] is a session of one trial ([`crate::identify_session`]).
 
 use std::io::Write;
 use std::ops::ControlFlow;
-use std::time::Instant;
 
 use muscle_model::Problem;
 use numerics::cholesky::solve_lower_in_place;
-use numerics::{nelder_mead, FnObjective, NelderMeadSettings};
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
 use crate::mixture::{ComponentSpec, MixtureProposal};
-use crate::modes::{find_modes, Mode};
+use crate::modes::Mode;
 use crate::noise::{NoiseKind, NoiseParams};
 use crate::sampling_coordinates::Conditional;
-use crate::{
-    run_with_proposal, ChainProgress, ChainStopReason, LogDensity, McmcError, McmcSettings,
-    RunResult,
-};
+use crate::session_identify::{McmcTrialFit, SessionTrialLikelihood};
+use crate::{ChainProgress, ChainStopReason, McmcError, McmcSettings, RunResult};
 
 /// Where the likelihood's noise model comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -371,7 +367,7 @@ pub struct ModeInfo {
 /// The jump proposal of `modes` in `target`'s whitened coordinates: component `m` has mean
 /// `z_m = L⁻¹(θ_m − θ_best)` and covariance `s²·(L⁻¹L_m)(L⁻¹L_m)ᵀ` (`s` the inflation),
 /// weight `0.7·w_m/Σw + 0.3/M` with the Laplace mass `w_m = p(θ_m)·det L_m`.
-fn mode_mixture(
+pub(crate) fn mode_mixture(
     target: &Conditional<'_>,
     modes: &[Mode],
     settings: &McmcIdentifySettings,
@@ -460,6 +456,9 @@ pub struct McmcIdentification {
     pub posterior: Vec<ParamPosterior>,
     /// Strongest posterior correlations (by |r|).
     pub correlations: Vec<NamedCorrelation>,
+    /// Pearson correlation matrix of the kept draws (`names` × `names`).
+    #[serde(default)]
+    pub posterior_correlation: Vec<Vec<f64>>,
     /// The sampler converged and every parameter's R̂ < target and bulk ESS ≥ target (false:
     /// the cap was hit or the run stopped).
     pub converged: bool,
@@ -489,14 +488,18 @@ pub struct McmcIdentification {
     /// Mean acceptance rate of the mode-jumping steps during sampling (NaN when off).
     #[serde(default)]
     pub jump_acceptance_rate: f64,
-    /// RMS torque error at the posterior mean against the torque as measured (N·m).
+    /// RMS torque error at the posterior mean against the torque as measured (N·m), over every
+    /// sample of the session.
     pub rms_nm: f64,
     /// RMS at the posterior mean against the corrected torque (measured − systematic).
     pub rms_corrected_nm: f64,
-    /// The noise model used.
+    /// The noise model used (of the first trial; every trial's in `trials`).
     pub noise: NoiseParams,
-    /// Whether a systematic correction was applied.
+    /// Whether a systematic correction was applied (to the first trial).
     pub corrected: bool,
+    /// Each trial's fit at the posterior mean and noise model, in the session's order.
+    #[serde(default)]
+    pub trials: Vec<McmcTrialFit>,
     /// Wall time of the whole identification (s).
     pub wall_s: f64,
     /// The sampler result in the model's parameters: draws `[parameter][chain][draw]`,
@@ -551,23 +554,6 @@ impl McmcIdentification {
     }
 }
 
-/// `problem` with its measured torque replaced by `measured` (everything else kept).
-fn with_measured(problem: &Problem, measured: Vec<f64>) -> Result<Problem, McmcError> {
-    let mut p = Problem::new(
-        problem.inputs().clone(),
-        measured,
-        *problem.base_params(),
-        *problem.base_effects(),
-        problem.free().to_vec(),
-    )?
-    .with_bounds(problem.bounds().to_vec())?
-    .with_settings(*problem.settings());
-    if let Some(w) = problem.weights() {
-        p = p.with_weights(w.to_vec())?;
-    }
-    Ok(p)
-}
-
 /// Sample the posterior of `problem`'s free parameters (see the module documentation).
 ///
 /// `observer` sees the sampler's [`ChainProgress`] after every block and may stop the run.
@@ -584,256 +570,9 @@ pub fn identify<F>(
 where
     F: FnMut(&ChainProgress) -> ControlFlow<()>,
 {
-    let started = Instant::now();
-    settings.mcmc.validate()?;
-    if !(settings.start_spread.is_finite() && settings.start_spread >= 0.0) {
-        return Err(McmcError::InvalidSetting {
-            name: "start_spread",
-            value: settings.start_spread.to_string(),
-            reason: "must be finite and ≥ 0",
-        });
-    }
-    let corrected = match &noise.systematic {
-        None => problem.clone(),
-        Some(s) => {
-            if s.len() != problem.measured().len() {
-                return Err(McmcError::Length {
-                    what: "systematic correction",
-                    expected: problem.measured().len(),
-                    got: s.len(),
-                });
-            }
-            let m: Vec<f64> = problem
-                .measured()
-                .iter()
-                .zip(s)
-                .map(|(m, s)| m - s)
-                .collect();
-            with_measured(problem, m)?
-        }
-    };
-    let d = corrected.dim();
-    let bounds = corrected.bounds().to_vec();
-    let mut evaluations = 0u64;
-    let mut failed = 0u64;
-
-    // Noise model (a preliminary least-squares fit only when it comes from the residual).
-    let noise_params = match noise.source {
-        McmcNoiseSource::Fixed(p) => p,
-        McmcNoiseSource::FromResidual(kind) => {
-            let base = corrected.base_vector();
-            let x0: Vec<f64> = base
-                .iter()
-                .zip(&bounds)
-                .map(|(v, (lo, hi))| v.clamp(*lo, *hi))
-                .collect();
-            let mut objective = FnObjective::new(bounds.clone(), |x: &[f64]| corrected.sse(x).ok());
-            let nm = NelderMeadSettings {
-                max_evaluations: settings.nelder_mead_evaluations.max(1) * 5,
-                ..NelderMeadSettings::default()
-            };
-            let out = nelder_mead(&mut objective, &x0, &nm).map_err(|e| McmcError::Start {
-                reason: e.to_string(),
-            })?;
-            evaluations += out.evaluations + 1;
-            failed += out.failed_evaluations;
-            let pred = corrected.predict(&out.x)?;
-            let r: Vec<f64> = corrected
-                .measured()
-                .iter()
-                .zip(&pred)
-                .map(|(m, p)| m - p)
-                .collect();
-            let mean = r.iter().sum::<f64>() / r.len().max(1) as f64;
-            let r: Vec<f64> = r.iter().map(|v| v - mean).collect();
-            NoiseParams::fit(kind, &r, noise.max_lag)?
-        }
-    };
-    let noise_model = noise_params.model()?;
-
-    // Modes of the marginal posterior of the nonlinear parameters.
-    let k = settings.z_half_width;
-    let modes = if settings.mode_starts > 0 {
-        let search = find_modes(
-            &corrected,
-            &noise_model,
-            settings.mode_starts,
-            settings.nelder_mead_evaluations.max(1),
-            settings.mcmc.seed,
-            settings.mode_gap,
-            noise.offset_sd_nm,
-        );
-        evaluations += search.evaluations;
-        failed += search.failed;
-        search.modes
-    } else {
-        let x0: Vec<f64> = corrected
-            .base_vector()
-            .iter()
-            .zip(&bounds)
-            .map(|(v, (lo, hi))| v.clamp(*lo, *hi))
-            .collect();
-        let (t, sims) = Conditional::new(&corrected, &noise_model, &x0, k);
-        evaluations += sims;
-        vec![Mode {
-            x: x0,
-            log_density: f64::NAN,
-            chol_nl: t.chol_nl().to_vec(),
-        }]
-    };
-    let best = &modes[0];
-    let optimum = best.x.clone();
-
-    // Sampling coordinates: F0 on its exact conditional, the rest whitened by the best mode's
-    // Laplace factor; the mixture of all modes proposes the jumps.
-    let mut target =
-        Conditional::with_chol_logit(&corrected, &noise_model, &best.x, &best.chol_nl, k);
-    target.set_offset_sd(noise.offset_sd_nm);
-    let (mixture, mode_info) = mode_mixture(&target, &modes, settings)?;
-
-    // Dispersed starts: chain c from mixture component c (mod the number of modes), u ~
-    // N(0, spread²) (seed's stream 0; chains use streams 1..).
-    let mut rng = ChaCha8Rng::seed_from_u64(settings.mcmc.seed);
-    rng.set_stream(0);
-    let nl = target.nl().to_vec();
-    let mut inits = Vec::with_capacity(settings.mcmc.n_chains);
-    // Fallback start: the best mode itself (u = 0).
-    let mut at_best = vec![0.0; d];
-    for (&i, z) in nl.iter().zip(target.z_of(&best.x)) {
-        at_best[i] = z.clamp(-k, k);
-    }
-    for c in 0..settings.mcmc.n_chains {
-        let mut chosen = at_best.clone();
-        for _ in 0..50 {
-            let mut cand: Vec<f64> = (0..d)
-                .map(|_| {
-                    let z: f64 = StandardNormal.sample(&mut rng);
-                    settings.start_spread * z
-                })
-                .collect();
-            if settings.start_spread > 0.0 {
-                mixture.sample_component(c, &mut rng, &mut cand);
-            } else {
-                for &i in &nl {
-                    cand[i] = 0.0;
-                }
-            }
-            for v in cand.iter_mut() {
-                *v = v.clamp(-k, k);
-            }
-            evaluations += 1;
-            if target.log_density(&cand).is_some_and(f64::is_finite) {
-                chosen = cand;
-                break;
-            }
-            failed += 1;
-        }
-        inits.push(chosen);
-    }
-
-    let margin = settings.monitor_margin;
-    if !(margin.is_finite() && margin >= 1.0) {
-        return Err(McmcError::InvalidSetting {
-            name: "monitor_margin",
-            value: margin.to_string(),
-            reason: "must be finite and ≥ 1",
-        });
-    }
-    let inner = McmcSettings {
-        ess_target: settings.mcmc.ess_target * margin,
-        rhat_target: 1.0 + (settings.mcmc.rhat_target - 1.0) / margin,
-        ..settings.mcmc
-    };
-    let mixture = mixture.with_refit(settings.jump_refit_components, settings.jump_inflation);
-    let jumps = (settings.jump_probability > 0.0).then_some(&mixture);
-    let mut run = run_with_proposal(&target, &inner, Some(&inits), jumps, observer)?;
-    run.settings = settings.mcmc;
-    evaluations += run.evaluations;
-    failed += run.failed_evaluations;
-
-    // The chains stored the model's parameters and ℓ(x) of every kept draw (the target's
-    // reported coordinates), and the sampler monitored and summarised those.
-    let max_abs_z = run.max_abs_coordinate;
-    let targets_met = run
-        .summary
-        .iter()
-        .all(|s| s.rhat < settings.mcmc.rhat_target && s.ess_bulk >= settings.mcmc.ess_target);
-
-    let names = corrected.names().to_vec();
-    let posterior: Vec<ParamPosterior> = run
-        .summary
-        .iter()
-        .zip(&names)
-        .map(|(s, n)| ParamPosterior {
-            name: n.clone(),
-            mean: s.mean,
-            sd: s.sd,
-            q05: s.q05,
-            q95: s.q95,
-            rhat: s.rhat,
-            ess_bulk: s.ess_bulk,
-            ess_tail: s.ess_tail,
-            identifiable: s.identifiable,
-            prior_sd: s.prior_sd,
-            prior_sd_ratio: s.prior_sd_ratio,
-        })
-        .collect();
-    let correlations = run
-        .strongest_correlations
-        .iter()
-        .take(settings.correlations)
-        .map(|c| NamedCorrelation {
-            a: names[c.i].clone(),
-            b: names[c.j].clone(),
-            r: c.r,
-        })
-        .collect();
-    let mean: Vec<f64> = posterior.iter().map(|p| p.mean).collect();
-    let rms_nm = problem.rms(&mean).unwrap_or(f64::NAN);
-    let rms_corrected_nm = corrected.rms(&mean).unwrap_or(f64::NAN);
-    evaluations += 2;
-    let acc: Vec<f64> = run
-        .acceptance_rate
-        .iter()
-        .copied()
-        .filter(|v| v.is_finite())
-        .collect();
-    let acceptance_rate = acc.iter().sum::<f64>() / acc.len().max(1) as f64;
-    debug_assert_eq!(d, posterior.len());
-    Ok(McmcIdentification {
-        names,
-        bounds,
-        posterior,
-        correlations,
-        converged: run.converged && targets_met,
-        max_abs_z,
-        z_half_width: k,
-        stop: run.stop,
-        warmup_iterations: run.warmup_iterations,
-        sampling_iterations: run.sampling_iterations,
-        acceptance_rate,
-        evaluations,
-        failed_evaluations: failed,
-        optimum,
-        modes: mode_info,
-        jump_acceptance_rate: {
-            let j: Vec<f64> = run
-                .jump_acceptance_rate
-                .iter()
-                .copied()
-                .filter(|v| v.is_finite())
-                .collect();
-            if j.is_empty() {
-                f64::NAN
-            } else {
-                j.iter().sum::<f64>() / j.len() as f64
-            }
-        },
-        rms_nm,
-        rms_corrected_nm,
-        noise: noise_params,
-        corrected: noise.systematic.is_some(),
-        wall_s: started.elapsed().as_secs_f64(),
-        run,
-    })
+    crate::identify_session(
+        &[SessionTrialLikelihood { problem, noise }],
+        settings,
+        observer,
+    )
 }

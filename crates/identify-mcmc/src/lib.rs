@@ -86,6 +86,12 @@
 //! otherwise the adaptive random walk; the chains start from draws of that mixture. Every step also yields the model's parameters
 //! ([`LogDensity::evaluate`]), so the chains store, monitor (R̂, ESS) and report those directly.
 //!
+//! # Sessions ([`identify_session`])
+//!
+//! Several trials of one subject share the muscle parameters; each keeps its own systematic
+//! correction, noise model and offset nuisance, and the log-likelihood is the sum of the
+//! trials' (their noises are independent). [`identify()`] is a session of one trial.
+//!
 //! # Example
 //!
 //! A correlated 2-D Gaussian (ρ = 0.9) in a box far wider than the posterior:
@@ -116,9 +122,11 @@ mod modes;
 pub mod noise;
 mod sampler;
 mod sampling_coordinates;
+mod session_identify;
 mod settings;
 mod summary;
 mod target;
+mod trial_term;
 
 pub use cmdstan::write_cmdstan_chain;
 pub use mixture::{ComponentSpec, MixtureProposal};
@@ -136,6 +144,7 @@ pub use identify::{
     UNLOADED_OFFSET_SD_NM,
 };
 pub use noise::{Ar1White, Noise, NoiseKind, NoiseParams};
+pub use session_identify::{identify_session, McmcTrialFit, SessionTrialLikelihood};
 
 /// Everything that can go wrong before sampling starts.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -251,6 +260,17 @@ pub enum McmcError {
     /// Trial / unloaded input problems.
     #[error(transparent)]
     Experiment(#[from] experiment::ExperimentError),
+    /// A session without trials.
+    #[error("the session has no trials")]
+    EmptySession,
+    /// A trial of a session differs from the first in what the trials must share.
+    #[error("trial {trial} of the session has other {what} than trial 0")]
+    SessionMismatch {
+        /// Index of the trial in the session.
+        trial: usize,
+        /// `free parameters` or `bounds`.
+        what: &'static str,
+    },
     /// A kept draw could not be mapped back to the model's parameters (its simulation failed
     /// on re-evaluation; cannot happen for a deterministic model).
     #[error("a kept draw could not be re-evaluated")]

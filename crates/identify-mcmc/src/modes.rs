@@ -13,7 +13,6 @@
 //! (the gastrocnemii trade LST against α0 and against each other); a random walk started at one
 //! optimum never finds the other, and its 90 % intervals then miss the truth.
 
-use muscle_model::Problem;
 use numerics::cholesky::solve_lower_in_place;
 use numerics::latin_hypercube::{latin_hypercube, StrataShuffle};
 use numerics::{nelder_mead, FnObjective, NelderMeadSettings};
@@ -21,8 +20,8 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
-use crate::noise::Noise;
 use crate::sampling_coordinates::Conditional;
+use crate::trial_term::TrialModel;
 use crate::LogDensity;
 
 /// RNG stream of the start design (the chains use streams `1..`; the chain starts stream 0).
@@ -62,19 +61,18 @@ fn whitened_norm2(chol: &[f64], d: &[f64]) -> f64 {
     w.iter().map(|v| v * v).sum()
 }
 
-/// Search the modes (see the module documentation) with `starts` Nelder–Mead runs of
-/// `evaluations` each.
+/// Search the modes of a session's posterior (see the module documentation; `trials` not
+/// empty, sharing free parameters and bounds) with `starts` Nelder–Mead runs of `evaluations`
+/// each.
 pub(crate) fn find_modes(
-    problem: &Problem,
-    noise: &Noise,
+    trials: &[TrialModel<'_>],
     starts: usize,
     evaluations: u64,
     seed: u64,
     max_gap: f64,
-    offset_sd: f64,
 ) -> ModeSearch {
-    let mut scout = Conditional::box_scaled(problem, noise);
-    scout.set_offset_sd(offset_sd);
+    let scout = Conditional::box_scaled(trials);
+    let problem = trials[0].problem;
     let d = problem.dim();
     let nl = scout.nl().to_vec();
     let m = nl.len();

@@ -29,16 +29,27 @@
 //! of the random-walk proposals outside the box, and on random truths its chains mix five to
 //! ten times more slowly.
 
+//!
+//! **Sessions.** Several trials sharing the parameters contribute independent likelihood terms:
+//! `A`, `f̂`'s right-hand side, `ỹᵀỹ` and `N` are sums over the trials of their own Gram
+//! quantities (module `trial_term`), each with its own whitening filter and offset nuisance; the
+//! rest of the conditional is unchanged. The trials are evaluated one after the other inside
+//! one log density, not in parallel: the 4 chains already keep 2 cores busy, and splitting a
+//! 3-trial evaluation over the trials (rayon, summed in trial order) gave the same draws for
+//! more CPU time and 2.1–2.4× the wall time on two synthetic knee0@30 + knee90@30 + knee0@60
+//! sessions (35 against 30 CPU-s, 38 against 16 s; 60 against 57 CPU-s, 162 against 79 s on a
+//! busier machine).
+
 use std::cell::RefCell;
 
-use muscle_model::{simulate_into, MuscleField, ParamId, Problem, Workspace};
+use muscle_model::{MuscleField, ParamId, Workspace};
 
 use numerics::cholesky::{
     cholesky, solve_lower_in_place, solve_lower_transpose_in_place, spd_inverse,
 };
 use numerics::special::{normal_cdf, normal_quantile};
 
-use crate::noise::{Noise, Whitener};
+use crate::trial_term::{TrialModel, TrialTerm};
 use crate::LogDensity;
 
 /// Largest dimension handled with stack buffers.
@@ -64,12 +75,10 @@ pub(crate) struct Point {
 
 /// The posterior in `(z, u)` coordinates (see the module documentation).
 pub(crate) struct Conditional<'a> {
-    problem: &'a Problem,
-    whitener: Whitener,
-    /// Prior sd `s` of a residual torque offset integrated out of the likelihood (0: none).
-    offset_sd: f64,
-    /// Runs `[start, end)` of included samples (the whole trial without weights).
-    segments: Vec<(usize, usize)>,
+    /// The trials (at least one; shared free parameters and bounds).
+    trials: Vec<TrialTerm<'a>>,
+    /// The model's bounds (the uniform prior).
+    model_bounds: Vec<(f64, f64)>,
     /// Free-parameter indices of the nonlinear parameters θ.
     nl: Vec<usize>,
     /// `(free index, muscle index)` of the F0 parameters.
@@ -88,37 +97,17 @@ pub(crate) struct Conditional<'a> {
 impl<'a> Conditional<'a> {
     /// Build the target around `center` (inside the bounds) with box half-width `k`.
     /// Returns the target and the simulations used for the Laplace factor.
-    pub fn new(problem: &'a Problem, noise: &Noise, center: &[f64], k: f64) -> (Self, u64) {
-        let mut target = Self::build(problem, noise, center, k);
+    pub fn new(trials: &[TrialModel<'a>], center: &[f64], k: f64) -> (Self, u64) {
+        let mut target = Self::build(trials, center, k);
         let (chol, sims) = target.laplace_at(center);
         target.chol_nl = chol;
         (target, sims)
     }
 
-    /// Everything but the scaling (`chol_nl` left empty).
-    fn build(problem: &'a Problem, noise: &Noise, center: &[f64], k: f64) -> Self {
-        let n = problem.measured().len();
-        let segments = match problem.weights() {
-            None => vec![(0, n)],
-            Some(w) => {
-                let mut segs = Vec::new();
-                let mut i = 0;
-                while i < n {
-                    if w[i] > 0.0 {
-                        let s = i;
-                        while i < n && w[i] > 0.0 {
-                            i += 1;
-                        }
-                        segs.push((s, i));
-                    } else {
-                        i += 1;
-                    }
-                }
-                segs
-            }
-        };
-        let longest = segments.iter().map(|(a, b)| b - a).max().unwrap_or(0);
-        let whitener = noise.whitener(longest);
+    /// Everything but the scaling (`chol_nl` left empty). `trials` is not empty and its
+    /// problems share free parameters and bounds (checked by the caller).
+    fn build(trials: &[TrialModel<'a>], center: &[f64], k: f64) -> Self {
+        let problem = trials[0].problem;
         let mut nl = Vec::new();
         let mut lin = Vec::new();
         for (i, id) in problem.free().iter().enumerate() {
@@ -131,10 +120,8 @@ impl<'a> Conditional<'a> {
         }
         let d = center.len();
         Self {
-            problem,
-            whitener,
-            offset_sd: 0.0,
-            segments,
+            trials: trials.iter().map(TrialTerm::new).collect(),
+            model_bounds: problem.bounds().to_vec(),
             nl,
             lin,
             center: center.to_vec(),
@@ -143,15 +130,6 @@ impl<'a> Conditional<'a> {
             chol_nl: Vec::new(),
             zbounds: vec![(-k, k); d],
         }
-    }
-
-    /// Integrate a residual constant torque offset `δ ~ N(0, sd²)` out of the likelihood (the
-    /// offset carried over from the unloaded run is itself an estimate). With `õ` the whitened
-    /// vector of ones and `κ = sd²/(1 + sd²|õ|²)`, the whitened residual's covariance
-    /// `I + sd²õõᵀ` turns every inner product `⟨a, b⟩` of the conditional into
-    /// `⟨a, b⟩ − κ⟨õ, a⟩⟨õ, b⟩`, and the normalisation loses `½ ln(1 + sd²|õ|²)`.
-    pub fn set_offset_sd(&mut self, sd: f64) {
-        self.offset_sd = if sd.is_finite() && sd > 0.0 { sd } else { 0.0 };
     }
 
     /// The target on the logit scale: every nonlinear parameter `θ_i ∈ (lo_i, hi_i)` is
@@ -163,17 +141,16 @@ impl<'a> Conditional<'a> {
     /// becomes a smooth logistic density, and a random walk no longer wastes proposals
     /// outside the box in the directions the data do not constrain.
     pub fn with_chol_logit(
-        problem: &'a Problem,
-        noise: &Noise,
+        trials: &[TrialModel<'a>],
         center: &[f64],
         chol_nl: &[f64],
         k: f64,
     ) -> Self {
-        let mut t = Self::build(problem, noise, center, k);
+        let mut t = Self::build(trials, center, k);
         t.phi_center =
             t.nl.iter()
                 .map(|&i| {
-                    let (lo, hi) = problem.bounds()[i];
+                    let (lo, hi) = t.model_bounds[i];
                     let f = ((center[i] - lo) / (hi - lo)).clamp(0.03, 0.97);
                     (f / (1.0 - f)).ln()
                 })
@@ -190,7 +167,7 @@ impl<'a> Conditional<'a> {
         let m = self.nl.len();
         let mut out = chol_nl.to_vec();
         for (a, &i) in self.nl.iter().enumerate() {
-            let (lo, hi) = self.problem.bounds()[i];
+            let (lo, hi) = self.model_bounds[i];
             let f = ((x[i] - lo) / (hi - lo)).clamp(0.03, 0.97);
             let dd = (hi - lo) * f * (1.0 - f);
             for v in &mut out[a * m..(a + 1) * m] {
@@ -203,17 +180,18 @@ impl<'a> Conditional<'a> {
     /// The target without a Laplace factor: `θ = mid + diag(w/2)·z`, `mid` the middle of the
     /// bounds and `w` their widths, so `z ∈ [−1, 1]` spans the box (the scout of the mode
     /// search).
-    pub fn box_scaled(problem: &'a Problem, noise: &Noise) -> Self {
-        let center: Vec<f64> = problem
+    pub fn box_scaled(trials: &[TrialModel<'a>]) -> Self {
+        let center: Vec<f64> = trials[0]
+            .problem
             .bounds()
             .iter()
             .map(|(lo, hi)| 0.5 * (lo + hi))
             .collect();
-        let mut t = Self::build(problem, noise, &center, 1.0);
+        let mut t = Self::build(trials, &center, 1.0);
         let m = t.nl.len();
         let mut chol = vec![0.0; m * m];
         for (a, &i) in t.nl.iter().enumerate() {
-            let (lo, hi) = problem.bounds()[i];
+            let (lo, hi) = t.model_bounds[i];
             chol[a * m + a] = 0.5 * (hi - lo);
         }
         t.chol_nl = chol;
@@ -239,7 +217,7 @@ impl<'a> Conditional<'a> {
             .enumerate()
             .map(|(a, &i)| {
                 if self.logit {
-                    let (lo, hi) = self.problem.bounds()[i];
+                    let (lo, hi) = self.model_bounds[i];
                     let f = ((x[i] - lo) / (hi - lo)).clamp(1e-12, 1.0 - 1e-12);
                     (f / (1.0 - f)).ln() - self.phi_center[a]
                 } else {
@@ -251,24 +229,15 @@ impl<'a> Conditional<'a> {
         z
     }
 
-    /// Whiten `e` segment by segment into `out` (masked samples dropped).
-    fn whiten(&self, e: &[f64], out: &mut Vec<f64>) {
-        out.clear();
-        for &(a, b) in &self.segments {
-            let start = out.len();
-            out.resize(start + (b - a), 0.0);
-            self.whitener.whiten(&e[a..b], &mut out[start..]);
-        }
-    }
-
     /// Cholesky factor of θ's block of `(Jᵀ_w J_w + diag(12/w²))⁻¹` at `x` (a model vector): `J_w` the
-    /// whitened Jacobian of the predicted torque (central differences of step `10⁻³·w`,
-    /// one-sided at a bound), `diag(12/w²)` the precision of a Gaussian with the uniform
-    /// prior's variance. The prior's diagonal if a simulation or a factorisation fails.
+    /// whitened Jacobian of the predicted torque, the trials' whitened columns stacked
+    /// (central differences of step `10⁻³·w`, one-sided at a bound), `diag(12/w²)` the
+    /// precision of a Gaussian with the uniform prior's variance. The prior's diagonal if a
+    /// simulation or a factorisation fails.
     pub fn laplace_at(&self, x: &[f64]) -> (Vec<f64>, u64) {
         let x = &x.to_vec();
         let d = x.len();
-        let bounds = self.problem.bounds();
+        let bounds = &self.model_bounds;
         let widths: Vec<f64> = bounds.iter().map(|(lo, hi)| hi - lo).collect();
         let m = self.nl.len();
         let prior_diag = || {
@@ -288,13 +257,15 @@ impl<'a> Conditional<'a> {
             let mut xb = x.clone();
             xa[i] = a;
             xb[i] = b;
-            sims += 2;
-            let (Ok(pa), Ok(pb)) = (self.problem.predict(&xa), self.problem.predict(&xb)) else {
-                return (prior_diag(), sims);
-            };
-            let diff: Vec<f64> = pb.iter().zip(&pa).map(|(p, q)| (p - q) / (b - a)).collect();
             let mut w = Vec::new();
-            self.whiten(&diff, &mut w);
+            for t in &self.trials {
+                sims += 2;
+                let (Ok(pa), Ok(pb)) = (t.problem.predict(&xa), t.problem.predict(&xb)) else {
+                    return (prior_diag(), sims);
+                };
+                let diff: Vec<f64> = pb.iter().zip(&pa).map(|(p, q)| (p - q) / (b - a)).collect();
+                t.whiten_append(&diff, &mut w);
+            }
             cols.push(w);
         }
         let mut h = vec![0.0; d * d];
@@ -318,6 +289,31 @@ impl<'a> Conditional<'a> {
         (cholesky(&block, m).unwrap_or_else(|_| prior_diag()), sims)
     }
 
+    /// The summed Gram quantities of every trial at `x` (module `trial_term`): `A`, `b`,
+    /// `yᵀy` and `N`. `None`: a simulation failed.
+    fn session_gram(&self, x: &[f64]) -> Option<([f64; 9], [f64; 3], f64, f64)> {
+        let p = self.lin.len();
+        let mut a = [0.0; 9];
+        let mut b = [0.0; 3];
+        let mut yy = 0.0;
+        let mut norm = 0.0;
+        for t in &self.trials {
+            let g = SCRATCH.with(|cell| {
+                let s = &mut *cell.borrow_mut();
+                t.gram(x, &self.lin, &mut s.ws, &mut s.total)
+            })?;
+            for (s, v) in a[..p * p].iter_mut().zip(&g.a) {
+                *s += v;
+            }
+            for (s, v) in b[..p].iter_mut().zip(&g.b) {
+                *s += v;
+            }
+            yy += g.yy;
+            norm += g.norm;
+        }
+        Some((a, b, yy, norm))
+    }
+
     /// Evaluate at `v`, writing the model parameters into `x`. `None`: failed simulation;
     /// `log_target = −∞`: outside the bounds.
     pub fn eval(&self, v: &[f64], x: &mut [f64]) -> Option<Point> {
@@ -335,7 +331,7 @@ impl<'a> Conditional<'a> {
                 .zip(&self.nl)
                 .map(|(l, &j)| l * v[j])
                 .sum::<f64>();
-            let (lo, hi) = self.problem.bounds()[i];
+            let (lo, hi) = self.model_bounds[i];
             if self.logit {
                 // θ = lo + w·σ(φ); ln σ = −softplus(−φ), ln(1 − σ) = −softplus(φ).
                 let phi = self.phi_center[a] + lz;
@@ -352,128 +348,47 @@ impl<'a> Conditional<'a> {
                 }
             }
         }
-        let (params, effects) = self.problem.params_from_vector(x).ok()?;
         let p = self.lin.len();
-        SCRATCH.with(|cell| {
-            let s = &mut *cell.borrow_mut();
-            let n = self.problem.measured().len();
-            s.total.resize(n, 0.0);
-            simulate_into(
-                &mut s.ws,
-                self.problem.inputs(),
-                &params,
-                &effects,
-                self.problem.settings(),
-                &mut s.total,
-            )
-            .ok()?;
-            // y − c, with c the torque that does not scale with a free F0.
-            // One fused pass: y − c, the unit-F0 columns g_k and the vector of ones, whitened
-            // side by side, with all their inner products (module documentation).
-            let measured = self.problem.measured();
-            let tms = s.ws.torque_muscle();
-            let mut cols: [&[f64]; 3] = [&[]; 3];
-            let mut inv_f0 = [0.0; 3];
-            for (k, &(i, muscle)) in self.lin.iter().enumerate() {
-                cols[k] = &tms[muscle].torque;
-                inv_f0[k] = 1.0 / x[i];
+        let (a, b, yy, norm) = self.session_gram(x)?;
+        let r = cholesky(&a[..p * p], p).ok()?;
+        // f̂ = A⁻¹b via R w = b, Rᵀ f̂ = w; RSS = yy − |w|².
+        let mut w = [0.0; 3];
+        for k in 0..p {
+            let mut acc = b[k];
+            for l in 0..k {
+                acc -= r[k * p + l] * w[l];
             }
-            let total = &s.total;
-            let mut gram = [[0.0; 5]; 5];
-            for &(a0, b0) in &self.segments {
-                let part = self.whitener.whitened_gram::<5, _>(b0 - a0, |t| {
-                    let i = a0 + t;
-                    let mut r = [0.0; 5];
-                    let mut y = measured[i] - total[i];
-                    for k in 0..p {
-                        let v = cols[k][i];
-                        y += v;
-                        r[k + 1] = v * inv_f0[k];
-                    }
-                    r[0] = y;
-                    r[4] = 1.0;
-                    r
-                });
-                for (gi, pi) in gram.iter_mut().zip(&part) {
-                    for (g, q) in gi.iter_mut().zip(pi) {
-                        *g += q;
-                    }
-                }
-            }
-            let mut a = [0.0; 9];
-            let mut b = [0.0; 3];
-            for k in 0..p {
-                for l in 0..=k {
-                    a[k * p + l] = gram[l + 1][k + 1];
-                    a[l * p + k] = gram[l + 1][k + 1];
-                }
-                b[k] = gram[0][k + 1];
-            }
-            let mut yy = gram[0][0];
-            let mut log_offset = 0.0;
-            if self.offset_sd > 0.0 {
-                let s2 = self.offset_sd * self.offset_sd;
-                let oo = gram[4][4];
-                let kappa = s2 / (1.0 + s2 * oo);
-                let oy = gram[0][4];
-                for k in 0..p {
-                    for l in 0..p {
-                        a[k * p + l] -= kappa * gram[k + 1][4] * gram[l + 1][4];
-                    }
-                    b[k] -= kappa * gram[k + 1][4] * oy;
-                }
-                yy -= kappa * oy * oy;
-                log_offset = -0.5 * (s2 * oo).ln_1p();
-            }
-            let r = cholesky(&a[..p * p], p).ok()?;
-            // f̂ = A⁻¹b via R w = b, Rᵀ f̂ = w; RSS = yy − |w|².
-            let mut w = [0.0; 3];
-            for k in 0..p {
-                let mut acc = b[k];
-                for l in 0..k {
-                    acc -= r[k * p + l] * w[l];
-                }
-                w[k] = acc / r[k * p + k];
-            }
-            let rss = yy - w[..p].iter().map(|v| v * v).sum::<f64>();
-            // f̂ from Rᵀ f̂ = w. The conditional f | θ is N(f̂, Σ), Σ = A⁻¹ = L Lᵀ, truncated to
-            // the box; f = f̂ + L ω with ω from the GHK map of u (module documentation).
-            let mut fh = [0.0; 3];
-            fh[..p].copy_from_slice(&w[..p]);
-            solve_lower_transpose_in_place(&r, &mut fh[..p]);
-            let sigma_l = conditional_factor(&r, p)?;
-            let mut omega = [0.0; 3];
-            let mut log_mass = 0.0;
-            let mut uu = 0.0;
-            for (k, &(i, _)) in self.lin.iter().enumerate() {
-                let (lo, hi) = self.problem.bounds()[i];
-                let shift: f64 = fh[k] + (0..k).map(|j| sigma_l[k * p + j] * omega[j]).sum::<f64>();
-                let lkk = sigma_l[k * p + k];
-                let (wl, wh) = ((lo - shift) / lkk, (hi - shift) / lkk);
-                let u = v[i];
-                uu += u * u;
-                let (om, lm) = ghk_step(wl, wh, normal_cdf(u))?;
-                omega[k] = om;
-                log_mass += lm;
-                x[i] = (shift + lkk * om).clamp(lo, hi);
-            }
-            let ww: f64 = omega[..p].iter().map(|v| v * v).sum();
-            let log_det_r: f64 = (0..p).map(|k| r[k * p + k].ln()).sum();
-            let n_used: usize = self.segments.iter().map(|(a, b)| b - a).sum();
-            let norm: f64 = if self.segments.len() == 1 {
-                self.whitener.log_norm(n_used)
-            } else {
-                self.segments
-                    .iter()
-                    .map(|(a, b)| self.whitener.log_norm(b - a))
-                    .sum()
-            } + log_offset;
-            let ll = norm - 0.5 * (rss.max(0.0) + ww);
-            let log_target = norm - 0.5 * rss.max(0.0) - log_det_r + log_mass - 0.5 * uu + log_jac;
-            (ll.is_finite() && !log_target.is_nan()).then_some(Point {
-                log_target,
-                log_likelihood: ll,
-            })
+            w[k] = acc / r[k * p + k];
+        }
+        let rss = yy - w[..p].iter().map(|v| v * v).sum::<f64>();
+        // f̂ from Rᵀ f̂ = w. The conditional f | θ is N(f̂, Σ), Σ = A⁻¹ = L Lᵀ, truncated to
+        // the box; f = f̂ + L ω with ω from the GHK map of u (module documentation).
+        let mut fh = [0.0; 3];
+        fh[..p].copy_from_slice(&w[..p]);
+        solve_lower_transpose_in_place(&r, &mut fh[..p]);
+        let sigma_l = conditional_factor(&r, p)?;
+        let mut omega = [0.0; 3];
+        let mut log_mass = 0.0;
+        let mut uu = 0.0;
+        for (k, &(i, _)) in self.lin.iter().enumerate() {
+            let (lo, hi) = self.model_bounds[i];
+            let shift: f64 = fh[k] + (0..k).map(|j| sigma_l[k * p + j] * omega[j]).sum::<f64>();
+            let lkk = sigma_l[k * p + k];
+            let (wl, wh) = ((lo - shift) / lkk, (hi - shift) / lkk);
+            let u = v[i];
+            uu += u * u;
+            let (om, lm) = ghk_step(wl, wh, normal_cdf(u))?;
+            omega[k] = om;
+            log_mass += lm;
+            x[i] = (shift + lkk * om).clamp(lo, hi);
+        }
+        let ww: f64 = omega[..p].iter().map(|v| v * v).sum();
+        let log_det_r: f64 = (0..p).map(|k| r[k * p + k].ln()).sum();
+        let ll = norm - 0.5 * (rss.max(0.0) + ww);
+        let log_target = norm - 0.5 * rss.max(0.0) - log_det_r + log_mass - 0.5 * uu + log_jac;
+        (ll.is_finite() && !log_target.is_nan()).then_some(Point {
+            log_target,
+            log_likelihood: ll,
         })
     }
 }
@@ -498,7 +413,7 @@ impl LogDensity for Conditional<'_> {
     }
     /// The model's bounds: the reported coordinates are the model's parameters.
     fn report_bounds(&self) -> &[(f64, f64)] {
-        self.problem.bounds()
+        &self.model_bounds
     }
     /// `log π(v)`, the model parameters at `v` and the log-likelihood `ℓ(x)` stored with a draw.
     fn evaluate(&self, v: &[f64], report: &mut [f64]) -> Option<(f64, f64)> {

@@ -58,8 +58,8 @@ pub struct IdentifyArgs {
     /// Trial CSV (format in docs/formats.md); the bundled seed trial (and its unloaded run) when omitted.
     #[arg(long, conflicts_with = "session")]
     pub trial: Option<PathBuf>,
-    /// Session manifest (docs/formats.md): several trials of one subject identified together
-    /// (`--method sa`), with the session's parameters and free parameters.
+    /// Session manifest (docs/formats.md): several trials of one subject identified together,
+    /// with the session's parameters and free parameters.
     #[arg(long)]
     pub session: Option<PathBuf>,
     /// The parameters to identify, comma-separated (e.g.
@@ -247,11 +247,6 @@ pub fn run(args: IdentifyArgs) -> CmdResult {
         }
     }
     if let Some(session) = &args.session {
-        if args.method != Method::Sa {
-            return Err(Failure::bad(
-                "--session: the trials of a session are identified together by --method sa",
-            ));
-        }
         if args.unloaded.is_some() || args.truth.is_some() {
             return Err(Failure::bad(
                 "--session: each trial's unloaded run is named in the manifest; --unloaded and \

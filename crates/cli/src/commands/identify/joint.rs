@@ -1,6 +1,7 @@
-//! `surae identify --session`: the session's trials identified together by simulated
-//! annealing (the cost is the sum of the trials' squared torque errors), with each trial's fit
-//! reported where it is judged.
+//! `surae identify --session`: the session's trials identified together, by simulated
+//! annealing (the cost is the sum of the trials' squared torque errors) or by MCMC (the
+//! log-likelihood is the sum of the trials', each with its own dynamometer correction, noise
+//! model and offset nuisance), with each trial's fit reported where it is judged.
 
 use super::super::session::{file_stem, load_session, LoadedSession};
 use super::IdentifyArgs;
@@ -8,11 +9,15 @@ use crate::error::{CmdResult, Failure};
 use crate::figures::{self, FigureSet};
 use crate::output::OutDir;
 use crate::progress::ProgressDisplay;
+use muscle_model::Problem;
 use serde_json::{json, Map, Value};
 use std::path::Path;
 
-/// Runs `identify --method sa --session`.
+/// Runs `identify --session`.
 pub(super) fn run(args: &IdentifyArgs, session_path: &Path) -> CmdResult {
+    if args.method == super::Method::Mcmc {
+        return run_mcmc(args, session_path);
+    }
     let session = load_session(session_path, &args.model, args.free.as_deref())?;
     let set = session.problem_set()?;
     let out_dir = args
@@ -118,7 +123,7 @@ pub(super) fn run(args: &IdentifyArgs, session_path: &Path) -> CmdResult {
     }
     let text = serde_json::to_string_pretty(&doc).map_err(Failure::internal)? + "\n";
     let path = out.write("identify.json", text.as_bytes())?;
-    let mut files = write_figures(&out, &session, &predictions, session_path)?;
+    let mut files = write_figures(&out, &session, &predictions, session_path, None)?;
     // the identified values written into a copy of the session's OpenSim model, if it has one
     let osim = [args.model.params.as_ref(), session.manifest.params.as_ref()]
         .into_iter()
@@ -189,23 +194,37 @@ pub(super) fn run(args: &IdentifyArgs, session_path: &Path) -> CmdResult {
     Ok(())
 }
 
+/// The per-trial fit figures (and, for MCMC, the posterior's) and `report.html`.
 fn write_figures(
     out: &OutDir,
     session: &LoadedSession,
     predictions: &[(Vec<f64>, Vec<f64>)],
     session_path: &Path,
+    mcmc: Option<&identify_mcmc::McmcIdentification>,
 ) -> CmdResult<Vec<std::path::PathBuf>> {
+    let method = if mcmc.is_some() { "mcmc" } else { "sa" };
     let mut set = FigureSet::new(
         out,
-        &format!("surae identify (sa) — session {}", session_path.display()),
+        &format!(
+            "surae identify ({method}) — session {}",
+            session_path.display()
+        ),
     );
     set.page().paragraph(
-        "The session's trials identified together: one set of muscle parameters for every \
-         trial, fitted to the sum of the trials' squared torque errors. Each figure shows one \
-         trial's measured torque (after its dynamometer correction, when it has an unloaded \
-         run), the model at the identified parameters, and the model at the session's own \
-         parameters (where the identification started)."
-            .to_string(),
+        if mcmc.is_some() {
+            "The session's trials identified together: one posterior of the muscle parameters \
+             for every trial, from the sum of the trials' log-likelihoods (each trial with its \
+             own dynamometer correction and noise model). Each figure shows one trial's \
+             measured torque (after its dynamometer correction, when it has an unloaded run), \
+             the model at the posterior mean, and the model at the session's own parameters."
+        } else {
+            "The session's trials identified together: one set of muscle parameters for every \
+             trial, fitted to the sum of the trials' squared torque errors. Each figure shows one \
+             trial's measured torque (after its dynamometer correction, when it has an unloaded \
+             run), the model at the identified parameters, and the model at the session's own \
+             parameters (where the identification started)."
+        }
+        .to_string(),
     );
     for (t, (pred, base)) in session.trials.iter().zip(predictions) {
         let inputs = t.problem.inputs();
@@ -233,11 +252,201 @@ fn write_figures(
             report::figures::torque_fit(
                 &time,
                 &measured,
-                &[("fit", &pred), ("session's parameters", &base)],
+                &[
+                    (
+                        if mcmc.is_some() {
+                            "posterior mean"
+                        } else {
+                            "fit"
+                        },
+                        &pred,
+                    ),
+                    ("session's parameters", &base),
+                ],
                 &angle,
                 &env_refs,
             ),
         )?;
     }
+    if let Some(m) = mcmc {
+        super::mcmc::posterior_figures(&mut set, None, m)?;
+    }
     set.finish()
+}
+
+/// Runs `identify --method mcmc --session`: each trial on its torque as measured, corrected by
+/// its own unloaded run's systematic error inside the sampler, with its own noise model (from
+/// that run, or fitted to the trial's residual without one).
+fn run_mcmc(args: &IdentifyArgs, session_path: &Path) -> CmdResult {
+    use identify_mcmc::{NoiseKind, NoiseSpec, SessionTrialLikelihood};
+    let session = load_session(session_path, &args.model, args.free.as_deref())?;
+    let set = session.problem_set()?;
+    let settings = super::mcmc::mcmc_settings(args.seed, args.max_iterations)?;
+    let out_dir = args
+        .out
+        .clone()
+        .unwrap_or_else(|| crate::default_out("identify"));
+    let input_refs: Vec<&Path> = session.inputs_read.iter().map(|p| p.as_path()).collect();
+    let mut planned: Vec<String> = [
+        "identify.json",
+        "chains.csv",
+        "chains",
+        "report.html",
+        "identified.osim",
+        "traces.svg",
+        "rhat.svg",
+        "histograms.svg",
+        "corner.svg",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    planned.extend(
+        session
+            .trials
+            .iter()
+            .map(|t| format!("torque_fit_{}.svg", file_stem(&t.name))),
+    );
+    let planned_refs: Vec<&str> = planned.iter().map(String::as_str).collect();
+
+    let mut problems = Vec::with_capacity(session.trials.len());
+    let mut noises = Vec::with_capacity(session.trials.len());
+    for (t, entry) in session.trials.iter().zip(&session.manifest.trials) {
+        let bad = |e: &dyn std::fmt::Display| Failure::bad(format!("{}: {e}", t.source));
+        let p = &t.problem;
+        // The sampler corrects the raw torque itself (NoiseSpec carries the systematic part).
+        let mut raw = Problem::new(
+            p.inputs().clone(),
+            t.raw_torque.clone(),
+            *p.base_params(),
+            *p.base_effects(),
+            p.free().to_vec(),
+        )
+        .and_then(|q| q.with_bounds(p.bounds().to_vec()))
+        .map_err(|e| bad(&e))?
+        .with_settings(*p.settings());
+        if let Some(w) = p.weights() {
+            raw = raw.with_weights(w.to_vec()).map_err(|e| bad(&e))?;
+        }
+        let noise = match &t.correction {
+            Some(c) => {
+                let trial = experiment::read_trial(entry.source.path()).map_err(Failure::bad)?;
+                NoiseSpec::from_correction(&trial, c, NoiseKind::Ar1White).map_err(|e| bad(&e))?
+            }
+            None => NoiseSpec::from_residual(NoiseKind::Ar1White),
+        };
+        problems.push(raw);
+        noises.push(noise);
+    }
+    let likelihoods: Vec<SessionTrialLikelihood<'_>> = problems
+        .iter()
+        .zip(&noises)
+        .map(|(problem, noise)| SessionTrialLikelihood { problem, noise })
+        .collect();
+    let out = OutDir::prepare(&out_dir, &input_refs, &planned_refs)?;
+    let show = args.report.show();
+    let what = session_path.display().to_string();
+    let m = super::mcmc::sample(&likelihoods, &settings, show, &what)?;
+
+    let mean = m.mean();
+    let start = set.base_vector();
+    let mut entries = Vec::with_capacity(session.trials.len());
+    let mut predictions = Vec::with_capacity(session.trials.len());
+    for (t, fit) in session.trials.iter().zip(&m.trials) {
+        let failed = |e: muscle_model::ModelError| {
+            Failure::bad(format!(
+                "{}: simulation of the posterior mean failed: {e}",
+                t.source
+            ))
+        };
+        let pred = t.problem.predict(&mean).map_err(failed)?;
+        let mut entry = super::mcmc::trial_entry(&t.name, fit, t.fit_of(&pred)?);
+        entry["source"] = json!(t.source);
+        entry["dynamometer"] = t.dynamometer();
+        let base = t.problem.predict(&start).map_err(failed)?;
+        predictions.push((pred, base));
+        entries.push(entry);
+    }
+    let lines = super::mcmc::summary_lines(
+        &format!("session {what}, {} trials", session.trials.len()),
+        &m,
+        &entries,
+    );
+    let (params, effects) = set
+        .params_from_vector(&mean)
+        .map_err(|e| Failure::internal(e.to_string()))?;
+    let mut doc = super::mcmc::mcmc_doc(&m, entries);
+    let bounds: Map<String, Value> = set
+        .names()
+        .iter()
+        .zip(set.bounds())
+        .map(|(k, (lo, hi))| (k.clone(), json!([lo, hi])))
+        .collect();
+    doc["session"] = json!(what);
+    doc["subject"] = json!(session.manifest.subject);
+    doc["seed"] = json!(args.seed);
+    doc["bounds"] = json!(bounds);
+    doc["dynamometer"] = json!(session
+        .trials
+        .iter()
+        .map(|t| t.dynamometer())
+        .collect::<Vec<_>>());
+    doc["model"] = params.to_json_value();
+    if !effects.enabled().is_empty() {
+        doc["effects"] = effects.to_json_value();
+    }
+    let text = serde_json::to_string_pretty(&doc).map_err(Failure::internal)? + "\n";
+    let path = out.write("identify.json", text.as_bytes())?;
+    let mut csv = Vec::new();
+    m.write_chains_csv(&mut csv).map_err(Failure::internal)?;
+    let mut files = vec![out.write("chains.csv", &csv)?];
+    let names: Vec<&str> = session.trials.iter().map(|t| t.name.as_str()).collect();
+    let chain_files = super::other_tools::write_chains(&out, &m, args.seed, &names.join(", "))?;
+    files.extend(write_figures(
+        &out,
+        &session,
+        &predictions,
+        session_path,
+        Some(&m),
+    )?);
+    let osim = [args.model.params.as_ref(), session.manifest.params.as_ref()]
+        .into_iter()
+        .flatten()
+        .find(|p| super::super::is_osim(p));
+    if let Some(p) = osim {
+        let osim_names = opensim_files::OsimMuscleNames::renamed(
+            session
+                .manifest
+                .osim_muscles
+                .iter()
+                .map(|(k, v)| (k.as_str(), v.as_str())),
+        )
+        .map_err(Failure::bad)?;
+        files.push(super::other_tools::write_osim_copy(
+            &out,
+            p,
+            &osim_names,
+            &params,
+        )?);
+    }
+
+    args.report.print_json(&text);
+    if show {
+        let say = |s: &str| args.report.say(s);
+        for l in &lines {
+            say(l);
+        }
+        say(&format!(
+            "wrote {} and {} figures/report files in {}",
+            path.display(),
+            files.len(),
+            out_dir.display()
+        ));
+        say(&format!(
+            "wrote {} chains in CmdStan's CSV layout in {} (arviz.from_cmdstan)",
+            chain_files.len(),
+            out.path("chains").display()
+        ));
+    }
+    Ok(())
 }

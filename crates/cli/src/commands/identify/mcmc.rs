@@ -9,13 +9,6 @@ pub(super) fn mcmc_figures(
     prep: &Prepared,
     m: &identify_mcmc::McmcIdentification,
 ) -> CmdResult {
-    let labels: Vec<String> = m.names.iter().map(|n| report::param_label(n)).collect();
-    let names: Vec<&str> = labels.iter().map(|s| s.as_str()).collect();
-    let draws = &m.run.draws;
-    let pooled: Vec<Vec<f64>> = draws
-        .iter()
-        .map(|per| per.iter().flatten().copied().collect())
-        .collect();
     let none = muscle_model::Effects::none();
     let truth: Option<Vec<f64>> = prep.truth.as_ref().map(|t| {
         prep.problem
@@ -24,6 +17,22 @@ pub(super) fn mcmc_figures(
             .map(|id| id.get(t, &none))
             .collect()
     });
+    posterior_figures(set, truth, m)
+}
+
+/// The posterior's tables and figures, with the true values of the free parameters when known.
+pub(super) fn posterior_figures(
+    set: &mut FigureSet<'_>,
+    truth: Option<Vec<f64>>,
+    m: &identify_mcmc::McmcIdentification,
+) -> CmdResult {
+    let labels: Vec<String> = m.names.iter().map(|n| report::param_label(n)).collect();
+    let names: Vec<&str> = labels.iter().map(|s| s.as_str()).collect();
+    let draws = &m.run.draws;
+    let pooled: Vec<Vec<f64>> = draws
+        .iter()
+        .map(|per| per.iter().flatten().copied().collect())
+        .collect();
     let mut rows = Vec::new();
     for p in &m.posterior {
         let mut row = vec![
@@ -114,29 +123,12 @@ pub(super) fn mcmc_figures(
     Ok(())
 }
 
-pub(super) fn run_mcmc(
-    prep: &Prepared,
+/// The sampler's settings for `--seed` and `--max-iterations`.
+pub(super) fn mcmc_settings(
     seed: u64,
     max_iterations: Option<usize>,
-    show: bool,
-) -> CmdResult<Outcome> {
-    use identify_mcmc::{McmcIdentifySettings, NoiseKind, NoiseSpec};
-    // The sampler corrects the raw torque itself (NoiseSpec carries the
-    // systematic part), so it gets the problem on the torque as measured.
-    let problem = Problem::new(
-        prep.problem.inputs().clone(),
-        prep.measured_raw.clone(),
-        *prep.problem.base_params(),
-        *prep.problem.base_effects(),
-        ParamId::identified().to_vec(),
-    )
-    .map_err(|e| Failure::internal(e.to_string()))?;
-    let noise = match &prep.correction {
-        Some(c) => NoiseSpec::from_correction(&prep.loaded.trial, c, NoiseKind::Ar1White)
-            .map_err(|e| Failure::bad(format!("{}: {e}", prep.loaded.name)))?,
-        None => NoiseSpec::from_residual(NoiseKind::Ar1White),
-    };
-    let mut settings = McmcIdentifySettings::default();
+) -> CmdResult<identify_mcmc::McmcIdentifySettings> {
+    let mut settings = identify_mcmc::McmcIdentifySettings::default();
     settings.mcmc.seed = seed;
     if let Some(n) = max_iterations {
         settings.mcmc.max_total = n;
@@ -145,32 +137,53 @@ pub(super) fn run_mcmc(
             .validate()
             .map_err(|e| Failure::bad(format!("--max-iterations {n}: {e}")))?;
     }
+    Ok(settings)
+}
+
+/// Runs the sampler on `trials` with a progress display.
+pub(super) fn sample(
+    trials: &[identify_mcmc::SessionTrialLikelihood<'_>],
+    settings: &identify_mcmc::McmcIdentifySettings,
+    show: bool,
+    what: &str,
+) -> CmdResult<identify_mcmc::McmcIdentification> {
     let cap = settings.mcmc.max_total as u64;
     let progress = ProgressDisplay::new(show, cap, "MCMC");
-    let m = identify_mcmc::identify(
-        &problem,
-        &noise,
-        &settings,
-        |p: &identify_mcmc::ChainProgress| {
+    let m =
+        identify_mcmc::identify_session(trials, settings, |p: &identify_mcmc::ChainProgress| {
             progress.chain(0, p.iterations as u64, f64::NAN);
             progress.message(format!(
                 "{:?}: max R̂ {:.4}, min ESS {:.0}, acceptance {:.2}",
                 p.phase, p.max_rhat, p.min_ess_bulk, p.acceptance_rate
             ));
             progress.flow()
-        },
-    )
-    .map_err(|e| Failure::bad(format!("{}: identification failed: {e}", prep.loaded.name)))?;
+        })
+        .map_err(|e| Failure::bad(format!("{what}: identification failed: {e}")))?;
     progress.finish();
     if progress.stop_requested() {
         return Err(Failure::Interrupted);
     }
-    let mean = m.mean();
-    // prediction on the corrected scale, like the SA figures
-    let prediction = prep
-        .problem
-        .predict(&mean)
-        .map_err(|e| Failure::internal(format!("simulation of the posterior mean failed: {e}")))?;
+    Ok(m)
+}
+
+/// One entry of `trials` in `identify.json`: the trial's fit at the posterior mean where it is
+/// judged (`rms_nm`, `r2`), against its torque as measured, and its noise model.
+pub(super) fn trial_entry(
+    name: &str,
+    fit: &identify_mcmc::McmcTrialFit,
+    (rms, r2): (f64, f64),
+) -> Value {
+    json!({
+        "name": name,
+        "rms_nm": rms,
+        "r2": r2,
+        "rms_raw_nm": fit.rms_nm,
+        "noise_model": fit.noise,
+    })
+}
+
+/// `identify.json`'s MCMC fields (the caller adds where the data came from).
+pub(super) fn mcmc_doc(m: &identify_mcmc::McmcIdentification, trials: Vec<Value>) -> Value {
     let params: Map<String, Value> = m
         .posterior
         .iter()
@@ -190,8 +203,7 @@ pub(super) fn run_mcmc(
             )
         })
         .collect();
-    let (max_rhat, min_ess) = m.worst_diagnostics();
-    let doc = json!({
+    json!({
         "method": Method::Mcmc.name(),
         "params": params,
         "rms_nm": m.rms_corrected_nm,
@@ -208,11 +220,22 @@ pub(super) fn run_mcmc(
         "modes": m.modes.len(),
         "jump_acceptance_rate": m.jump_acceptance_rate,
         "correlations": m.correlations.iter().take(10).map(|c| json!({"a": c.a, "b": c.b, "r": c.r})).collect::<Vec<_>>(),
+        "posterior_correlation": {"names": m.names, "matrix": m.posterior_correlation},
         "noise_model": m.noise,
-    });
+        "trials": trials,
+    })
+}
+
+/// The summary printed after sampling: convergence, fit, the posterior table and which
+/// parameters the data identify.
+pub(super) fn summary_lines(
+    what: &str,
+    m: &identify_mcmc::McmcIdentification,
+    trials: &[Value],
+) -> Vec<String> {
+    let (max_rhat, min_ess) = m.worst_diagnostics();
     let mut lines = vec![format!(
-        "identify (mcmc): {} — {} evaluations in {:.1} s; {}",
-        prep.loaded.name,
+        "identify (mcmc): {what} — {} evaluations in {:.1} s; {}",
         m.evaluations,
         m.wall_s,
         if m.converged {
@@ -228,6 +251,19 @@ pub(super) fn run_mcmc(
         "  torque RMS at the posterior mean {:.2} N·m after removing the dynamometer's cycle-locked error ({:.2} N·m against the raw torque)",
         m.rms_corrected_nm, m.rms_nm
     ));
+    if trials.len() > 1 {
+        lines.push("  trial                     RMS (N·m)     R²   raw RMS (N·m)".into());
+        for t in trials {
+            let f = |k: &str| t[k].as_f64().unwrap_or(f64::NAN);
+            lines.push(format!(
+                "  {:<24} {:>9.2} {:>8.3}   {:>9.2}",
+                t["name"].as_str().unwrap_or(""),
+                f("rms_nm"),
+                f("r2"),
+                f("rms_raw_nm")
+            ));
+        }
+    }
     lines.push(format!(
         "  {} posterior mode(s) from the multi-start search; random-walk acceptance {:.2}, mode-jump acceptance {:.2}",
         m.modes.len(),
@@ -255,12 +291,69 @@ pub(super) fn run_mcmc(
             }
         ));
     }
+    let flagged: Vec<&str> = m
+        .posterior
+        .iter()
+        .filter(|p| p.identifiable)
+        .map(|p| p.name.as_str())
+        .collect();
+    lines.push(format!(
+        "  identifiable: {} of {} ({})",
+        flagged.len(),
+        m.posterior.len(),
+        if flagged.is_empty() {
+            "none".to_string()
+        } else {
+            flagged.join(", ")
+        }
+    ));
     if let Some(c) = m.correlations.first() {
         lines.push(format!(
             "  strongest correlation: {} ~ {} (r = {:+.2})",
             c.a, c.b, c.r
         ));
     }
+    lines
+}
+
+pub(super) fn run_mcmc(
+    prep: &Prepared,
+    seed: u64,
+    max_iterations: Option<usize>,
+    show: bool,
+) -> CmdResult<Outcome> {
+    use identify_mcmc::{NoiseKind, NoiseSpec, SessionTrialLikelihood};
+    // The sampler corrects the raw torque itself (NoiseSpec carries the
+    // systematic part), so it gets the problem on the torque as measured.
+    let problem = Problem::new(
+        prep.problem.inputs().clone(),
+        prep.measured_raw.clone(),
+        *prep.problem.base_params(),
+        *prep.problem.base_effects(),
+        ParamId::identified().to_vec(),
+    )
+    .map_err(|e| Failure::internal(e.to_string()))?;
+    let noise = match &prep.correction {
+        Some(c) => NoiseSpec::from_correction(&prep.loaded.trial, c, NoiseKind::Ar1White)
+            .map_err(|e| Failure::bad(format!("{}: {e}", prep.loaded.name)))?,
+        None => NoiseSpec::from_residual(NoiseKind::Ar1White),
+    };
+    let settings = mcmc_settings(seed, max_iterations)?;
+    let trial = SessionTrialLikelihood {
+        problem: &problem,
+        noise: &noise,
+    };
+    let m = sample(&[trial], &settings, show, &prep.loaded.name)?;
+    let mean = m.mean();
+    // prediction on the corrected scale, like the SA figures
+    let prediction = prep
+        .problem
+        .predict(&mean)
+        .map_err(|e| Failure::internal(format!("simulation of the posterior mean failed: {e}")))?;
+    let fit = experiment::ceinms::moment_fit(prep.problem.measured(), &prediction);
+    let trials = vec![trial_entry(&prep.loaded.name, &m.trials[0], fit)];
+    let lines = summary_lines(&prep.loaded.name, &m, &trials);
+    let doc = mcmc_doc(&m, trials);
     Ok(Outcome {
         doc,
         lines,
