@@ -9,11 +9,8 @@ use diagnose::{
     diagnose_session, no_observer, run, DiagnoseSettings, DiagnosisRecording, EffectScope,
     HeldoutScheme, SessionDiagnosis, SessionMember, Verdict,
 };
-use experiment::synth_session::session_trial_config;
-use experiment::{
-    envelope_peaks, model_inputs, synthesize, synthesize_referenced, synthetic_recording,
-    EmgReferences, InputOptions, SynthConfig, SynthProtocol, Synthetic,
-};
+use experiment::synth_session::{session_trial_config, synthesize_session_configs};
+use experiment::{model_inputs, synthesize, InputOptions, SynthConfig, SynthProtocol, Synthetic};
 use muscle_model::{Effects, ModelParams};
 
 /// The session's protocols and the names its trials take.
@@ -36,18 +33,7 @@ fn session(seed: u64, effects: impl Fn(usize) -> Effects) -> Vec<Synthetic> {
                 .with_effects(effects(k))
         })
         .collect();
-    let peaks: Vec<EmgReferences> = configs
-        .iter()
-        .map(|c| {
-            let (_, t) = synthetic_recording(c).unwrap();
-            envelope_peaks(&t, &InputOptions::default(), "<trial>").unwrap()
-        })
-        .collect();
-    let refs = EmgReferences::largest(&peaks);
-    configs
-        .iter()
-        .map(|c| synthesize_referenced(c, &refs).unwrap())
-        .collect()
+    synthesize_session_configs(&configs).unwrap()
 }
 
 /// The joint diagnosis with default settings, on the session-normalised inputs.

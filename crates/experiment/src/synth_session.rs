@@ -83,8 +83,25 @@ pub fn synthesize_session(
         .enumerate()
         .map(|(i, p)| session_trial_config(p, i, seed, params, effects))
         .collect();
+    synthesize_session_configs(&configs)
+}
+
+/// Synthesises trials of one session from their own configurations (any seeds, truths or
+/// effects per trial), the EMG of every trial normalised by each channel's largest envelope
+/// over all of them, as [`synthesize_session`] does.
+///
+/// # Errors
+/// No configuration, or any error of [`synthesize_referenced`].
+pub fn synthesize_session_configs(configs: &[SynthConfig]) -> Result<Vec<Synthetic>> {
+    if configs.is_empty() {
+        return Err(ExperimentError::invalid(
+            "session",
+            ErrorKind::InvalidProtocol,
+            "a session needs at least one trial",
+        ));
+    }
     let mut peaks = Vec::with_capacity(configs.len());
-    for cfg in &configs {
+    for cfg in configs {
         let (_, trial) = synthetic_recording(cfg)?;
         peaks.push(envelope_peaks(&trial, &InputOptions::default(), "<trial>")?);
     }

@@ -1,7 +1,8 @@
 //! The acceptance study of joint MCMC on 3-trial sessions (knee0@30, knee90@30, knee0@60), over
 //! 20 replicates with random true parameters: every run converges (R̂ < 1.01, bulk ESS ≥ 400),
-//! the 90 % intervals cover the truth at their nominal rate, the mean posterior sds stay within
-//! 1.5× the linearised expectation, and the soleus is identifiable. Slow (several minutes on
+//! the 90 % intervals cover the truth at their nominal rate, the mean posterior sds agree within
+//! ±40 % with the linearised sds of the same trials at the truth (the `design` crate's Fisher
+//! information with the bounds' prior), and the soleus is identifiable. Slow (several minutes on
 //! 2 cores): `cargo test --release -p identify-mcmc --test session_coverage -- --ignored`; the
 //! same study with a printed table is the `session_coverage` example.
 
@@ -10,7 +11,7 @@ use std::ops::ControlFlow;
 use identify_mcmc::{identify_session, McmcIdentifySettings};
 
 mod common;
-use common::synthetic_session::{nominal_values, SyntheticSession, EXPECTED_SD_PCT, THREE_TRIALS};
+use common::synthetic_session::{nominal_values, SyntheticSession, THREE_TRIALS};
 
 const REPLICATES: u64 = 20;
 
@@ -31,9 +32,13 @@ fn three_trial_sessions_cover_the_truth_at_the_nominal_rate() {
     let nominal = nominal_values();
     let mut hits = [0u64; 9];
     let mut sd_sum = [0.0f64; 9];
+    let mut lin_sum = [0.0f64; 9];
     for rep in 1..=REPLICATES {
         let session = SyntheticSession::new(&THREE_TRIALS, rep);
         let truth = session.true_values();
+        for (acc, v) in lin_sum.iter_mut().zip(session.linearised_sds_pct()) {
+            *acc += v;
+        }
         let mut settings = McmcIdentifySettings::default();
         settings.mcmc.seed = rep;
         let m =
@@ -69,11 +74,10 @@ fn three_trial_sessions_cover_the_truth_at_the_nominal_rate() {
             "parameter {k}: {}/{REPLICATES} intervals hold the truth (at least {low} expected)",
             hits[k]
         );
-        let sd = sd_sum[k] / REPLICATES as f64;
+        let (sd, lin) = (sd_sum[k] / REPLICATES as f64, lin_sum[k] / REPLICATES as f64);
         assert!(
-            sd <= 1.5 * EXPECTED_SD_PCT[k],
-            "parameter {k}: mean sd {sd:.3} % against the expected {} %",
-            EXPECTED_SD_PCT[k]
+            (sd / lin - 1.0).abs() <= 0.4,
+            "parameter {k}: mean posterior sd {sd:.3} % against the linearised {lin:.3} %"
         );
     }
     // Over all 180 intervals (not independent across parameters, so a wide band).
