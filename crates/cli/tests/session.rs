@@ -507,3 +507,42 @@ fn mvc_trials_set_the_references_and_a_trial_above_them_is_reported() {
         q["emg_normalisation"]["references"]
     );
 }
+
+#[test]
+fn the_bundled_session_identifies_the_soleus_against_its_truth() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let fx = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/session3");
+    let m = session3_manifest(d, &["knee0_30", "knee90_30", "knee0_60"], "");
+    let truth = fx.join("truth.json");
+    let out = surae(
+        &[
+            "identify",
+            "--method",
+            "sa",
+            "--session",
+            m.to_str().unwrap(),
+            "--truth",
+            truth.to_str().unwrap(),
+            "--chains",
+            "2",
+            "--out",
+            "o",
+        ],
+        d,
+    );
+    ok(&out);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("errors vs truth"), "{stdout}");
+    let doc = json(&d.join("o/identify.json"));
+    assert_eq!(doc["emg_normalisation"]["source"], "session_maximum");
+    let errors = doc["errors_pct"].as_object().unwrap();
+    assert_eq!(errors.len(), 9);
+    // The soleus's tendon slack length and force are what three trials pin down (docs/design.md:
+    // posterior sds of 0.18 % and 1.1 %).
+    assert!(errors["sol.lst_m"].as_f64().unwrap() < 1.0, "{errors:?}");
+    assert!(errors["sol.fom_n"].as_f64().unwrap() < 5.0, "{errors:?}");
+    for t in doc["trials"].as_array().unwrap() {
+        assert!(t["rms_nm"].as_f64().unwrap() < 1.6, "{t}");
+    }
+}

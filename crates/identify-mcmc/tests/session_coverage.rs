@@ -74,7 +74,10 @@ fn three_trial_sessions_cover_the_truth_at_the_nominal_rate() {
             "parameter {k}: {}/{REPLICATES} intervals hold the truth (at least {low} expected)",
             hits[k]
         );
-        let (sd, lin) = (sd_sum[k] / REPLICATES as f64, lin_sum[k] / REPLICATES as f64);
+        let (sd, lin) = (
+            sd_sum[k] / REPLICATES as f64,
+            lin_sum[k] / REPLICATES as f64,
+        );
         assert!(
             (sd / lin - 1.0).abs() <= 0.4,
             "parameter {k}: mean posterior sd {sd:.3} % against the linearised {lin:.3} %"

@@ -215,7 +215,10 @@ pub fn prepare(
     })
 }
 
-fn errors_pct(params: &BTreeMap<String, f64>, truth: &ModelParams) -> BTreeMap<String, f64> {
+pub(super) fn errors_pct(
+    params: &BTreeMap<String, f64>,
+    truth: &ModelParams,
+) -> BTreeMap<String, f64> {
     let effects = muscle_model::Effects::none();
     params
         .iter()
@@ -247,10 +250,10 @@ pub fn run(args: IdentifyArgs) -> CmdResult {
         }
     }
     if let Some(session) = &args.session {
-        if args.unloaded.is_some() || args.truth.is_some() {
+        if args.unloaded.is_some() {
             return Err(Failure::bad(
-                "--session: each trial's unloaded run is named in the manifest; --unloaded and \
-                 --truth apply to --trial",
+                "--session: each trial's unloaded run is named in the manifest; --unloaded \
+                 applies to --trial",
             ));
         }
         return joint::run(&args, session);

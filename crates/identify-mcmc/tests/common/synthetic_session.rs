@@ -88,8 +88,9 @@ impl SyntheticSession {
             .iter()
             .enumerate()
             .map(|(k, p)| {
-                let jac = torque_jacobian(&format!("trial {k}"), p.inputs(), &self.truth, &settings)
-                    .expect("jacobian");
+                let jac =
+                    torque_jacobian(&format!("trial {k}"), p.inputs(), &self.truth, &settings)
+                        .expect("jacobian");
                 let noise = DesignNoise::synthetic().at(jac.dt_s).expect("noise");
                 TrialInformation::new(&jac, &noise)
             })

@@ -15,8 +15,9 @@ use std::path::Path;
 
 /// Runs `identify --session`.
 pub(super) fn run(args: &IdentifyArgs, session_path: &Path) -> CmdResult {
+    let truth = session_truth(args)?;
     if args.method == super::Method::Mcmc {
-        return run_mcmc(args, session_path);
+        return run_mcmc(args, session_path, truth.as_ref());
     }
     let session = load_session(session_path, &args.model, args.free.as_deref())?;
     let set = session.problem_set()?;
@@ -121,6 +122,7 @@ pub(super) fn run(args: &IdentifyArgs, session_path: &Path) -> CmdResult {
     if !effects.enabled().is_empty() {
         doc["effects"] = effects.to_json_value();
     }
+    let truth_lines = add_session_keys(&mut doc, &session, truth.as_ref());
     let text = serde_json::to_string_pretty(&doc).map_err(Failure::internal)? + "\n";
     let path = out.write("identify.json", text.as_bytes())?;
     let mut files = write_figures(&out, &session, &predictions, session_path, None)?;
@@ -183,6 +185,9 @@ pub(super) fn run(args: &IdentifyArgs, session_path: &Path) -> CmdResult {
                 "  {name:<30} {v:>12.5}    [{lo:.5}, {hi:.5}]{}",
                 if at_bound { "  at bound" } else { "" }
             ));
+        }
+        for l in &truth_lines {
+            say(l);
         }
         say(&format!(
             "wrote {} and {} figures/report files in {}",
@@ -277,7 +282,48 @@ fn write_figures(
 /// Runs `identify --method mcmc --session`: each trial on its torque as measured, corrected by
 /// its own unloaded run's systematic error inside the sampler, with its own noise model (from
 /// that run, or fitted to the trial's residual without one).
-fn run_mcmc(args: &IdentifyArgs, session_path: &Path) -> CmdResult {
+/// `--truth` (a parameters JSON or a fixture's `truth.json`), read before anything runs.
+fn session_truth(args: &IdentifyArgs) -> CmdResult<Option<muscle_model::ModelParams>> {
+    match &args.truth {
+        Some(p) => {
+            let text = super::super::read_text(p)?;
+            super::read_truth(p, &text).map(Some)
+        }
+        None => Ok(None),
+    }
+}
+
+/// `errors_pct` (% error of every identified parameter against the truth) and
+/// `emg_normalisation` into an `identify.json` of a session; the error lines for the summary.
+fn add_session_keys(
+    doc: &mut Value,
+    session: &LoadedSession,
+    truth: Option<&muscle_model::ModelParams>,
+) -> Vec<String> {
+    doc["emg_normalisation"] = session.emg.to_json();
+    let Some(truth) = truth else {
+        return Vec::new();
+    };
+    let params: std::collections::BTreeMap<String, f64> = doc["params"]
+        .as_object()
+        .map(|m| {
+            m.iter()
+                .filter_map(|(k, v)| v.as_f64().map(|v| (k.clone(), v)))
+                .collect()
+        })
+        .unwrap_or_default();
+    let errors = super::errors_pct(&params, truth);
+    let mut lines = vec!["  errors vs truth (%):".to_string()];
+    lines.extend(errors.iter().map(|(k, e)| format!("    {k:<28} {e:>8.2}")));
+    doc["errors_pct"] = json!(errors);
+    lines
+}
+
+fn run_mcmc(
+    args: &IdentifyArgs,
+    session_path: &Path,
+    truth: Option<&muscle_model::ModelParams>,
+) -> CmdResult {
     use identify_mcmc::{NoiseKind, NoiseSpec, SessionTrialLikelihood};
     let session = load_session(session_path, &args.model, args.free.as_deref())?;
     let set = session.problem_set()?;
@@ -395,6 +441,7 @@ fn run_mcmc(args: &IdentifyArgs, session_path: &Path) -> CmdResult {
     if !effects.enabled().is_empty() {
         doc["effects"] = effects.to_json_value();
     }
+    let truth_lines = add_session_keys(&mut doc, &session, truth);
     let text = serde_json::to_string_pretty(&doc).map_err(Failure::internal)? + "\n";
     let path = out.write("identify.json", text.as_bytes())?;
     let mut csv = Vec::new();
@@ -433,7 +480,7 @@ fn run_mcmc(args: &IdentifyArgs, session_path: &Path) -> CmdResult {
     args.report.print_json(&text);
     if show {
         let say = |s: &str| args.report.say(s);
-        for l in &lines {
+        for l in lines.iter().chain(&truth_lines) {
             say(l);
         }
         say(&format!(
