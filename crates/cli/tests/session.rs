@@ -545,4 +545,14 @@ fn the_bundled_session_identifies_the_soleus_against_its_truth() {
     for t in doc["trials"].as_array().unwrap() {
         assert!(t["rms_nm"].as_f64().unwrap() < 1.6, "{t}");
     }
+    // One report for the session: the trials' fits, the shared parameters, a panel per trial.
+    let html = std::fs::read_to_string(d.join("o/report.html")).unwrap();
+    for part in [
+        "Trials",
+        "Shared parameters",
+        "error vs truth",
+        "knee90_30: measured",
+    ] {
+        assert!(html.contains(part), "report.html lacks {part}");
+    }
 }

@@ -125,7 +125,15 @@ pub(super) fn run(args: &IdentifyArgs, session_path: &Path) -> CmdResult {
     let truth_lines = add_session_keys(&mut doc, &session, truth.as_ref());
     let text = serde_json::to_string_pretty(&doc).map_err(Failure::internal)? + "\n";
     let path = out.write("identify.json", text.as_bytes())?;
-    let mut files = write_figures(&out, &session, &predictions, session_path, None)?;
+    let mut files = write_figures(
+        &out,
+        &session,
+        &predictions,
+        session_path,
+        &doc,
+        truth.as_ref(),
+        None,
+    )?;
     // the identified values written into a copy of the session's OpenSim model, if it has one
     let osim = [args.model.params.as_ref(), session.manifest.params.as_ref()]
         .into_iter()
@@ -205,6 +213,8 @@ fn write_figures(
     session: &LoadedSession,
     predictions: &[(Vec<f64>, Vec<f64>)],
     session_path: &Path,
+    doc: &Value,
+    truth: Option<&muscle_model::ModelParams>,
     mcmc: Option<&identify_mcmc::McmcIdentification>,
 ) -> CmdResult<Vec<std::path::PathBuf>> {
     let method = if mcmc.is_some() { "mcmc" } else { "sa" };
@@ -231,6 +241,7 @@ fn write_figures(
         }
         .to_string(),
     );
+    session_tables(&mut set, session, doc, mcmc.is_none())?;
     for (t, (pred, base)) in session.trials.iter().zip(predictions) {
         let inputs = t.problem.inputs();
         let angle = figures::angle_deg(inputs);
@@ -274,9 +285,99 @@ fn write_figures(
         )?;
     }
     if let Some(m) = mcmc {
-        super::mcmc::posterior_figures(&mut set, None, m)?;
+        let none = muscle_model::Effects::none();
+        let truth_values = truth.map(|t| {
+            session.trials[0]
+                .problem
+                .free()
+                .iter()
+                .map(|id| id.get(t, &none))
+                .collect()
+        });
+        super::mcmc::posterior_figures(&mut set, truth_values, m)?;
     }
     set.finish()
+}
+
+/// The report's tables: each trial's fit, and (for SA) the shared parameters with their bounds
+/// and, with `--truth`, their errors.
+fn session_tables(
+    set: &mut FigureSet<'_>,
+    session: &LoadedSession,
+    doc: &Value,
+    with_params: bool,
+) -> CmdResult {
+    let num = |v: &Value, digits: usize| {
+        v.as_f64()
+            .map_or_else(|| "—".to_string(), |x| report::format_sig(x, digits))
+    };
+    let rows: Vec<Vec<String>> = doc["trials"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .map(|t| {
+            vec![
+                t["name"].as_str().unwrap_or("").to_string(),
+                t["source"].as_str().unwrap_or("").to_string(),
+                num(&t["rms_nm"], 3),
+                num(&t["r2"], 3),
+                num(&t["start_rms_nm"], 3),
+            ]
+        })
+        .collect();
+    let norm = &doc["emg_normalisation"];
+    set.page()
+        .table(
+            "Trials",
+            &[
+                "trial",
+                "recording",
+                "RMS (N·m)",
+                "R²",
+                "RMS at the session's parameters",
+            ],
+            &rows,
+        )
+        .map_err(|e| Failure::internal(e.to_string()))?;
+    set.page().paragraph(format!(
+        "EMG normalisation: {} ({} trials; one reference per channel for the whole session).",
+        match norm["source"].as_str() {
+            Some("mvc") => "each channel by its largest envelope over the MVC trials",
+            Some("session_maximum") => "each channel by its largest envelope over all the trials",
+            _ => "envelopes as given",
+        },
+        session.trials.len()
+    ));
+    if !with_params {
+        return Ok(());
+    }
+    let errors = doc["errors_pct"].as_object();
+    let mut headers = vec!["parameter", "estimate", "lower bound", "upper bound"];
+    if errors.is_some() {
+        headers.push("error vs truth (%)");
+    }
+    let rows: Vec<Vec<String>> = doc["params"]
+        .as_object()
+        .into_iter()
+        .flatten()
+        .map(|(k, v)| {
+            let b = &doc["bounds"][k];
+            let mut row = vec![
+                report::param_label(k),
+                num(v, 5),
+                num(&b[0], 5),
+                num(&b[1], 5),
+            ];
+            if let Some(e) = errors {
+                row.push(e.get(k).map_or_else(|| "—".into(), |x| num(x, 3)));
+            }
+            row
+        })
+        .collect();
+    set.page()
+        .table("Shared parameters", &headers, &rows)
+        .map_err(|e| Failure::internal(e.to_string()))?;
+    Ok(())
 }
 
 /// Runs `identify --method mcmc --session`: each trial on its torque as measured, corrected by
@@ -454,6 +555,8 @@ fn run_mcmc(
         &session,
         &predictions,
         session_path,
+        &doc,
+        truth,
         Some(&m),
     )?);
     let osim = [args.model.params.as_ref(), session.manifest.params.as_ref()]
