@@ -136,6 +136,35 @@ fn sa_session_run(root: &Path) -> Result<(u64, f64, Option<f64>)> {
     Ok((fit.evaluations, wall, cpu))
 }
 
+/// One joint `identify_mcmc::identify_session` run with the default settings on
+/// `fixtures/session3`: (evaluations, wall s, CPU s if known, converged, max R̂, min ESS).
+fn mcmc_session_run(root: &Path) -> Result<(u64, f64, Option<f64>, bool, f64, f64)> {
+    let manifest = root.join("fixtures/session3/session.json");
+    let session = cli::commands::session::load_session(&manifest, &Default::default(), None)
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let (problems, noises) = session.mcmc_trials().map_err(|e| anyhow::anyhow!("{e}"))?;
+    let trials: Vec<identify_mcmc::SessionTrialLikelihood<'_>> = problems
+        .iter()
+        .zip(&noises)
+        .map(|(problem, noise)| identify_mcmc::SessionTrialLikelihood { problem, noise })
+        .collect();
+    let cpu0 = cpu_seconds();
+    let start = Instant::now();
+    let res = identify_mcmc::identify_session(
+        &trials,
+        &identify_mcmc::McmcIdentifySettings::default(),
+        |_| std::ops::ControlFlow::Continue(()),
+    )?;
+    let wall = start.elapsed().as_secs_f64();
+    let cpu = cpu_seconds().zip(cpu0).map(|(b, a)| b - a);
+    let (r, e) = res.worst_diagnostics();
+    eprintln!(
+        "MCMC, 3-trial session: {} evaluations in {wall:.2} s, converged {}, max R̂ {r:.4}, min bulk ESS {e:.0}",
+        res.evaluations, res.converged
+    );
+    Ok((res.evaluations, wall, cpu, res.converged, r, e))
+}
+
 /// One `diagnose::run` with the default settings on `fixtures/<name>` (trial + unloaded run):
 /// (wall s, CPU s if known, named causes).
 fn diagnose_run(root: &Path, name: &str) -> Result<(f64, Option<f64>, Vec<String>)> {
@@ -334,6 +363,10 @@ pub fn run(args: &mut impl Iterator<Item = String>) -> Result<bool> {
 
     eprintln!("running identify_mcmc::identify (default settings, 4 chains, rayon) ...");
     let (mc_evals, mc_wall, mc_cpu, mc_conv, mc_rhat, mc_ess) = mcmc_run(&trial_path, &trial)?;
+    eprintln!(
+        "running identify_mcmc::identify_session on fixtures/session3 (default settings) ..."
+    );
+    let (ms_evals, ms_wall, ms_cpu, ms_conv, ms_rhat, ms_ess) = mcmc_session_run(&root)?;
     eprintln!("running diagnose::run on fixtures/electromechanical_delay ...");
     let (dg_wall, dg_cpu, dg_causes) = diagnose_run(&root, "electromechanical_delay")?;
 
@@ -388,6 +421,11 @@ pub fn run(args: &mut impl Iterator<Item = String>) -> Result<bool> {
     println!(
         "| MCMC to R̂ < 1.01, ESS ≥ 400 (seed trial, default settings, {mc_evals} evaluations; converged {mc_conv}, max R̂ {mc_rhat:.4}, min bulk ESS {mc_ess:.0}) | {mc_wall:.2} s wall{} | — | — |",
         cpu_note(mc_cpu)
+    );
+    println!(
+        "| MCMC, 3-trial session (`fixtures/session3`, default settings, {ms_evals} evaluations; converged {ms_conv}, max R̂ {ms_rhat:.4}, min bulk ESS {ms_ess:.0}) | {ms_wall:.2} s wall{} ({:.1}× the seed's) | — | — |",
+        cpu_note(ms_cpu),
+        ms_wall / mc_wall
     );
     println!(
         "| full diagnosis (`fixtures/electromechanical_delay`, unloaded run; named {dg_causes:?}) | {dg_wall:.2} s wall{} | — | — |",

@@ -82,6 +82,46 @@ pub struct LoadedSession {
 }
 
 impl LoadedSession {
+    /// What the joint MCMC samples: each trial's problem on its torque as recorded (the
+    /// sampler subtracts the systematic part itself) and its noise side: the unloaded run's
+    /// correction and AR(1)+white noise, or, without one, AR(1)+white fitted to the trial's own
+    /// residual.
+    pub fn mcmc_trials(&self) -> CmdResult<(Vec<Problem>, Vec<identify_mcmc::NoiseSpec>)> {
+        use identify_mcmc::{NoiseKind, NoiseSpec};
+        let mut problems = Vec::with_capacity(self.trials.len());
+        let mut noises = Vec::with_capacity(self.trials.len());
+        for (t, entry) in self.trials.iter().zip(&self.manifest.trials) {
+            let bad = |e: &dyn std::fmt::Display| Failure::bad(format!("{}: {e}", t.source));
+            let p = &t.problem;
+            let mut raw = Problem::new(
+                p.inputs().clone(),
+                t.raw_torque.clone(),
+                *p.base_params(),
+                *p.base_effects(),
+                p.free().to_vec(),
+            )
+            .and_then(|q| q.with_bounds(p.bounds().to_vec()))
+            .map_err(|e| bad(&e))?
+            .with_settings(*p.settings());
+            if let Some(w) = p.weights() {
+                raw = raw.with_weights(w.to_vec()).map_err(|e| bad(&e))?;
+            }
+            let noise = match &t.correction {
+                Some(c) => {
+                    // the correction is placed at the trial's own motion events
+                    let trial =
+                        experiment::read_trial(entry.source.path()).map_err(Failure::bad)?;
+                    NoiseSpec::from_correction(&trial, c, NoiseKind::Ar1White)
+                        .map_err(|e| bad(&e))?
+                }
+                None => NoiseSpec::from_residual(NoiseKind::Ar1White),
+            };
+            problems.push(raw);
+            noises.push(noise);
+        }
+        Ok((problems, noises))
+    }
+
     /// The trials' problems as one set.
     pub fn problem_set(&self) -> CmdResult<ProblemSet> {
         ProblemSet::new(self.trials.iter().map(|t| t.problem.clone()).collect())

@@ -9,7 +9,6 @@ use crate::error::{CmdResult, Failure};
 use crate::figures::{self, FigureSet};
 use crate::output::OutDir;
 use crate::progress::ProgressDisplay;
-use muscle_model::Problem;
 use serde_json::{json, Map, Value};
 use std::path::Path;
 
@@ -425,7 +424,7 @@ fn run_mcmc(
     session_path: &Path,
     truth: Option<&muscle_model::ModelParams>,
 ) -> CmdResult {
-    use identify_mcmc::{NoiseKind, NoiseSpec, SessionTrialLikelihood};
+    use identify_mcmc::SessionTrialLikelihood;
     let session = load_session(session_path, &args.model, args.free.as_deref())?;
     let set = session.problem_set()?;
     let settings = super::mcmc::mcmc_settings(args.seed, args.max_iterations)?;
@@ -456,35 +455,7 @@ fn run_mcmc(
     );
     let planned_refs: Vec<&str> = planned.iter().map(String::as_str).collect();
 
-    let mut problems = Vec::with_capacity(session.trials.len());
-    let mut noises = Vec::with_capacity(session.trials.len());
-    for (t, entry) in session.trials.iter().zip(&session.manifest.trials) {
-        let bad = |e: &dyn std::fmt::Display| Failure::bad(format!("{}: {e}", t.source));
-        let p = &t.problem;
-        // The sampler corrects the raw torque itself (NoiseSpec carries the systematic part).
-        let mut raw = Problem::new(
-            p.inputs().clone(),
-            t.raw_torque.clone(),
-            *p.base_params(),
-            *p.base_effects(),
-            p.free().to_vec(),
-        )
-        .and_then(|q| q.with_bounds(p.bounds().to_vec()))
-        .map_err(|e| bad(&e))?
-        .with_settings(*p.settings());
-        if let Some(w) = p.weights() {
-            raw = raw.with_weights(w.to_vec()).map_err(|e| bad(&e))?;
-        }
-        let noise = match &t.correction {
-            Some(c) => {
-                let trial = experiment::read_trial(entry.source.path()).map_err(Failure::bad)?;
-                NoiseSpec::from_correction(&trial, c, NoiseKind::Ar1White).map_err(|e| bad(&e))?
-            }
-            None => NoiseSpec::from_residual(NoiseKind::Ar1White),
-        };
-        problems.push(raw);
-        noises.push(noise);
-    }
+    let (problems, noises) = session.mcmc_trials()?;
     let likelihoods: Vec<SessionTrialLikelihood<'_>> = problems
         .iter()
         .zip(&noises)
