@@ -12,7 +12,7 @@ use crate::bad;
 use crate::convert::{json_arg, json_to_py, path_arg, vec1, JsonArg};
 use crate::run::{run_command, ProgressMode};
 use cli::commands::identify::{IdentifyArgs, Method};
-use cli::commands::{diagnose::DiagnoseArgs, KneeArgs, ModelArgs, ReportArgs};
+use cli::commands::{design::DesignArgs, diagnose::DiagnoseArgs, KneeArgs, ModelArgs, ReportArgs};
 use cli::error::Failure;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -356,5 +356,67 @@ pub fn diagnose<'py>(
     };
     run_to_json(py, staging, out, file, progress, move || {
         cli::commands::diagnose::run(args)
+    })
+}
+
+/// The expected posterior sd of each of the 9 muscle parameters for candidate protocols, as
+/// `surae design` computes it before anyone is tested; returns the `design.json` it writes as
+/// a dict.
+///
+/// protocols: the candidate protocols, each a comma-separated list of trials
+///     `knee<deg>@<speed>` with an optional `x<cycles>` (e.g. "knee0@30,knee90@30,knee0@60").
+/// unloaded: an unloaded run (CSV path or dict) whose AR(1)+white noise replaces the synthetic
+///     dynamometer's.
+/// params: the design point (dict or parameters JSON / .osim path); nominal by default.
+/// offset_sd: prior sd (N·m) of each trial's constant torque offset; 0 treats it as known.
+/// emg_draws, emg_seed: how many synthetic EMG realisations the information is averaged over,
+///     and the first seed.
+/// out: folder keeping design.json and design.svg (default: a temporary folder).
+/// progress: as for identify.
+#[pyfunction]
+#[pyo3(signature = (
+    protocols, *, unloaded=None, params=None, offset_sd=::design::OFFSET_PRIOR_SD_NM,
+    emg_draws=::design::DEFAULT_EMG_DRAWS, emg_seed=::design::DEFAULT_EMG_SEED, out=None,
+    progress=None
+))]
+#[allow(clippy::too_many_arguments)]
+pub fn design<'py>(
+    py: Python<'py>,
+    protocols: Vec<String>,
+    unloaded: Option<&Bound<'py, PyAny>>,
+    params: Option<&Bound<'py, PyAny>>,
+    offset_sd: f64,
+    emg_draws: usize,
+    emg_seed: u64,
+    out: Option<&Bound<'py, PyAny>>,
+    progress: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyAny>> {
+    if protocols.is_empty() {
+        return Err(bad("protocols: give at least one protocol".to_string()));
+    }
+    let progress = ProgressMode::from_arg(progress)?;
+    let mut staging = Staging::new()?;
+    let unloaded = unloaded_arg(unloaded, &mut staging)?;
+    let params = staging.json(json_arg(params, "params")?, "params")?;
+    let out = match out.filter(|o| !o.is_none()) {
+        Some(o) => path_arg(o, "out")?,
+        None => staging.dir.path().join("out"),
+    };
+    let args = DesignArgs {
+        protocol: protocols,
+        unloaded,
+        params,
+        osim_muscles: Vec::new(),
+        offset_sd,
+        emg_draws,
+        emg_seed,
+        out: Some(out.clone()),
+        report: ReportArgs {
+            quiet: true,
+            json: false,
+        },
+    };
+    run_to_json(py, staging, out, "design.json", progress, move || {
+        cli::commands::design::run(args)
     })
 }

@@ -2,7 +2,7 @@
 //!
 //! * [`arrays`]: functions on numpy arrays that need no files (`envelope`, `simulate`, the
 //!   bundled trial);
-//! * [`commands`]: `identify` and `diagnose`, which run the command line's own code
+//! * [`commands`]: `identify`, `diagnose` and `design`, which run the command line's own code
 //!   (`cli::commands::*::run`) into a folder and return the JSON it wrote, so a Python result is
 //!   the command line's result by construction;
 //! * [`run`]: runs a command on a worker thread with the GIL released, shows progress, and
@@ -54,5 +54,6 @@ fn _surae(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(arrays::bundled_unloaded, m)?)?;
     m.add_function(wrap_pyfunction!(commands::identify, m)?)?;
     m.add_function(wrap_pyfunction!(commands::diagnose, m)?)?;
+    m.add_function(wrap_pyfunction!(commands::design, m)?)?;
     Ok(())
 }

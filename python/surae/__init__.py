@@ -8,6 +8,8 @@ The functions run the same code as the ``surae`` command line:
   (``surae identify``; returns its ``identify.json`` as a dict);
 * :func:`diagnose` -- what the model gets wrong (``surae diagnose``; returns
   ``diagnosis.json`` as a dict);
+* :func:`design` -- expected posterior sds of candidate protocols (``surae design``;
+  returns ``design.json`` as a dict);
 * :func:`bundled_trial`, :func:`bundled_unloaded` -- the trial every command uses by default.
 
 Bad input raises :class:`InputError` (a ``ValueError``) with the command line's one-line
@@ -18,6 +20,7 @@ from ._surae import (
     InputError,
     bundled_trial,
     bundled_unloaded,
+    design,
     diagnose,
     envelope,
     identify,
@@ -30,6 +33,7 @@ __all__ = [
     "InputError",
     "bundled_trial",
     "bundled_unloaded",
+    "design",
     "diagnose",
     "envelope",
     "identify",

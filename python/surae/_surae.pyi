@@ -158,3 +158,30 @@ def diagnose(
         ``diagnosis.json`` is in ``out/<trial>``). params: with ``session``, a parameters
         file, dict or ``identify.json`` set over the session's parameters.
     """
+
+def design(
+    protocols: Sequence[str],
+    *,
+    unloaded: Optional[_ColumnsArg] = None,
+    params: Optional[_JsonArg] = None,
+    offset_sd: float = 0.5,
+    emg_draws: int = 16,
+    emg_seed: int = 1,
+    out: Optional[_PathLike] = None,
+    progress: _ProgressArg = None,
+) -> Dict[str, Any]:
+    """Expected posterior sds of the 9 muscle parameters for candidate protocols, before
+    anyone is tested; returns ``design.json`` as a dict.
+
+    Runs the code of ``surae design``: the Fisher information of the model with the
+    dynamometer's AR(1)+white noise, summed over each protocol's trials.
+
+    protocols: each a comma-separated list of trials ``knee<deg>@<speed>`` with an optional
+        ``x<cycles>``, e.g. ``"knee0@30,knee90@30,knee0@60"``.
+    unloaded: an unloaded run (path or dict) whose noise replaces the synthetic one.
+    params: the design point (dict or parameters JSON / ``.osim`` path); nominal by default.
+    offset_sd: prior sd (N·m) of each trial's constant torque offset; 0 treats it as known.
+    emg_draws, emg_seed: number of synthetic EMG realisations averaged, and the first seed.
+    out: folder keeping ``design.json`` and ``design.svg`` (default: a temporary folder).
+    progress: as for :func:`identify`.
+    """

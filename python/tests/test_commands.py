@@ -137,3 +137,25 @@ def test_identify_session_equals_the_cli(cli, repo, tmp_path):
     # a session of one trial identifies what the trial does
     alone = surae.identify(seed / "trial.csv", seed / "unloaded.csv", method="sa", chains=2)
     assert got["params"] == alone["params"]
+
+
+def test_design_equals_the_cli(cli, tmp_path):
+    protocols = ["knee0@30", "knee0@30,knee90@30"]
+    args = []
+    for p in protocols:
+        args += ["--protocol", p]
+    r = cli("design", *args, "--emg-draws", "2", "--quiet", "--out", tmp_path)
+    assert r.returncode == 0, r.stderr
+    ref = read_json(tmp_path / "design.json")
+    got = surae.design(protocols, emg_draws=2)
+    assert got == ref
+    rows = got["protocols"]
+    assert [row["protocol"] for row in rows] == protocols
+    # the flexed knee adds information on every parameter
+    for name, sd in rows[1]["sd_pct"].items():
+        assert sd < rows[0]["sd_pct"][name], name
+
+
+def test_design_rejects_a_bad_protocol():
+    with pytest.raises(surae.InputError, match="elbow"):
+        surae.design(["knee0@30,elbow"])
