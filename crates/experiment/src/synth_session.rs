@@ -70,7 +70,7 @@ pub fn session_trial_config(
 /// Synthesises every trial of a session (see the module documentation).
 ///
 /// # Errors
-/// No protocol, two trials with the same name, or any error of [`synthesize`].
+/// No protocol, two trials with the same name, or any error of [`crate::synthesize`].
 pub fn synthesize_session(
     protocols: &[SynthProtocol],
     seed: u64,
