@@ -98,11 +98,25 @@ fn mcmc_run(
         &unloaded,
         identify_mcmc::NoiseKind::Ar1White,
     )?;
+    timed_mcmc(
+        &[identify_mcmc::SessionTrialLikelihood {
+            problem: &problem,
+            noise: &noise,
+        }],
+        "MCMC",
+    )
+}
+
+/// `identify_mcmc::identify_session` with the default settings, timed: (evaluations, wall s,
+/// CPU s if known, converged, max R̂, min ESS).
+fn timed_mcmc(
+    trials: &[identify_mcmc::SessionTrialLikelihood<'_>],
+    label: &str,
+) -> Result<(u64, f64, Option<f64>, bool, f64, f64)> {
     let cpu0 = cpu_seconds();
     let start = Instant::now();
-    let res = identify_mcmc::identify(
-        &problem,
-        &noise,
+    let res = identify_mcmc::identify_session(
+        trials,
         &identify_mcmc::McmcIdentifySettings::default(),
         |_| std::ops::ControlFlow::Continue(()),
     )?;
@@ -110,30 +124,10 @@ fn mcmc_run(
     let cpu = cpu_seconds().zip(cpu0).map(|(b, a)| b - a);
     let (r, e) = res.worst_diagnostics();
     eprintln!(
-        "MCMC: {} evaluations in {wall:.2} s, converged {}, max R̂ {r:.4}, min bulk ESS {e:.0}",
+        "{label}: {} evaluations in {wall:.2} s, converged {}, max R̂ {r:.4}, min bulk ESS {e:.0}",
         res.evaluations, res.converged
     );
     Ok((res.evaluations, wall, cpu, res.converged, r, e))
-}
-
-/// One joint `identify_sa::identify_set` run on `fixtures/session3` (three trials read as
-/// `surae identify --session` reads them): (evaluations, wall s, CPU s if known).
-fn sa_session_run(root: &Path) -> Result<(u64, f64, Option<f64>)> {
-    let manifest = root.join("fixtures/session3/session.json");
-    let session = cli::commands::session::load_session(&manifest, &Default::default(), None)
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
-    let set = session.problem_set().map_err(|e| anyhow::anyhow!("{e}"))?;
-    let settings = identify_sa::SaIdentifySettings::default();
-    let cpu0 = cpu_seconds();
-    let start = Instant::now();
-    let fit = identify_sa::identify_set(&set, &settings, &identify_sa::NoObserver)?;
-    let wall = start.elapsed().as_secs_f64();
-    let cpu = cpu_seconds().zip(cpu0).map(|(b, a)| b - a);
-    eprintln!(
-        "SA, 3-trial session: {} evaluations in {wall:.2} s, torque RMS {:.3} N·m",
-        fit.evaluations, fit.rms_nm
-    );
-    Ok((fit.evaluations, wall, cpu))
 }
 
 /// One joint `identify_mcmc::identify_session` run with the default settings on
@@ -148,21 +142,7 @@ fn mcmc_session_run(root: &Path) -> Result<(u64, f64, Option<f64>, bool, f64, f6
         .zip(&noises)
         .map(|(problem, noise)| identify_mcmc::SessionTrialLikelihood { problem, noise })
         .collect();
-    let cpu0 = cpu_seconds();
-    let start = Instant::now();
-    let res = identify_mcmc::identify_session(
-        &trials,
-        &identify_mcmc::McmcIdentifySettings::default(),
-        |_| std::ops::ControlFlow::Continue(()),
-    )?;
-    let wall = start.elapsed().as_secs_f64();
-    let cpu = cpu_seconds().zip(cpu0).map(|(b, a)| b - a);
-    let (r, e) = res.worst_diagnostics();
-    eprintln!(
-        "MCMC, 3-trial session: {} evaluations in {wall:.2} s, converged {}, max R̂ {r:.4}, min bulk ESS {e:.0}",
-        res.evaluations, res.converged
-    );
-    Ok((res.evaluations, wall, cpu, res.converged, r, e))
+    timed_mcmc(&trials, "MCMC, 3-trial session")
 }
 
 /// One `diagnose::run` with the default settings on `fixtures/<name>` (trial + unloaded run):

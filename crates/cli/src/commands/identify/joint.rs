@@ -133,24 +133,7 @@ pub(super) fn run(args: &IdentifyArgs, session_path: &Path) -> CmdResult {
         truth.as_ref(),
         None,
     )?;
-    // the identified values written into a copy of the session's OpenSim model, if it has one
-    let osim = [args.model.params.as_ref(), session.manifest.params.as_ref()]
-        .into_iter()
-        .flatten()
-        .find(|p| super::super::is_osim(p));
-    if let Some(path) = osim {
-        let names = opensim_files::OsimMuscleNames::renamed(
-            session
-                .manifest
-                .osim_muscles
-                .iter()
-                .map(|(k, v)| (k.as_str(), v.as_str())),
-        )
-        .map_err(Failure::bad)?;
-        files.push(super::other_tools::write_osim_copy(
-            &out, path, &names, &params,
-        )?);
-    }
+    files.extend(session_osim_copy(&out, args, &session, &params)?);
 
     args.report.print_json(&text);
     if show {
@@ -382,6 +365,32 @@ fn session_tables(
 /// Runs `identify --method mcmc --session`: each trial on its torque as measured, corrected by
 /// its own unloaded run's systematic error inside the sampler, with its own noise model (from
 /// that run, or fitted to the trial's residual without one).
+/// The identified values written into a copy of the session's OpenSim model (`--params` or
+/// the manifest's), if it has one.
+fn session_osim_copy(
+    out: &OutDir,
+    args: &IdentifyArgs,
+    session: &LoadedSession,
+    params: &muscle_model::ModelParams,
+) -> CmdResult<Option<std::path::PathBuf>> {
+    let osim = [args.model.params.as_ref(), session.manifest.params.as_ref()]
+        .into_iter()
+        .flatten()
+        .find(|p| super::super::is_osim(p));
+    let Some(path) = osim else {
+        return Ok(None);
+    };
+    let names = opensim_files::OsimMuscleNames::renamed(
+        session
+            .manifest
+            .osim_muscles
+            .iter()
+            .map(|(k, v)| (k.as_str(), v.as_str())),
+    )
+    .map_err(Failure::bad)?;
+    super::other_tools::write_osim_copy(out, path, &names, params).map(Some)
+}
+
 /// `--truth` (a parameters JSON or a fixture's `truth.json`), read before anything runs.
 fn session_truth(args: &IdentifyArgs) -> CmdResult<Option<muscle_model::ModelParams>> {
     match &args.truth {
@@ -530,26 +539,7 @@ fn run_mcmc(
         truth,
         Some(&m),
     )?);
-    let osim = [args.model.params.as_ref(), session.manifest.params.as_ref()]
-        .into_iter()
-        .flatten()
-        .find(|p| super::super::is_osim(p));
-    if let Some(p) = osim {
-        let osim_names = opensim_files::OsimMuscleNames::renamed(
-            session
-                .manifest
-                .osim_muscles
-                .iter()
-                .map(|(k, v)| (k.as_str(), v.as_str())),
-        )
-        .map_err(Failure::bad)?;
-        files.push(super::other_tools::write_osim_copy(
-            &out,
-            p,
-            &osim_names,
-            &params,
-        )?);
-    }
+    files.extend(session_osim_copy(&out, args, &session, &params)?);
 
     args.report.print_json(&text);
     if show {
