@@ -130,6 +130,26 @@ fn timed_mcmc(
     Ok((res.evaluations, wall, cpu, res.converged, r, e))
 }
 
+/// One joint `identify_sa::identify_set` run on `fixtures/session3` (three trials read as
+/// `surae identify --session` reads them): (evaluations, wall s, CPU s if known).
+fn sa_session_run(root: &Path) -> Result<(u64, f64, Option<f64>)> {
+    let manifest = root.join("fixtures/session3/session.json");
+    let session = cli::commands::session::load_session(&manifest, &Default::default(), None)
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let set = session.problem_set().map_err(|e| anyhow::anyhow!("{e}"))?;
+    let settings = identify_sa::SaIdentifySettings::default();
+    let cpu0 = cpu_seconds();
+    let start = Instant::now();
+    let fit = identify_sa::identify_set(&set, &settings, &identify_sa::NoObserver)?;
+    let wall = start.elapsed().as_secs_f64();
+    let cpu = cpu_seconds().zip(cpu0).map(|(b, a)| b - a);
+    eprintln!(
+        "SA, 3-trial session: {} evaluations in {wall:.2} s, torque RMS {:.3} N·m",
+        fit.evaluations, fit.rms_nm
+    );
+    Ok((fit.evaluations, wall, cpu))
+}
+
 /// One joint `identify_mcmc::identify_session` run with the default settings on
 /// `fixtures/session3`: (evaluations, wall s, CPU s if known, converged, max R̂, min ESS).
 fn mcmc_session_run(root: &Path) -> Result<(u64, f64, Option<f64>, bool, f64, f64)> {
