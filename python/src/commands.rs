@@ -359,6 +359,12 @@ pub fn diagnose<'py>(
     })
 }
 
+// The defaults are written as literals so that Python's signature shows them; they are the
+// command line's, which these assertions hold them to.
+const _: () = assert!(::design::OFFSET_PRIOR_SD_NM == 0.5);
+const _: () = assert!(::design::DEFAULT_EMG_DRAWS == 16);
+const _: () = assert!(::design::DEFAULT_EMG_SEED == 1);
+
 /// The expected posterior sd of each of the 9 muscle parameters for candidate protocols, as
 /// `surae design` computes it before anyone is tested; returns the `design.json` it writes as
 /// a dict.
@@ -375,9 +381,8 @@ pub fn diagnose<'py>(
 /// progress: as for identify.
 #[pyfunction]
 #[pyo3(signature = (
-    protocols, *, unloaded=None, params=None, offset_sd=::design::OFFSET_PRIOR_SD_NM,
-    emg_draws=::design::DEFAULT_EMG_DRAWS, emg_seed=::design::DEFAULT_EMG_SEED, out=None,
-    progress=None
+    protocols, *, unloaded=None, params=None, offset_sd=0.5, emg_draws=16, emg_seed=1,
+    out=None, progress=None
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn design<'py>(

@@ -10,6 +10,7 @@ __all__ = [
     "InputError",
     "bundled_trial",
     "bundled_unloaded",
+    "design",
     "diagnose",
     "envelope",
     "identify",
