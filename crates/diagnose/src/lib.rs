@@ -191,18 +191,8 @@ pub fn run_prepared(
     settings: &DiagnoseSettings,
     observer: &mut dyn FnMut(&DiagnosisProgress) -> ControlFlow<()>,
 ) -> Result<Diagnosis, DiagnoseError> {
-    let t0 = Instant::now();
     settings.validate()?;
-    let observed = recording.observed()?;
-    let inputs = recording.inputs.clone();
-    let seg = context::segment(&inputs, observed.as_deref())?;
-    let target = context::Target {
-        torque_nm: &recording.torque_nm,
-        observed,
-        params: recording.params,
-        effects: recording.effects,
-    };
-    diagnose_target(target, None, inputs, seg, settings, observer, t0)
+    run_member(recording, None, settings, observer)
 }
 
 /// [`run_prepared`] with the recording's unloaded run (a session's trial CSV, its inputs as
