@@ -1,6 +1,5 @@
 """identify and diagnose against `surae identify` / `surae diagnose`; progress and stopping."""
 
-import os
 import signal
 
 import pytest
@@ -90,9 +89,11 @@ def test_an_exception_in_the_callback_stops_the_run_and_writes_nothing(tmp_path)
 
 
 def test_ctrl_c_raises_keyboard_interrupt_and_writes_nothing(tmp_path):
-    # SIGINT delivered to this process at the first progress update: what Ctrl-C does
+    # SIGINT at the first progress update: what Ctrl-C does. raise_signal delivers it to the
+    # calling (main) thread; os.kill would let the kernel hand it to any thread of the process,
+    # the command's workers included, so its handler could run after the command had finished.
     def cb(label, pos, total, msg):
-        os.kill(os.getpid(), signal.SIGINT)
+        signal.raise_signal(signal.SIGINT)
 
     with pytest.raises(KeyboardInterrupt):
         surae.diagnose(out=tmp_path / "d", progress=cb)
