@@ -90,13 +90,18 @@ def test_an_exception_in_the_callback_stops_the_run_and_writes_nothing(tmp_path)
 
 def test_ctrl_c_raises_keyboard_interrupt_and_writes_nothing(tmp_path):
     # SIGINT at the first progress update: what Ctrl-C does. raise_signal delivers it to the
-    # calling (main) thread; os.kill would let the kernel hand it to any thread of the process,
-    # the command's workers included, so its handler could run after the command had finished.
+    # calling (main) thread. Python's own handler is installed for the test: a process started
+    # in the background of a non-interactive shell inherits SIGINT ignored, and Python then
+    # leaves it ignored.
     def cb(label, pos, total, msg):
         signal.raise_signal(signal.SIGINT)
 
-    with pytest.raises(KeyboardInterrupt):
-        surae.diagnose(out=tmp_path / "d", progress=cb)
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            surae.diagnose(out=tmp_path / "d", progress=cb)
+    finally:
+        signal.signal(signal.SIGINT, previous)
     assert not (tmp_path / "d" / "diagnosis.json").exists()
     assert "verdict" in surae.diagnose()
 
