@@ -25,16 +25,9 @@ pub(super) fn run(args: &IdentifyArgs, session_path: &Path) -> CmdResult {
         .clone()
         .unwrap_or_else(|| crate::default_out("identify"));
     let input_refs: Vec<&Path> = session.inputs_read.iter().map(|p| p.as_path()).collect();
-    let mut planned = vec![
-        "identify.json".to_string(),
-        "report.html".to_string(),
-        "identified.osim".to_string(),
-    ];
-    planned.extend(
-        session
-            .trials
-            .iter()
-            .map(|t| format!("torque_fit_{}.svg", file_stem(&t.name))),
+    let planned = planned_outputs(
+        &session,
+        &["identify.json", "report.html", "identified.osim"],
     );
     let planned_refs: Vec<&str> = planned.iter().map(String::as_str).collect();
     let out = OutDir::prepare(&out_dir, &input_refs, &planned_refs)?;
@@ -365,6 +358,18 @@ fn session_tables(
 /// Runs `identify --method mcmc --session`: each trial on its torque as measured, corrected by
 /// its own unloaded run's systematic error inside the sampler, with its own noise model (from
 /// that run, or fitted to the trial's residual without one).
+/// The files an identification of `session` may write: `fixed` and one fit figure per trial.
+fn planned_outputs(session: &LoadedSession, fixed: &[&str]) -> Vec<String> {
+    let mut planned: Vec<String> = fixed.iter().map(|s| s.to_string()).collect();
+    planned.extend(
+        session
+            .trials
+            .iter()
+            .map(|t| format!("torque_fit_{}.svg", file_stem(&t.name))),
+    );
+    planned
+}
+
 /// The identified values written into a copy of the session's OpenSim model (`--params` or
 /// the manifest's), if it has one.
 fn session_osim_copy(
@@ -442,25 +447,19 @@ fn run_mcmc(
         .clone()
         .unwrap_or_else(|| crate::default_out("identify"));
     let input_refs: Vec<&Path> = session.inputs_read.iter().map(|p| p.as_path()).collect();
-    let mut planned: Vec<String> = [
-        "identify.json",
-        "chains.csv",
-        "chains",
-        "report.html",
-        "identified.osim",
-        "traces.svg",
-        "rhat.svg",
-        "histograms.svg",
-        "corner.svg",
-    ]
-    .iter()
-    .map(|s| s.to_string())
-    .collect();
-    planned.extend(
-        session
-            .trials
-            .iter()
-            .map(|t| format!("torque_fit_{}.svg", file_stem(&t.name))),
+    let planned = planned_outputs(
+        &session,
+        &[
+            "identify.json",
+            "chains.csv",
+            "chains",
+            "report.html",
+            "identified.osim",
+            "traces.svg",
+            "rhat.svg",
+            "histograms.svg",
+            "corner.svg",
+        ],
     );
     let planned_refs: Vec<&str> = planned.iter().map(String::as_str).collect();
 
