@@ -23,6 +23,7 @@
 //! machine's thread count.
 
 mod bench;
+mod formats;
 mod render_check;
 
 use std::collections::BTreeMap;
@@ -340,10 +341,15 @@ fn generate(dir: &Path) -> Result<Vec<PathBuf>> {
     let path = dir.join("README.md");
     std::fs::write(&path, readme(&list)).with_context(|| format!("writing {}", path.display()))?;
     written.push(path);
+    let mut seed_files = None;
     for f in &list {
         let sub = dir.join(&f.name);
         std::fs::create_dir_all(&sub).with_context(|| format!("creating {}", sub.display()))?;
-        for (name, text) in render(f)? {
+        let files = render(f)?;
+        if f.name == "seed" {
+            seed_files = Some(files.clone());
+        }
+        for (name, text) in files {
             let path = sub.join(name);
             std::fs::write(&path, text).with_context(|| format!("writing {}", path.display()))?;
             written.push(path);
@@ -358,6 +364,26 @@ fn generate(dir: &Path) -> Result<Vec<PathBuf>> {
         written.push(path);
     }
     eprintln!("  session3");
+    let seed_files = seed_files.context("no seed fixture")?;
+    let text_of = |name: &str| {
+        seed_files
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, t)| t.as_str())
+            .context("seed fixture file")
+    };
+    let seed_trial = experiment::parse_trial(text_of("trial.csv")?, "seed/trial.csv")?;
+    let seed_unloaded = experiment::parse_unloaded(text_of("unloaded.csv")?, "seed/unloaded.csv")?;
+    for (name, bytes) in formats::render(&seed_trial, &seed_unloaded)? {
+        let path = dir.join("formats").join(name);
+        if let Some(parent) = path.parent() {
+            std::fs::create_dir_all(parent)
+                .with_context(|| format!("creating {}", parent.display()))?;
+        }
+        std::fs::write(&path, bytes).with_context(|| format!("writing {}", path.display()))?;
+        written.push(path);
+    }
+    eprintln!("  formats");
     Ok(written)
 }
 

@@ -32,6 +32,9 @@ enum Command {
     Diagnose(commands::diagnose::DiagnoseArgs),
     /// Expected posterior sd of each parameter for candidate protocols, before testing.
     Design(commands::design::DesignArgs),
+    /// What a lab's file holds (channels, rate, duration, ranges) and a starter recording map;
+    /// given a map, the trial it reads and the checks of the recording.
+    Inspect(commands::inspect::InspectArgs),
 }
 
 fn main() {
@@ -65,6 +68,7 @@ fn main() {
         Command::Identify(a) => commands::identify::run(a),
         Command::Diagnose(a) => commands::diagnose::run(a),
         Command::Design(a) => commands::design::run(a),
+        Command::Inspect(a) => commands::inspect::run(a),
     };
     match result {
         Ok(()) => {

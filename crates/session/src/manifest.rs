@@ -86,7 +86,8 @@ pub struct GeometryFiles {
 pub enum TrialSource {
     /// A trial CSV (`docs/formats.md`).
     Csv(PathBuf),
-    /// A recording in another format: a CEINMS trial folder.
+    /// A recording in another format: a CEINMS trial folder, or a recording map (`.json`) of a
+    /// lab's files.
     Recording(PathBuf),
 }
 

@@ -207,7 +207,7 @@ pub fn run(args: DesignArgs) -> CmdResult {
 
 /// The random part of an unloaded run's dynamometer correction.
 fn noise_of_unloaded(path: &Path) -> CmdResult<DesignNoise> {
-    let u = experiment::read_unloaded(path).map_err(Failure::bad)?;
+    let u = super::read_unloaded_any(path)?;
     let c = experiment::DynamometerCorrection::from_unloaded(&u)
         .map_err(|e| Failure::bad(format!("{}: {e}", path.display())))?;
     DesignNoise::from_correction(&c).map_err(|e| Failure::bad(format!("{}: {e}", path.display())))

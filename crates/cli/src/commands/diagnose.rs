@@ -74,14 +74,16 @@ pub fn run(args: DiagnoseArgs) -> CmdResult {
     if let Some((u, name)) = &unloaded {
         super::check_unloaded(&loaded.trial, &loaded.name, u, name)?;
     }
+    let emg_is_envelope = args.emg_is_envelope || loaded.emg_is_envelope;
     let model_args = ModelArgs {
-        emg_is_envelope: args.emg_is_envelope,
+        emg_is_envelope,
         knee: args.knee,
         ..ModelArgs::default()
     };
     // validates the inputs with messages that name the file
     let inputs = trial_inputs(&loaded, &model_args)?;
     let mut inputs_read: Vec<&Path> = loaded.path.iter().map(|p| p.as_path()).collect();
+    inputs_read.extend(loaded.data_files.iter().map(|p| p.as_path()));
     if let Some(p) = &args.unloaded {
         inputs_read.push(p.as_path());
     }
@@ -92,7 +94,7 @@ pub fn run(args: DiagnoseArgs) -> CmdResult {
     let out = OutDir::prepare(&out_dir, &inputs_read, PLANNED)?;
 
     let settings = DiagnoseSettings {
-        input_options: args.knee.input_options(args.emg_is_envelope),
+        input_options: args.knee.input_options(emg_is_envelope),
         ..DiagnoseSettings::default()
     };
     let show = args.report.show();

@@ -173,9 +173,12 @@ pub fn prepare(
     if let Some(p) = &loaded.path {
         inputs_read.push(p.clone());
     }
+    inputs_read.extend(loaded.data_files.iter().cloned());
     // validates the EMG columns with messages that name the file
     trial_inputs(&loaded, model)?;
-    let opts = model.knee.input_options(model.emg_is_envelope);
+    let opts = model
+        .knee
+        .input_options(model.emg_is_envelope || loaded.emg_is_envelope);
     let unloaded_name = unloaded.as_ref().map(|(_, n)| n.clone());
     let prep = identify_sa::prepare_trial(&loaded.trial, unloaded.as_ref().map(|(u, _)| u), &opts)
         .map_err(|e| match &unloaded_name {

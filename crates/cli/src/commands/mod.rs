@@ -4,6 +4,7 @@ pub mod design;
 pub mod diagnose;
 pub mod envelope;
 pub mod identify;
+pub mod inspect;
 pub mod sensitivity;
 pub mod session;
 pub mod simulate;
@@ -19,28 +20,112 @@ pub struct LoadedTrial {
     pub trial: Trial,
     /// Name used in messages: the path, or `bundled:fixtures/seed/trial.csv`.
     pub name: String,
-    /// The file, when it came from disk.
+    /// The file, when it came from disk (a trial CSV or a recording map).
     pub path: Option<PathBuf>,
+    /// The data files a recording map read (outputs never overwrite them).
+    pub data_files: Vec<PathBuf>,
+    /// The recording map says its EMG channels are envelopes already.
+    pub emg_is_envelope: bool,
 }
 
-/// Reads `--trial`, or the bundled seed trial when it is not given.
+/// What `--trial` and `--unloaded` take (docs/formats.md): a trial CSV or a recording map
+/// (`.json`) of a lab's files; any other data file needs a map.
+fn not_a_trial(p: &Path, kind: recording::FileKind) -> Option<Failure> {
+    let what = match kind {
+        recording::FileKind::C3d => "a C3D file",
+        recording::FileKind::Storage => "an OpenSim storage file",
+        recording::FileKind::CeinmsFolder => {
+            return Some(Failure::bad(format!(
+                "{}: a folder: a CEINMS trial folder is read as a session trial's \"recording\" \
+                 (--session; docs/formats.md, \"Session manifest\")",
+                p.display()
+            )))
+        }
+        _ => return None,
+    };
+    Some(Failure::bad(format!(
+        "{}: {what}: give a recording map that names its channels (`surae inspect {}` prints \
+         one) as --trial",
+        p.display(),
+        p.display()
+    )))
+}
+
+/// A recording map read into a trial, with its data files and what the reader noted.
+pub fn load_mapped_trial(p: &Path) -> CmdResult<LoadedTrial> {
+    let map = recording::read_map(p).map_err(Failure::bad)?;
+    let rec = recording::read_trial_recording(&map).map_err(Failure::bad)?;
+    if !rec.geometry.is_empty() {
+        return Err(Failure::bad(format!(
+            "{}: channels lmt_<muscle>_m / ma_<muscle>_m: geometry series are read in a session \
+             (--session, with this map as a trial's \"recording\")",
+            p.display()
+        )));
+    }
+    for n in &rec.notes {
+        crate::warn(format!("{}: {n}", p.display()));
+    }
+    let mut data_files: Vec<PathBuf> = Vec::new();
+    for s in &rec.sources {
+        let f = PathBuf::from(&s.file);
+        if !data_files.contains(&f) {
+            data_files.push(f);
+        }
+    }
+    Ok(LoadedTrial {
+        trial: rec.trial,
+        name: p.display().to_string(),
+        path: Some(p.to_path_buf()),
+        data_files,
+        emg_is_envelope: rec.emg_is_envelope,
+    })
+}
+
+/// Reads `--trial` (a trial CSV or a recording map), or the bundled seed trial when it is not
+/// given.
 pub fn load_trial(path: Option<&Path>) -> CmdResult<LoadedTrial> {
     match path {
         Some(p) => {
+            let kind = recording::file_kind(p);
+            if let Some(f) = not_a_trial(p, kind) {
+                return Err(f);
+            }
+            if kind == recording::FileKind::Map {
+                return load_mapped_trial(p);
+            }
             let trial = experiment::read_trial(p).map_err(Failure::bad)?;
             warn_ignored(&p.display().to_string(), &trial.ignored_columns);
             Ok(LoadedTrial {
                 trial,
                 name: p.display().to_string(),
                 path: Some(p.to_path_buf()),
+                data_files: Vec::new(),
+                emg_is_envelope: false,
             })
         }
         None => Ok(LoadedTrial {
             trial: bundled::seed_trial().map_err(Failure::internal)?,
             name: bundled::SEED_TRIAL_NAME.to_string(),
             path: None,
+            data_files: Vec::new(),
+            emg_is_envelope: false,
         }),
     }
+}
+
+/// Reads an unloaded run: an unloaded-run CSV or a recording map of its angle and torque.
+pub fn read_unloaded_any(p: &Path) -> CmdResult<Unloaded> {
+    let kind = recording::file_kind(p);
+    if let Some(f) = not_a_trial(p, kind) {
+        return Err(f);
+    }
+    if kind == recording::FileKind::Map {
+        let map = recording::read_map(p).map_err(Failure::bad)?;
+        return recording::read_unloaded_recording(&map).map_err(Failure::bad);
+    }
+    let u = experiment::read_unloaded(p).map_err(Failure::bad)?;
+    warn_ignored(&p.display().to_string(), &u.ignored_columns);
+    Ok(u)
 }
 
 /// Reads `--unloaded` when given; with no `--trial` the bundled seed unloaded
@@ -50,11 +135,7 @@ pub fn load_unloaded(
     trial_given: bool,
 ) -> CmdResult<Option<(Unloaded, String)>> {
     match (path, trial_given) {
-        (Some(p), _) => {
-            let u = experiment::read_unloaded(p).map_err(Failure::bad)?;
-            warn_ignored(&p.display().to_string(), &u.ignored_columns);
-            Ok(Some((u, p.display().to_string())))
-        }
+        (Some(p), _) => Ok(Some((read_unloaded_any(p)?, p.display().to_string()))),
         (None, false) => Ok(Some((
             bundled::seed_unloaded().map_err(Failure::internal)?,
             bundled::SEED_UNLOADED_NAME.to_string(),
@@ -251,7 +332,9 @@ pub fn trial_inputs(
             )));
         }
     }
-    let opts = args.knee.input_options(args.emg_is_envelope);
+    let opts = args
+        .knee
+        .input_options(args.emg_is_envelope || loaded.emg_is_envelope);
     experiment::model_inputs_named(&loaded.trial, &opts, &loaded.name).map_err(|e| {
         let msg = e.to_string();
         // errors from a bundled trial are ours, not the user's

@@ -65,6 +65,7 @@ pub fn run(args: SensitivityArgs) -> CmdResult {
         .clone()
         .unwrap_or_else(|| crate::default_out("sensitivity"));
     let mut input_paths: Vec<&Path> = loaded.path.iter().map(|p| p.as_path()).collect();
+    input_paths.extend(loaded.data_files.iter().map(|p| p.as_path()));
     input_paths.extend(cfg_inputs.iter().map(|p| p.as_path()));
     let out = OutDir::prepare(
         &out_dir,

@@ -109,8 +109,7 @@ impl LoadedSession {
             let noise = match &t.correction {
                 Some(c) => {
                     // the correction is placed at the trial's own motion events
-                    let trial =
-                        experiment::read_trial(entry.source.path()).map_err(Failure::bad)?;
+                    let (trial, _, _) = read_trial_or_map(entry.source.path())?;
                     NoiseSpec::from_correction(&trial, c, NoiseKind::Ar1White)
                         .map_err(|e| bad(&e))?
                 }
@@ -217,7 +216,13 @@ pub fn load_session(
     let mut read = vec![path.to_path_buf()];
     // the recordings first: a CEINMS subject's fixed muscles are those of its trials
     enum Loaded {
-        Csv(Box<(experiment::Trial, Option<experiment::Unloaded>)>),
+        Csv(
+            Box<(
+                experiment::Trial,
+                Option<experiment::Unloaded>,
+                Vec<recording::MappedGeometry>,
+            )>,
+        ),
         Ceinms(Box<CeinmsModelTrial>),
     }
     let mut loaded = Vec::with_capacity(manifest.trials.len());
@@ -226,34 +231,7 @@ pub fn load_session(
         let p = t.source.path();
         read.push(p.to_path_buf());
         match &t.source {
-            TrialSource::Csv(_) => {
-                let trial = experiment::read_trial(p).map_err(Failure::bad)?;
-                let unloaded = match &t.unloaded {
-                    Some(u) => {
-                        read.push(u.clone());
-                        let un = experiment::read_unloaded(u).map_err(Failure::bad)?;
-                        super::check_unloaded(
-                            &trial,
-                            &p.display().to_string(),
-                            &un,
-                            &u.display().to_string(),
-                        )?;
-                        Some(un)
-                    }
-                    None => None,
-                };
-                loaded.push(Loaded::Csv(Box::new((trial, unloaded))));
-            }
-            TrialSource::Recording(_) => {
-                if !p.is_dir() {
-                    return Err(Failure::bad(format!(
-                        "{}: trial {}: recording {} is not a CEINMS trial folder (a folder \
-                         with emg.txt, lmt.txt, R_ankle_feMa.txt and R_ankle_feTorque.txt)",
-                        manifest.path.display(),
-                        t.name,
-                        p.display()
-                    )));
-                }
+            TrialSource::Recording(_) if p.is_dir() => {
                 if t.unloaded.is_some() || t.knee_angle_deg.is_some() {
                     return Err(Failure::bad(format!(
                         "{}: trial {}: a CEINMS recording has no unloaded run or knee angle \
@@ -270,6 +248,24 @@ pub fn load_session(
                     }
                 }
                 loaded.push(Loaded::Ceinms(Box::new(c)));
+            }
+            TrialSource::Csv(_) | TrialSource::Recording(_) => {
+                let (trial, geometry) = read_session_trial(p, model)?;
+                let unloaded = match &t.unloaded {
+                    Some(u) => {
+                        read.push(u.clone());
+                        let un = super::read_unloaded_any(u)?;
+                        super::check_unloaded(
+                            &trial,
+                            &p.display().to_string(),
+                            &un,
+                            &u.display().to_string(),
+                        )?;
+                        Some(un)
+                    }
+                    None => None,
+                };
+                loaded.push(Loaded::Csv(Box::new((trial, unloaded, geometry))));
             }
         }
     }
@@ -349,7 +345,7 @@ pub fn load_session(
         let bad = |e: &dyn std::fmt::Display| Failure::bad(format!("{source}: {e}"));
         let trial = match l {
             Loaded::Csv(csv) => {
-                let (trial, unloaded) = *csv;
+                let (trial, unloaded, mapped_geometry) = *csv;
                 let opts = experiment::InputOptions {
                     emg_is_envelope: model.emg_is_envelope,
                     knee_angle_deg: entry.knee_angle_deg,
@@ -362,6 +358,18 @@ pub fn load_session(
                         .map_err(Failure::bad)?;
                 if let Some(g) = &entry.geometry {
                     inputs = with_muscle_analysis(inputs, g, &params, &osim)?;
+                }
+                for g in mapped_geometry {
+                    let muscle = g.muscle.clone();
+                    inputs = inputs
+                        .with_geometry(
+                            &muscle,
+                            muscle_model::GeometrySeries {
+                                lmt_m: g.lmt_m,
+                                moment_arm_m: g.moment_arm_m,
+                            },
+                        )
+                        .map_err(|e| bad(&format!("lmt_{muscle}_m / ma_{muscle}_m: {e}")))?;
                 }
                 let problem = Problem::new(
                     inputs,
@@ -492,7 +500,7 @@ fn session_emg_references(
     for (entry, (_, trial)) in manifest
         .trials
         .iter()
-        .filter(|t| matches!(t.source, TrialSource::Csv(_)))
+        .filter(|t| !t.source.path().is_dir())
         .zip(trials)
     {
         let name = entry.source.path().display().to_string();
@@ -508,7 +516,7 @@ fn session_emg_references(
     let mut mvc_peaks = Vec::with_capacity(manifest.mvc.len());
     for p in &manifest.mvc {
         read.push(p.clone());
-        let t = experiment::read_trial(p).map_err(Failure::bad)?;
+        let (t, _) = read_session_trial(p, model)?;
         mvc_peaks.push(
             experiment::envelope_peaks(&t, &opts, &p.display().to_string())
                 .map_err(Failure::bad)?,
@@ -622,6 +630,44 @@ fn with_muscle_analysis(
         )));
     }
     Ok(inputs)
+}
+
+/// A session's trial file: a trial CSV, or a recording map (with the geometry series it maps).
+/// A map whose EMG is envelopes already needs `--emg-is-envelope` for the whole session, since
+/// the session normalises every trial's EMG alike.
+pub fn read_session_trial(
+    p: &Path,
+    model: &ModelArgs,
+) -> CmdResult<(experiment::Trial, Vec<recording::MappedGeometry>)> {
+    let (trial, geometry, envelopes) = read_trial_or_map(p)?;
+    if envelopes && !model.emg_is_envelope {
+        return Err(Failure::bad(format!(
+            "{}: emg_is_envelope: in a session every trial's EMG is read alike: give \
+             --emg-is-envelope for the session",
+            p.display()
+        )));
+    }
+    Ok((trial, geometry))
+}
+
+/// A trial CSV or a recording map read into a trial, with the map's geometry series and
+/// whether it says its EMG is envelopes already.
+fn read_trial_or_map(
+    p: &Path,
+) -> CmdResult<(experiment::Trial, Vec<recording::MappedGeometry>, bool)> {
+    if recording::file_kind(p) != recording::FileKind::Map {
+        return Ok((
+            experiment::read_trial(p).map_err(Failure::bad)?,
+            Vec::new(),
+            false,
+        ));
+    }
+    let map = recording::read_map(p).map_err(Failure::bad)?;
+    let rec = recording::read_trial_recording(&map).map_err(Failure::bad)?;
+    for n in &rec.notes {
+        crate::warn(format!("{}: {n}", p.display()));
+    }
+    Ok((rec.trial, rec.geometry, rec.emg_is_envelope))
 }
 
 /// A trial name as part of a file name (letters, digits, `-`, `_`; others become `_`).

@@ -107,6 +107,7 @@ pub fn run(args: SimulateArgs) -> CmdResult {
         ),
     };
     let mut inputs_paths: Vec<PathBuf> = loaded.path.iter().cloned().collect();
+    inputs_paths.extend(loaded.data_files.iter().cloned());
     inputs_paths.extend(cfg_inputs);
     let inputs_paths: Vec<PathBuf> = inputs_paths
         .iter()

@@ -206,9 +206,13 @@ fn diagnose_trial(
         None => {
             // the trial as `--trial`/`--unloaded` read it, so that its diagnosis is theirs
             let path = entry.source.path();
-            let trial = experiment::read_trial(path).map_err(Failure::bad)?;
+            let model = crate::commands::ModelArgs {
+                emg_is_envelope: args.emg_is_envelope,
+                ..crate::commands::ModelArgs::default()
+            };
+            let (trial, _) = crate::commands::session::read_session_trial(path, &model)?;
             let unloaded = match &entry.unloaded {
-                Some(u) => Some(experiment::read_unloaded(u).map_err(Failure::bad)?),
+                Some(u) => Some(crate::commands::read_unloaded_any(u)?),
                 None => None,
             };
             let settings = DiagnoseSettings {

@@ -1,0 +1,163 @@
+//! `surae inspect`: what a lab's file holds and a starter recording map for it; given a map,
+//! the trial it reads and the checks a lab runs before trusting a file (docs/formats.md,
+//! "A lab's recordings").
+
+use std::path::{Path, PathBuf};
+
+use serde_json::json;
+
+use super::{load_mapped_trial, trial_inputs, ModelArgs, ReportArgs};
+use crate::error::{CmdResult, Failure};
+use crate::output::OutDir;
+
+/// Arguments of `surae inspect`.
+#[derive(clap::Args, Debug)]
+pub struct InspectArgs {
+    /// The file(s) of one recording: a delimited text export (comma, semicolon or tab), OpenSim
+    /// `.sto`/`.mot` files (several: one recording split over them), a `.c3d`, a CEINMS trial
+    /// folder, or a recording map (`.json`) to read and check.
+    #[arg(required = true, value_name = "FILE")]
+    pub files: Vec<PathBuf>,
+    /// Output folder (default `out/inspect`): `map.json`, the starter map, with paths relative
+    /// to this folder, and `inspect.json`.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub report: ReportArgs,
+}
+
+const PLANNED: &[&str] = &["map.json", "inspect.json"];
+
+/// The checks of a trial, with the nominal model's torque as the EMG-driven prediction (the
+/// sign check); `None` for the prediction when the model cannot run on it.
+pub fn trial_checks(loaded: &super::LoadedTrial) -> recording::checks::TrialChecks {
+    let prediction = trial_inputs(loaded, &ModelArgs::default())
+        .ok()
+        .and_then(|inputs| {
+            muscle_model::simulate(
+                &inputs,
+                &muscle_model::ModelParams::nominal(),
+                &muscle_model::Effects::none(),
+                &muscle_model::SimSettings::default(),
+            )
+            .ok()
+        })
+        .map(|s| s.torque);
+    recording::checks::check_trial(&loaded.trial, prediction.as_deref())
+}
+
+/// Runs the command.
+pub fn run(args: InspectArgs) -> CmdResult {
+    let out_dir = args
+        .out
+        .clone()
+        .unwrap_or_else(|| crate::default_out("inspect"));
+    let is_map =
+        args.files.len() == 1 && recording::file_kind(&args.files[0]) == recording::FileKind::Map;
+    if !is_map {
+        if let Some(m) = args
+            .files
+            .iter()
+            .find(|p| recording::file_kind(p) == recording::FileKind::Map)
+        {
+            return Err(Failure::bad(format!(
+                "{}: a map is inspected alone (surae inspect {})",
+                m.display(),
+                m.display()
+            )));
+        }
+    }
+    let inputs: Vec<&Path> = args.files.iter().map(PathBuf::as_path).collect();
+    if is_map {
+        return run_map(&args, &out_dir, &inputs);
+    }
+    // the folder must exist for the map's relative paths to be computed against it
+    let out = OutDir::prepare(&out_dir, &inputs, PLANNED)?;
+    let found = recording::inspect::inspect(&args.files, &out_dir).map_err(Failure::bad)?;
+    let say = |l: &str| args.report.say(l);
+    for f in &found.files {
+        for l in f.lines() {
+            say(&l);
+        }
+    }
+    let mut written = Vec::new();
+    if let Some(map) = &found.map {
+        let text = map.to_json_text();
+        let p = out.write("map.json", text.as_bytes())?;
+        say("");
+        say(&format!(
+            "starter recording map ({}; paths relative to its folder):",
+            p.display()
+        ));
+        for l in text.lines() {
+            say(&format!("  {l}"));
+        }
+        written.push(p);
+    }
+    for n in &found.notes {
+        say(&format!("note: {n}"));
+    }
+    let report = json!({
+        "files": found.files,
+        "map": found.map,
+        "unassigned": found.unassigned,
+        "notes": found.notes,
+    });
+    let text = serde_json::to_string_pretty(&report).map_err(Failure::internal)? + "\n";
+    written.push(out.write("inspect.json", text.as_bytes())?);
+    args.report.print_json(&text);
+    for p in written {
+        say(&format!("wrote {}", p.display()));
+    }
+    Ok(())
+}
+
+/// A map: its files summarised, the trial it reads, and the checks.
+fn run_map(args: &InspectArgs, out_dir: &Path, inputs: &[&Path]) -> CmdResult {
+    let map_path = &args.files[0];
+    let loaded = load_mapped_trial(map_path)?;
+    let mut all_inputs: Vec<&Path> = inputs.to_vec();
+    all_inputs.extend(loaded.data_files.iter().map(PathBuf::as_path));
+    let out = OutDir::prepare(out_dir, &all_inputs, &PLANNED[1..])?;
+    let say = |l: &str| args.report.say(l);
+    let mut files = Vec::new();
+    for f in &loaded.data_files {
+        let t = recording::open_table(f, &recording::DelimitedOptions::default())
+            .map_err(Failure::bad)?;
+        let s = recording::inspect::FileSummary::of(&t);
+        for l in s.lines() {
+            say(&l);
+        }
+        files.push(s);
+    }
+    let t = &loaded.trial;
+    say(&format!(
+        "{}: a trial of {} samples at {:.3} Hz ({:.3}–{:.3} s), EMG {}",
+        map_path.display(),
+        t.len(),
+        t.sample_rate_hz(),
+        t.time_s[0],
+        t.time_s[t.len() - 1],
+        t.emg_channels()
+            .iter()
+            .map(|(n, _)| n.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    ));
+    let checks = trial_checks(&loaded);
+    for l in checks.summary_lines() {
+        say(&format!("  {l}"));
+    }
+    let report = json!({
+        "map": map_path.display().to_string(),
+        "files": files,
+        "trial": {"samples": t.len(), "sample_rate_hz": t.sample_rate_hz(),
+                  "start_s": t.time_s[0], "end_s": t.time_s[t.len() - 1]},
+        "checks": checks,
+    });
+    let text = serde_json::to_string_pretty(&report).map_err(Failure::internal)? + "\n";
+    let p = out.write("inspect.json", text.as_bytes())?;
+    args.report.print_json(&text);
+    say(&format!("wrote {}", p.display()));
+    Ok(())
+}
