@@ -1,7 +1,19 @@
 //! The delimited-text reader under both file kinds: UTF-8 decoding, comments, the header and
 //! its known columns, numeric cells, uniform sampling and duration, each failure an error
 //! naming the file, line and column.
+//!
+//! The [`csv`] crate splits the text into records and fields, and un-quotes `"a,b"` fields.
+//! The checks stay here, so that each failure keeps its own message and [`ErrorKind`] instead
+//! of a generic CSV error: the reader is built `flexible` and without a header row, and this
+//! module reports a row with the wrong number of fields, a header separated by `;` or tabs, an
+//! empty, repeated or misspelled column name, a cell that is not a number, and the time checks.
+//! Only `\n` ends a record (a lone CR is a control character of the line and reported as such;
+//! one CR before the `\n` is dropped), and a quoted field may not run over the end of its line.
+//! Blank lines and comment lines (`#` after optional blanks) are recognised on the physical
+//! line, before any quoting applies to them, and the text of a comment is kept.
 
+use std::borrow::Cow;
+use std::io::Cursor;
 use std::path::Path;
 
 use super::number::format_f64;
@@ -100,14 +112,21 @@ pub(super) fn parse_table(
     let mut row_lines: Vec<usize> = Vec::new();
     let mut ignored = Vec::new();
 
-    let mut pieces = text.split('\n').peekable();
-    let mut lineno = 0usize;
-    while let Some(raw) = pieces.next() {
-        lineno += 1;
-        if raw.is_empty() && pieces.peek().is_none() {
-            break; // the empty piece after a final newline
-        }
-        let line = raw.strip_suffix('\r').unwrap_or(raw);
+    let with_newline;
+    let text = if text.is_empty() || text.ends_with('\n') {
+        text
+    } else {
+        // a final `\n` makes a quote left open on the last line show like on any other line
+        with_newline = format!("{text}\n");
+        &with_newline
+    };
+    let mut lines = Lines::new(text);
+    while let Some(Line {
+        number: lineno,
+        text: line,
+        spans_lines,
+    }) = lines.next(path)?
+    {
         if let Some(c) = line.chars().find(|&c| c.is_control() && c != '\t') {
             return Err(ExperimentError::Line {
                 path: p(),
@@ -120,12 +139,31 @@ pub(super) fn parse_table(
             });
         }
         let trimmed = line.trim();
-        if trimmed.is_empty() {
+        if trimmed.is_empty() || trimmed.starts_with('#') {
+            if let Some(rest) = trimmed.strip_prefix('#') {
+                comments.push(rest.to_string());
+            }
+            if spans_lines {
+                // a '"' in the comment opened a quoted field: the comment is this line only
+                lines.resume_after_line(path)?;
+            }
             continue;
         }
-        if let Some(rest) = trimmed.strip_prefix('#') {
-            comments.push(rest.to_string());
-            continue;
+        let record = &lines.record;
+        if spans_lines {
+            let col = record
+                .iter()
+                .position(|f| f.contains(&b'\n'))
+                .map_or(record.len(), |j| j + 1);
+            return Err(ExperimentError::Line {
+                path: p(),
+                line: lineno,
+                kind: ErrorKind::FieldCount,
+                reason: format!(
+                    "unbalanced quote: the quoted field in column {col} does not end on this \
+                     line (a '\"' without its closing '\"'?)"
+                ),
+            });
         }
         match &header {
             None => {
@@ -148,7 +186,7 @@ pub(super) fn parse_table(
                         });
                     }
                 }
-                let names: Vec<String> = line.split(',').map(|s| s.trim().to_string()).collect();
+                let names: Vec<String> = record.iter().map(|f| field(f).into_owned()).collect();
                 for (j, name) in names.iter().enumerate() {
                     let col = j + 1;
                     if name.is_empty() {
@@ -249,7 +287,7 @@ pub(super) fn parse_table(
                 header = Some((lineno, names));
             }
             Some((_, names)) => {
-                let nfields = line.split(',').count();
+                let nfields = record.len();
                 if nfields != names.len() {
                     let hint = if line.contains(';') {
                         " (the line contains ';': fields must be separated by ',' and decimals written with '.')"
@@ -273,9 +311,10 @@ pub(super) fn parse_table(
                         ),
                     });
                 }
-                for (j, cell) in line.split(',').enumerate() {
+                for (j, cell) in record.iter().enumerate() {
                     let Some(k) = field_map[j] else { continue };
-                    let cell = cell.trim();
+                    let cell = field(cell);
+                    let cell = cell.as_ref();
                     let cell_err = |kind, reason| ExperimentError::Cell {
                         path: p(),
                         line: lineno,
@@ -439,6 +478,121 @@ pub(super) fn parse_table(
         comments,
         ignored,
     })
+}
+
+/// A field of a record as text, trimmed like [`str::trim`].
+fn field(bytes: &[u8]) -> Cow<'_, str> {
+    // the fields are pieces of a `&str` cut at ASCII bytes, so always valid UTF-8 (borrowed)
+    match String::from_utf8_lossy(bytes) {
+        Cow::Borrowed(s) => Cow::Borrowed(s.trim()),
+        Cow::Owned(s) => Cow::Owned(s.trim().to_string()),
+    }
+}
+
+/// The record that starts on one physical line.
+struct Line<'a> {
+    /// 1-based number of the line.
+    number: usize,
+    /// The line, without its `\n` and one `\r` before it.
+    text: &'a str,
+    /// The record goes on over the next lines (a quoted field holds a `\n`).
+    spans_lines: bool,
+}
+
+/// The records of a text as the [`csv`] crate splits them, each with the physical line it
+/// starts on. The lines are counted here: the position of a csv record lies before the blank
+/// lines the csv reader skips ahead of it.
+struct Lines<'a> {
+    /// The text, ending with `\n` unless empty.
+    text: &'a str,
+    reader: csv::Reader<Cursor<&'a [u8]>>,
+    /// Fields of the record last returned by [`Lines::next`].
+    record: csv::ByteRecord,
+    /// Byte offset at which the reader goes on, and the line number there.
+    at: (usize, usize),
+    /// Byte offset and line number after the first line of the last record.
+    after_line: (usize, usize),
+}
+
+impl<'a> Lines<'a> {
+    fn new(text: &'a str) -> Self {
+        let reader = csv::ReaderBuilder::new()
+            .has_headers(false)
+            .flexible(true)
+            .terminator(csv::Terminator::Any(b'\n'))
+            .from_reader(Cursor::new(text.as_bytes()));
+        Self {
+            text,
+            reader,
+            record: csv::ByteRecord::new(),
+            at: (0, 1),
+            after_line: (0, 1),
+        }
+    }
+
+    /// The next record (in [`Lines::record`]) and its first line, or `None` at the end.
+    fn next(&mut self, path: &str) -> Result<Option<Line<'a>>> {
+        let bytes = self.text.as_bytes();
+        // the csv reader skips empty lines (only those) before a record
+        let skipped = bytes[self.at.0..]
+            .iter()
+            .take_while(|&&b| b == b'\n')
+            .count();
+        let start = self.at.0 + skipped;
+        let number = self.at.1 + skipped;
+        let more = self
+            .reader
+            .read_byte_record(&mut self.record)
+            .map_err(|e| read_error(path, number, &e))?;
+        if !more {
+            return Ok(None);
+        }
+        let end = usize::try_from(self.reader.position().byte())
+            .map_or(bytes.len(), |e| e.clamp(start, bytes.len()));
+        let line_end = bytes[start..]
+            .iter()
+            .position(|&b| b == b'\n')
+            .map_or(bytes.len(), |i| start + i);
+        // a quoted field holding a `\n` (also one left open on the last line, which the csv
+        // reader closes at the end of the text)
+        let spans_lines = self.record.as_slice().contains(&b'\n');
+        let newlines = if end > line_end + 1 {
+            bytes[start..end].iter().filter(|&&b| b == b'\n').count()
+        } else {
+            usize::from(end > line_end)
+        };
+        self.at = (end, number + newlines);
+        self.after_line = ((line_end + 1).min(bytes.len()), number + 1);
+        let raw = &self.text[start..line_end];
+        Ok(Some(Line {
+            number,
+            text: raw.strip_suffix('\r').unwrap_or(raw),
+            spans_lines,
+        }))
+    }
+
+    /// Goes on after the first line of the last record instead of after the whole record.
+    fn resume_after_line(&mut self, path: &str) -> Result<()> {
+        let (byte, line) = self.after_line;
+        let mut pos = csv::Position::new();
+        pos.set_byte(u64::try_from(byte).unwrap_or(u64::MAX))
+            .set_line(u64::try_from(line).unwrap_or(u64::MAX));
+        self.reader
+            .seek(pos)
+            .map_err(|e| read_error(path, line, &e))?;
+        self.at = self.after_line;
+        Ok(())
+    }
+}
+
+/// A failure of the csv reader itself (reading from memory: not expected).
+fn read_error(path: &str, line: usize, e: &csv::Error) -> ExperimentError {
+    ExperimentError::Line {
+        path: path.to_string(),
+        line,
+        kind: ErrorKind::Io,
+        reason: format!("cannot read: {e}"),
+    }
 }
 
 /// Physically possible range of an angle column (degrees), if it has one.
