@@ -128,7 +128,15 @@ pub fn run(args: DiagnoseArgs) -> CmdResult {
         None => loaded.trial.sample_rate_hz(),
     };
     let unloaded_name = unloaded.as_ref().map(|(_, n)| n.as_str());
-    let text = diagnosis_json(&d, &loaded.name, unloaded_name, fitted_on, None)?;
+    let checks = super::inspect::trial_checks(&loaded);
+    let text = diagnosis_json(
+        &d,
+        &loaded.name,
+        unloaded_name,
+        fitted_on,
+        None,
+        Some(&checks),
+    )?;
     let path = out.write("diagnosis.json", text.as_bytes())?;
     let files = write_figures(
         &out,
@@ -149,6 +157,9 @@ pub fn run(args: DiagnoseArgs) -> CmdResult {
         for l in d.summary_lines() {
             say(&l);
         }
+        for l in super::inspect::check_lines(&checks) {
+            say(&l);
+        }
         say(&format!(
             "wrote {} and {} figure/report files in {}",
             path.display(),
@@ -161,16 +172,20 @@ pub fn run(args: DiagnoseArgs) -> CmdResult {
 
 /// `diagnosis.json`: the diagnosis with the trial's name, its unloaded run's (or `null`), the
 /// dynamometer correction subtracted (its AR(1) correlation time per sample of a recording
-/// at `fitted_on_hz`) and, for a session's trial, where it was read from.
+/// at `fitted_on_hz`), for a session's trial where it was read from, and the recording checks.
 fn diagnosis_json(
     d: &Diagnosis,
     name: &str,
     unloaded: Option<&str>,
     fitted_on_hz: f64,
     source: Option<&str>,
+    checks: Option<&recording::checks::TrialChecks>,
 ) -> CmdResult<String> {
     let mut doc = d.to_json_value();
     if let Some(obj) = doc.as_object_mut() {
+        if let Some(c) = checks {
+            obj.insert("checks".into(), serde_json::json!(c));
+        }
         obj.insert("trial".into(), serde_json::json!(name));
         if let Some(src) = source {
             obj.insert("source".into(), serde_json::json!(src));

@@ -298,6 +298,8 @@ pub fn run(args: IdentifyArgs) -> CmdResult {
     obj.insert("seed".into(), json!(args.seed));
     obj.insert("noise".into(), prep.noise.clone());
     obj.insert("dynamometer".into(), prep.dynamometer.clone());
+    let checks = super::inspect::trial_checks(&prep.loaded);
+    obj.insert("checks".into(), json!(checks));
     if let Some(truth) = &prep.truth {
         let e = errors_pct(&params, truth);
         obj.insert("errors_pct".into(), json!(e));
@@ -331,6 +333,9 @@ pub fn run(args: IdentifyArgs) -> CmdResult {
         let say = |s: &str| args.report.say(s);
         for l in &lines {
             say(l);
+        }
+        for l in super::inspect::check_lines(&checks) {
+            say(&l);
         }
         if let Some(e) = doc.get("errors_pct").and_then(|v| v.as_object()) {
             say("errors vs truth (%):");

@@ -46,6 +46,23 @@ pub fn trial_checks(loaded: &super::LoadedTrial) -> recording::checks::TrialChec
     recording::checks::check_trial(&loaded.trial, prediction.as_deref())
 }
 
+/// The summary lines of the checks in `identify` and `diagnose`: one line when the recording
+/// passes them all, else a line per warning.
+pub fn check_lines(checks: &recording::checks::TrialChecks) -> Vec<String> {
+    if checks.warnings.is_empty() {
+        return vec![
+            "recording checks: clean (angle range, isokinetic plateaus, saturation, EMG, torque sign)"
+                .into(),
+        ];
+    }
+    let mut out = vec![format!(
+        "recording checks: {} warning(s) (details under \"checks\" in the JSON):",
+        checks.warnings.len()
+    )];
+    out.extend(checks.warnings.iter().map(|w| format!("  warning: {w}")));
+    out
+}
+
 /// Runs the command.
 pub fn run(args: InspectArgs) -> CmdResult {
     let out_dir = args

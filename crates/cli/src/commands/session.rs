@@ -446,6 +446,19 @@ pub struct SessionEmgNormalisation {
 }
 
 impl SessionEmgNormalisation {
+    /// A summary line per channel: its reference and where it comes from.
+    pub fn summary_lines(&self) -> Vec<String> {
+        let from = match self.source {
+            EmgReferenceSource::Mvc => "largest envelope over the MVC trials",
+            EmgReferenceSource::SessionMaximum => "largest envelope over the session's trials",
+            EmgReferenceSource::AsGiven => return vec!["  EMG: envelopes as given".into()],
+        };
+        self.references
+            .iter()
+            .map(|(k, v)| format!("  EMG emg_{k:<8} reference {v:.6} ({from})"))
+            .collect()
+    }
+
     /// `{"source": "mvc" | "session_maximum" | "as_given", "references": {"sol": …}}`.
     pub fn to_json(&self) -> Value {
         let refs: serde_json::Map<String, Value> = self

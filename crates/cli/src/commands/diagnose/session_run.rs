@@ -85,6 +85,7 @@ pub(super) fn run(args: &DiagnoseArgs, session_path: &Path) -> CmdResult {
             r.unloaded.as_deref(),
             r.fitted_on_hz,
             Some(&t.source),
+            None,
         )?;
         dir.write("diagnosis.json", text.as_bytes())?;
         write_figures(&dir, &t.name, &r.measured, &r.inputs, &r.d, r.span.clone())?;
@@ -106,6 +107,9 @@ pub(super) fn run(args: &DiagnoseArgs, session_path: &Path) -> CmdResult {
     args.report.print_json(&text);
     if show {
         let say = |s: &str| args.report.say(s);
+        for l in session.emg.summary_lines() {
+            say(&l);
+        }
         for (t, r) in session.trials.iter().zip(&done) {
             say(&format!("diagnose: {} ({})", t.name, t.source));
             if t.ceinms.is_some() {

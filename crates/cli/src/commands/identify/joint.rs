@@ -138,6 +138,9 @@ pub(super) fn run(args: &IdentifyArgs, session_path: &Path) -> CmdResult {
             fit.evaluations,
             fit.wall_s
         ));
+        for l in session.emg.summary_lines() {
+            say(&l);
+        }
         say(&format!(
             "  chains' RMS: {} N·m (best: chain {})",
             fit.chains
@@ -545,6 +548,9 @@ fn run_mcmc(
         let say = |s: &str| args.report.say(s);
         for l in lines.iter().chain(&truth_lines) {
             say(l);
+        }
+        for l in session.emg.summary_lines() {
+            say(&l);
         }
         say(&format!(
             "wrote {} and {} figures/report files in {}",
