@@ -377,10 +377,12 @@ impl ReportArgs {
         if self.quiet {
             return;
         }
+        // a closed pipe (`surae inspect F | head`) ends the summary, not the program
+        use std::io::Write as _;
         if self.json {
-            eprintln!("{line}");
+            let _ = writeln!(std::io::stderr(), "{line}");
         } else {
-            println!("{line}");
+            let _ = writeln!(std::io::stdout(), "{line}");
         }
     }
 }
