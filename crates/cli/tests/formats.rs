@@ -284,3 +284,66 @@ fn a_session_takes_recording_maps() {
     assert_eq!(t.len(), 2);
     assert_eq!(t[0]["rms_nm"], t[1]["rms_nm"], "{r}");
 }
+
+/// A CEINMS trial folder given as `--trial` is a session of one: `simulate` gives what a
+/// manifest naming it as a `recording` gives, `inspect` lists its files, and options that do
+/// not apply to it are refused.
+#[test]
+fn a_ceinms_folder_is_a_trial_of_its_own() {
+    use common::{ceinms_folder, CeinmsFolder};
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    let (truth, none) = (
+        muscle_model::ModelParams::nominal(),
+        muscle_model::Effects::none(),
+    );
+    ceinms_folder(
+        &d.join("walk"),
+        &CeinmsFolder {
+            seed: 21,
+            seconds: 2.0,
+            truth: &truth,
+            effects: &none,
+            noise: false,
+            lead_in_s: 0.1,
+        },
+    );
+    std::fs::write(
+        d.join("s.json"),
+        r#"{"trials": [{"name": "walk", "recording": "walk"}]}"#,
+    )
+    .unwrap();
+    ok(&surae(
+        &["simulate", "--trial", "walk", "--out", "by_trial"],
+        d,
+    ));
+    ok(&surae(
+        &["simulate", "--session", "s.json", "--out", "by_session"],
+        d,
+    ));
+    let (a, b) = (
+        json(&d.join("by_trial/simulate.json")),
+        json(&d.join("by_session/simulate.json")),
+    );
+    assert_eq!(a["trials"], b["trials"]);
+    assert!(a["trials"][0]["r2"].as_f64().unwrap() > 0.99, "{a}");
+    let o = surae(&["inspect", "walk", "--out", "insp"], d);
+    ok(&o);
+    let r = json(&d.join("insp/inspect.json"));
+    assert_eq!(r["files"].as_array().map(Vec::len), Some(4), "{r}");
+    assert!(r["map"].is_null());
+    let o = surae(
+        &[
+            "identify",
+            "--method",
+            "sa",
+            "--trial",
+            "walk",
+            "--unloaded",
+            "walk/emg.txt",
+        ],
+        d,
+    );
+    assert_eq!(o.status.code(), Some(2));
+    assert!(common::stderr_of(&o).contains("no unloaded run"));
+}

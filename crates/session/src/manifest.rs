@@ -55,6 +55,36 @@ pub struct SessionManifest {
     pub trials: Vec<SessionTrialEntry>,
 }
 
+impl SessionManifest {
+    /// A session of one recording that needs no manifest (a CEINMS trial folder given as
+    /// `--trial`): the folder's name is the trial's; nominal parameters, default free
+    /// parameters.
+    #[must_use]
+    pub fn of_recording(path: &Path) -> Self {
+        let name = path.file_name().map_or_else(
+            || "recording".to_string(),
+            |n| n.to_string_lossy().into_owned(),
+        );
+        Self {
+            path: path.to_path_buf(),
+            subject: None,
+            params: None,
+            osim_muscles: BTreeMap::new(),
+            mvc: Vec::new(),
+            effects: None,
+            free: None,
+            bounds: BTreeMap::new(),
+            trials: vec![SessionTrialEntry {
+                name,
+                source: TrialSource::Recording(path.to_path_buf()),
+                unloaded: None,
+                knee_angle_deg: None,
+                geometry: None,
+            }],
+        }
+    }
+}
+
 /// One trial of a session.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SessionTrialEntry {

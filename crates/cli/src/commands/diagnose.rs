@@ -27,7 +27,8 @@ const PLANNED: &[&str] = &[
 /// Arguments of `surae diagnose`.
 #[derive(clap::Args, Debug)]
 pub struct DiagnoseArgs {
-    /// Trial CSV (format in docs/formats.md); the bundled seed trial (and its unloaded run) when omitted.
+    /// Trial: a trial CSV, a recording map (`.json`) of a lab's files, or a CEINMS trial folder (a session of one) (docs/formats.md);
+    /// the bundled seed trial (and its unloaded run) when omitted.
     #[arg(long, conflicts_with = "session")]
     pub trial: Option<PathBuf>,
     /// Unloaded run CSV: its cycle-locked error is removed from the measured
@@ -68,6 +69,16 @@ pub fn run(args: DiagnoseArgs) -> CmdResult {
             ));
         }
         return session_run::run(&args, session);
+    }
+    if let Some(folder) = args.trial.as_deref().filter(|p| p.is_dir()) {
+        if args.unloaded.is_some() || args.knee.knee_angle_deg.is_some() {
+            return Err(Failure::bad(format!(
+                "{}: a CEINMS trial folder has no unloaded run or knee angle (its lengths and \
+                 moment arms hold the knee's); --unloaded and --knee-angle-deg do not apply",
+                folder.display()
+            )));
+        }
+        return session_run::run(&args, folder);
     }
     let loaded = load_trial(args.trial.as_deref())?;
     let unloaded = load_unloaded(args.unloaded.as_deref(), args.trial.is_some())?;

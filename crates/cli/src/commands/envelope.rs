@@ -10,7 +10,8 @@ use std::path::PathBuf;
 /// Arguments of `surae envelope`.
 #[derive(clap::Args, Debug)]
 pub struct EnvelopeArgs {
-    /// Trial CSV (format in docs/formats.md); the bundled seed trial when omitted.
+    /// Trial: a trial CSV, a recording map (`.json`) of a lab's files (docs/formats.md);
+    /// the bundled seed trial when omitted.
     #[arg(long)]
     pub trial: Option<PathBuf>,
     /// Output: a `.csv` file, or a folder to write `envelope.csv` into

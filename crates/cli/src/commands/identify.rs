@@ -55,7 +55,8 @@ pub struct IdentifyArgs {
     /// `sa` (simulated annealing) or `mcmc` (Metropolis–Hastings).
     #[arg(long, value_enum)]
     pub method: Method,
-    /// Trial CSV (format in docs/formats.md); the bundled seed trial (and its unloaded run) when omitted.
+    /// Trial: a trial CSV, a recording map (`.json`) of a lab's files, or a CEINMS trial folder (a session of one) (docs/formats.md);
+    /// the bundled seed trial (and its unloaded run) when omitted.
     #[arg(long, conflicts_with = "session")]
     pub trial: Option<PathBuf>,
     /// Session manifest (docs/formats.md): several trials of one subject identified together,
@@ -260,6 +261,16 @@ pub fn run(args: IdentifyArgs) -> CmdResult {
             ));
         }
         return joint::run(&args, session);
+    }
+    if let Some(folder) = args.trial.as_deref().filter(|p| p.is_dir()) {
+        if args.unloaded.is_some() {
+            return Err(Failure::bad(format!(
+                "{}: a CEINMS trial folder has no unloaded run (its moment comes from inverse \
+                 dynamics); --unloaded does not apply",
+                folder.display()
+            )));
+        }
+        return joint::run(&args, folder);
     }
     let prep = prepare(
         args.trial.as_deref(),

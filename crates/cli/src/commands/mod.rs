@@ -36,8 +36,8 @@ fn not_a_trial(p: &Path, kind: recording::FileKind) -> Option<Failure> {
         recording::FileKind::Storage => "an OpenSim storage file",
         recording::FileKind::CeinmsFolder => {
             return Some(Failure::bad(format!(
-                "{}: a folder: a CEINMS trial folder is read as a session trial's \"recording\" \
-                 (--session; docs/formats.md, \"Session manifest\")",
+                "{}: a folder: a CEINMS trial folder is read by simulate, identify and diagnose \
+                 (as a session of one) or as a session trial's \"recording\"",
                 p.display()
             )))
         }

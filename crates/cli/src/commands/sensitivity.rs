@@ -10,7 +10,8 @@ use std::path::{Path, PathBuf};
 /// Arguments of `surae sensitivity`.
 #[derive(clap::Args, Debug)]
 pub struct SensitivityArgs {
-    /// Trial CSV (format in docs/formats.md); the bundled seed trial when omitted.
+    /// Trial: a trial CSV, a recording map (`.json`) of a lab's files (docs/formats.md);
+    /// the bundled seed trial when omitted.
     #[arg(long)]
     pub trial: Option<PathBuf>,
     #[command(flatten)]

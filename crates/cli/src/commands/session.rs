@@ -212,8 +212,17 @@ pub fn load_session(
     model: &ModelArgs,
     free: Option<&[String]>,
 ) -> CmdResult<LoadedSession> {
-    let manifest = session::read_session_manifest(path).map_err(Failure::bad)?;
-    let mut read = vec![path.to_path_buf()];
+    // a CEINMS trial folder given as `--trial` is a session of one
+    let manifest = if path.is_dir() {
+        SessionManifest::of_recording(path)
+    } else {
+        session::read_session_manifest(path).map_err(Failure::bad)?
+    };
+    let mut read = if path.is_dir() {
+        Vec::new()
+    } else {
+        vec![path.to_path_buf()]
+    };
     // the recordings first: a CEINMS subject's fixed muscles are those of its trials
     enum Loaded {
         Csv(

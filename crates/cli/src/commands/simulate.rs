@@ -16,7 +16,8 @@ mod session_out;
 /// Arguments of `surae simulate`.
 #[derive(clap::Args, Debug)]
 pub struct SimulateArgs {
-    /// Trial CSV (format in docs/formats.md); the bundled seed trial when omitted.
+    /// Trial: a trial CSV, a recording map (`.json`) of a lab's files, or a CEINMS trial folder (a session of one) (docs/formats.md);
+    /// the bundled seed trial when omitted.
     #[arg(long, conflicts_with = "session")]
     pub trial: Option<PathBuf>,
     /// Session manifest (docs/formats.md): the model on each of its trials; `--out` is then a
@@ -88,6 +89,10 @@ fn sto_text(trial: &experiment::Trial, sim: &muscle_model::SimOutput) -> CmdResu
 pub fn run(args: SimulateArgs) -> CmdResult {
     if let Some(session) = &args.session {
         return session_out::run(&args, session);
+    }
+    // a CEINMS trial folder is a session of one
+    if let Some(folder) = args.trial.as_deref().filter(|p| p.is_dir()) {
+        return session_out::run(&args, folder);
     }
     let (params, effects, cfg_inputs) = load_model_config(&args.model)?;
     let loaded = load_trial(args.trial.as_deref())?;
