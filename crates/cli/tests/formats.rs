@@ -263,13 +263,25 @@ fn a_decimal_calibration_stays_within_a_hundredth_of_a_newton_metre() {
 fn a_session_takes_recording_maps() {
     let d = formats_dir();
     let tmp = tempfile::tempdir().unwrap();
-    let manifest = serde_json::json!({"trials": [
+    // the unloaded run through a map as well (its CSV read as delimited text)
+    let unloaded_map = tmp.path().join("unloaded_map.json");
+    std::fs::write(
+        &unloaded_map,
+        serde_json::json!({"file": d.join("unloaded.csv"), "channels": {
+            "ankle_angle_deg": {"column": "ankle_angle_deg"},
+            "torque_nm": {"column": "torque_nm"}}})
+        .to_string(),
+    )
+    .unwrap();
+    let manifest = serde_json::json!({
+        "mvc": [d.join("noraxon/map.json")],
+        "trials": [
         {"name": "c3d", "recording": d.join("c3d/map.json"), "unloaded": d.join("unloaded.csv")},
-        {"name": "csv", "trial": d.join("trial.csv"), "unloaded": d.join("unloaded.csv")}]});
+        {"name": "csv", "trial": d.join("trial.csv"), "unloaded": unloaded_map}]});
     let s = tmp.path().join("session.json");
     std::fs::write(&s, manifest.to_string()).unwrap();
     let out = tmp.path().join("o");
-    ok(&surae(
+    let o = surae(
         &[
             "simulate",
             "--session",
@@ -278,11 +290,23 @@ fn a_session_takes_recording_maps() {
             out.to_str().unwrap(),
         ],
         tmp.path(),
-    ));
+    );
+    ok(&o);
     let r = json(&out.join("simulate.json"));
     let t = r["trials"].as_array().unwrap();
     assert_eq!(t.len(), 2);
     assert_eq!(t[0]["rms_nm"], t[1]["rms_nm"], "{r}");
+    // the MVC trial (a map too) sets one reference per channel, printed one line each
+    assert_eq!(r["emg_normalisation"]["source"], "mvc", "{r}");
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    for ch in ["emg_sol", "emg_gm", "emg_gl"] {
+        assert!(
+            stdout.lines().any(|l| l.contains(ch)
+                && l.contains("reference")
+                && l.contains("largest envelope over the MVC trials")),
+            "{stdout}"
+        );
+    }
 }
 
 /// A CEINMS trial folder given as `--trial` is a session of one: `simulate` gives what a

@@ -85,6 +85,9 @@ pub(super) fn run(args: &SimulateArgs, session_path: &Path) -> CmdResult {
         session_path.display(),
         session.trials.len()
     );
+    for l in session.emg.summary_lines() {
+        println!("{l}");
+    }
     println!("  trial                     RMS (N·m)     R²");
     for r in doc["trials"].as_array().into_iter().flatten() {
         println!(
