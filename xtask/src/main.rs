@@ -330,6 +330,16 @@ fn readme(list: &[Fixture]) -> String {
         SEED_SESSION3 + 1,
         SEED_SESSION3 + 2
     ));
+    s.push_str(
+        "\n`formats` holds the `seed` trial (EMG in µV, every number rounded to f32) in every \
+         format a lab's recording may come in, each with the recording map that reads it: \
+         `trial.csv` (surae's CSV) and `unloaded.csv`; `opensim/` (EMG in a version 2 `.sto`, \
+         the angle in a `.mot`, the moment in OpenSim's sign in a `.sto`); `c3d/` (analog \
+         channels); `noraxon/` (a tab-separated export with quoted headers, EMG in µV of both \
+         legs, the dynamometer's angle and torque in mV with a calibration, offsets and the \
+         left leg's sign flip); `semicolon/` (semicolons and decimal commas). Every map reads \
+         the same numbers bit for bit (docs/formats.md, \"A lab's recordings\").\n",
+    );
     s
 }
 
