@@ -46,7 +46,14 @@ fn a_session_of_one_trial_writes_the_identify_json_of_the_trial() {
     let t = json(&d.join("by_trial/identify.json"));
     // Where the data came from is said differently (a manifest against a file and its unloaded
     // run); wall time differs; everything else is the same.
-    let differ = ["wall_s", "trial", "noise", "dynamometer", "trials"];
+    let differ = [
+        "wall_s",
+        "trial",
+        "noise",
+        "dynamometer",
+        "trials",
+        "checks",
+    ];
     for (key, value) in t.as_object().unwrap() {
         if !differ.contains(&key.as_str()) {
             assert_eq!(&s[key], value, "{key}");
@@ -54,6 +61,9 @@ fn a_session_of_one_trial_writes_the_identify_json_of_the_trial() {
     }
     assert_eq!(s["dynamometer"][0], t["dynamometer"]);
     assert_eq!(s["trials"][0]["dynamometer"], t["dynamometer"]);
+    // a session's recording checks are per trial
+    assert!(s.get("checks").is_none());
+    assert_eq!(s["trials"][0]["checks"], t["checks"]);
     for key in ["rms_nm", "r2", "rms_raw_nm", "noise_model"] {
         assert_eq!(s["trials"][0][key], t["trials"][0][key], "trials[0].{key}");
     }

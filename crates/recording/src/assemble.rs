@@ -110,21 +110,26 @@ impl<'m> Files<'m> {
     }
 }
 
+/// An error about a whole column; control characters in its label are escaped (one line).
+fn column_error(path: String, column: &str, reason: impl Into<String>) -> RecordingError {
+    RecordingError::Column {
+        path,
+        name: crate::printable(column),
+        reason: reason.into(),
+    }
+}
+
 /// Checks a clock: strictly increasing and uniform; returns it, regularised when it is
 /// uniform only to its text's rounding.
 fn checked_clock(table: &RecordingTable, label: &str, t: Vec<f64>) -> Result<(Vec<f64>, bool)> {
     let name = table.name();
     let err = |i: usize, reason: String| RecordingError::Column {
         path: name.clone(),
-        name: label.to_string(),
+        name: crate::printable(label),
         reason: format!("{}: {reason}", table.locate(i)),
     };
     if t.len() < 2 {
-        return Err(RecordingError::column(
-            name,
-            label,
-            "fewer than 2 samples: no clock",
-        ));
+        return Err(column_error(name, label, "fewer than 2 samples: no clock"));
     }
     for (i, w) in t.windows(2).enumerate() {
         if !(w[0].is_finite() && w[1].is_finite()) {
@@ -330,6 +335,22 @@ fn assemble(map: &RecordingMap, required: &[&str], grid_of: &str) -> Result<Asse
         }
         let file = map.file_of(target, ch)?;
         let tparsed = Target::parse(target).map_err(|r| map.key_error(target, r))?;
+        if !files.tables.contains_key(&file)
+            && matches!(std::fs::metadata(&file), Err(e) if e.kind() == std::io::ErrorKind::NotFound)
+        {
+            let key = if ch.file.is_some() {
+                format!("channels.{target}.file")
+            } else {
+                "file".to_string()
+            };
+            return Err(map.key_error(
+                &key,
+                format!(
+                    "no such file {} (paths are relative to the map's folder)",
+                    file.display()
+                ),
+            ));
+        }
         let table = files.get(&file)?;
         let column = table.channel(&ch.column).ok_or_else(|| {
             let labels: Vec<&str> = table.channels.iter().map(|c| c.label.as_str()).collect();
@@ -367,6 +388,11 @@ fn assemble(map: &RecordingMap, required: &[&str], grid_of: &str) -> Result<Asse
             })
             .collect();
         let clock = channel_clock(map, target, ch, table)?;
+        let mut values = values;
+        if let Some(c) = &clock {
+            // its samples end where its own clock ends (the empty cells after them dropped)
+            values.truncate(c.times.len());
+        }
         let clock = match clock {
             Some(c) => c,
             None => {
@@ -378,7 +404,7 @@ fn assemble(map: &RecordingMap, required: &[&str], grid_of: &str) -> Result<Asse
             }
         };
         if clock.times.len() != values.len() {
-            return Err(RecordingError::column(
+            return Err(column_error(
                 table.name(),
                 &ch.column,
                 format!(
@@ -407,10 +433,29 @@ fn assemble(map: &RecordingMap, required: &[&str], grid_of: &str) -> Result<Asse
         .map(|(_, r)| r.clock.times.clone())
         .unwrap_or_default();
     let (mut lo, mut hi) = (grid_clock[0], grid_clock[grid_clock.len() - 1]);
-    for (_, r) in &reads {
-        lo = lo.max(r.clock.times[0]);
-        hi = hi.min(r.clock.times[r.clock.times.len() - 1]);
+    // the channels that start last and end first, for the message
+    let (mut lo_by, mut hi_by) = (grid_of, grid_of);
+    for (t, r) in &reads {
+        let (a, b) = (r.clock.times[0], r.clock.times[r.clock.times.len() - 1]);
+        if a > lo {
+            (lo, lo_by) = (a, t.as_str());
+        }
+        if b < hi {
+            (hi, hi_by) = (b, t.as_str());
+        }
     }
+    let who = |target: &str| {
+        reads.iter().find(|(t, _)| t == target).map_or_else(
+            || target.to_string(),
+            |(_, r)| {
+                format!(
+                    "{target} ('{}' in {})",
+                    crate::printable(&r.column),
+                    r.file.display()
+                )
+            },
+        )
+    };
     let tol = 1e-9 * (1.0 + hi.abs());
     let first = grid_clock.partition_point(|&t| t < lo - tol);
     let last = grid_clock.partition_point(|&t| t <= hi + tol);
@@ -418,8 +463,11 @@ fn assemble(map: &RecordingMap, required: &[&str], grid_of: &str) -> Result<Asse
         return Err(RecordingError::file(
             map.name(),
             format!(
-                "the channels share only {:.3} s of time ({lo:.3}–{hi:.3} s); at least 1 s is needed",
-                (hi - lo).max(0.0)
+                "the channels share only {:.3} s of time: {} starts at {lo:.3} s, {} ends at \
+                 {hi:.3} s; at least 1 s is needed",
+                (hi - lo).max(0.0),
+                who(lo_by),
+                who(hi_by)
             ),
         ));
     }
@@ -465,7 +513,7 @@ fn assemble(map: &RecordingMap, required: &[&str], grid_of: &str) -> Result<Asse
                 &r.values[a..b],
                 &grid,
             )
-            .map_err(|e| RecordingError::column(table.name(), &r.column, e.to_string()))?;
+            .map_err(|e| column_error(table.name(), &r.column, e.to_string()))?;
             notes.push(format!(
                 "{target}: {} ({}, {:.1} Hz) interpolated linearly onto the {:.1} Hz grid",
                 r.column,
@@ -476,7 +524,7 @@ fn assemble(map: &RecordingMap, required: &[&str], grid_of: &str) -> Result<Asse
             (v, true)
         };
         if target.starts_with("emg_") && values.iter().all(|&x| x == 0.0) {
-            return Err(RecordingError::column(
+            return Err(column_error(
                 table.name(),
                 &r.column,
                 format!("{target} is all zeros (disconnected electrode?)"),
@@ -503,14 +551,14 @@ fn assemble(map: &RecordingMap, required: &[&str], grid_of: &str) -> Result<Asse
 fn check_finite(table: &RecordingTable, r: &Read, target: &str, a: usize, b: usize) -> Result<()> {
     let used = &r.values[a..b];
     if used.iter().all(|x| x.is_nan()) {
-        return Err(RecordingError::column(
+        return Err(column_error(
             table.name(),
             &r.column,
             format!("{target}: the channel is all NaN (no samples)"),
         ));
     }
     if let Some(i) = used.iter().position(|x| !x.is_finite()) {
-        return Err(RecordingError::column(
+        return Err(column_error(
             table.name(),
             &r.column,
             format!(
@@ -546,6 +594,16 @@ fn channel_clock(
     let col = table.channel(&ch.column).map_or(0, |c| {
         c.values.len() - c.values.iter().rev().take_while(|x| x.is_nan()).count()
     });
+    if col < 2 {
+        return Err(column_error(
+            table.name(),
+            &ch.column,
+            format!(
+                "{target}: {col} sample(s) before its trailing missing cells: no clock at its \
+                 rate_hz {rate}"
+            ),
+        ));
+    }
     Ok(Some(Clock {
         times: (0..col).map(|i| table.start_s + i as f64 / rate).collect(),
         what: format!("{} rows at the channel's rate_hz {rate}", col),
@@ -582,26 +640,15 @@ fn file_clock(
     } else {
         (None, String::new(), String::new())
     };
+    let from_time_column = times.is_none() && table.time_label.is_some();
     let (times, label, what) = match times {
         Some(t) => (t, label, what),
         None => match (&table.time_label, table.rate_hz, map.rate_hz) {
-            (Some(l), _, rate) => {
+            (Some(l), _, _) => {
                 let t = table
                     .channel(l)
                     .map(|c| c.values.clone())
                     .unwrap_or_default();
-                if let Some(r) = rate {
-                    let found = rate_of(&t);
-                    if (found - r).abs() > 1e-3 * r {
-                        return Err(map.key_error(
-                            "rate_hz",
-                            format!(
-                                "{r} Hz, but the time column '{l}' of {} steps at {found:.3} Hz",
-                                table.name()
-                            ),
-                        ));
-                    }
-                }
                 (t, l.clone(), format!("time column {l}"))
             }
             (None, Some(r), _) => (
@@ -624,6 +671,20 @@ fn file_clock(
         },
     };
     let (times, regular) = checked_clock(table, &label, times)?;
+    // the map's rate against the file's own time column, once that is known to be a clock (a
+    // gap is reported as a gap, not as a rate)
+    if let (true, Some(r)) = (from_time_column, map.rate_hz) {
+        let found = rate_of(&times);
+        if (found - r).abs() > 1e-3 * r {
+            return Err(map.key_error(
+                "rate_hz",
+                format!(
+                    "{r} Hz, but the time column '{label}' of {} steps at {found:.3} Hz",
+                    table.name()
+                ),
+            ));
+        }
+    }
     if regular {
         notes.push(format!(
             "{}: {label}: uniform only to its text's rounding; the exact grid t0 + i·dt is used",

@@ -8,16 +8,23 @@
 //! * lines before the header that start with `#` are comments; blank lines are skipped; the
 //!   header is the first other line, or the line the map names (`header_line`) when an export
 //!   writes a preamble of its own;
-//! * the delimiter is the one of tab, `;` and `,` that occurs most often outside quotes in
-//!   the header line (ties go to tab, then `;`);
-//! * the decimal mark is a comma when the delimiter is not a comma and a cell of the first
-//!   data rows reads as `digits,digits`; the map may say so instead (`decimal_comma`);
+//! * the delimiter is a tab when the header line has one outside quotes, else `;` when it has
+//!   one, else `,`: labels hold commas (`Time,s`, unquoted in some exports) and semicolons far
+//!   more often than tabs, so the most frequent character would take a tab-separated header
+//!   of `Name,unit` labels for a comma-separated one;
+//! * the decimal mark is a comma when the delimiter is not a comma and a cell of the data
+//!   rows reads as `digits,digits`; the map may say so instead (`decimal_comma`);
 //! * a unit is taken from a label's tail, `Name,unit` (Noraxon), `Name [unit]` or
 //!   `Name (unit)`, for `surae inspect` to show; the label stays the whole header cell;
 //! * the time column is the first whose label, lower-cased, starts with `time`;
 //! * an empty cell or `NaN` is a missing sample (NaN); any other cell that is not a number is
 //!   an error naming the line, the column number and its label; a row with more fields than
-//!   the header is an error, one with fewer is an error too (a truncated export).
+//!   the header is an error, one with fewer is an error too (a truncated export);
+//! * a row's line is counted in the file (comments, blank lines and CRLF endings included; a
+//!   lone CR after the header ends a line, as it ends a record), not taken from the `csv`
+//!   crate, whose record positions lag behind blank lines and CR;
+//! * a label with a control character in it (a line break inside quotes) is an error, and a
+//!   cell quoted in a message has its control characters escaped: every message is one line.
 //!
 //! Bytes that are not UTF-8 are read as Latin-1 (Windows exports write `µV` as byte 0xB5).
 
@@ -124,9 +131,10 @@ fn cell_number(cell: &str, decimal_comma: bool) -> Option<f64> {
 fn quote(cell: &str) -> String {
     const MAX: usize = 40;
     if cell.chars().count() > MAX {
-        format!("'{}…'", cell.chars().take(MAX).collect::<String>())
+        let head: String = cell.chars().take(MAX).collect();
+        format!("'{}…'", crate::printable(&head))
     } else {
-        format!("'{cell}'")
+        format!("'{}'", crate::printable(cell))
     }
 }
 
@@ -180,13 +188,11 @@ pub fn parse_delimited(
     };
     let rest = &text[start..];
     let header_text = rest.lines().next().unwrap_or("");
-    let counts = delimiter_counts(header_text);
-    let (delimiter, n) =
-        counts
-            .iter()
-            .copied()
-            .fold(('\t', 0), |best, c| if c.1 > best.1 { c } else { best });
-    let delimiter = if n == 0 { ',' } else { delimiter };
+    // tab before ';' before ',' (module docs)
+    let delimiter = delimiter_counts(header_text)
+        .iter()
+        .find(|(_, n)| *n > 0)
+        .map_or(',', |(d, _)| *d);
 
     let mut reader = csv::ReaderBuilder::new()
         .delimiter(u8::try_from(delimiter).unwrap_or(b','))
@@ -194,10 +200,26 @@ pub fn parse_delimited(
         .flexible(true)
         .from_reader(rest.as_bytes());
     let mut records = reader.records();
+    // the line a record starts on: the csv crate's position is where the previous record
+    // ended, before the line ends and blank lines it skips; a line ends, as for the csv
+    // crate, at LF, CRLF or a lone CR
+    let bytes = rest.as_bytes();
+    let line_breaks: Vec<usize> = (0..bytes.len())
+        .filter(|&i| bytes[i] == b'\n' || (bytes[i] == b'\r' && bytes.get(i + 1) != Some(&b'\n')))
+        .collect();
+    let line_at = |p: Option<&csv::Position>| {
+        p.map_or(header_line, |p| {
+            let mut at = usize::try_from(p.byte())
+                .unwrap_or(usize::MAX)
+                .min(bytes.len());
+            while at < bytes.len() && matches!(bytes[at], b'\r' | b'\n') {
+                at += 1;
+            }
+            header_line + line_breaks.partition_point(|&i| i < at)
+        })
+    };
     let csv_err = |e: &csv::Error| {
-        let line = e
-            .position()
-            .map_or(header_line, |p| header_line + p.line() as usize - 1);
+        let line = line_at(e.position());
         RecordingError::Line {
             path: name.clone(),
             line,
@@ -211,6 +233,15 @@ pub fn parse_delimited(
     };
     let labels: Vec<String> = header.iter().map(|s| s.trim().to_string()).collect();
     for (j, l) in labels.iter().enumerate() {
+        if l.chars().any(|c| c.is_control() && c != '\t') {
+            return Err(RecordingError::Cell {
+                path: name,
+                line: header_line,
+                column: j + 1,
+                name: crate::printable(l),
+                reason: "a control character (a line break inside quotes?) in the label".into(),
+            });
+        }
         if l.is_empty() {
             // a trailing delimiter after the last label is common in exports
             if j + 1 == labels.len() && j > 0 {
@@ -243,9 +274,7 @@ pub fn parse_delimited(
     let mut rows: Vec<(usize, csv::StringRecord)> = Vec::new();
     for r in records {
         let r = r.map_err(|e| csv_err(&e))?;
-        let line = r
-            .position()
-            .map_or(header_line, |p| header_line + p.line() as usize - 1);
+        let line = line_at(r.position());
         if r.iter().all(|f| f.trim().is_empty()) {
             continue;
         }
@@ -259,11 +288,7 @@ pub fn parse_delimited(
         });
     }
     let decimal_comma = opts.decimal_comma.unwrap_or_else(|| {
-        delimiter != ','
-            && rows
-                .iter()
-                .take(20)
-                .any(|(_, r)| r.iter().any(looks_decimal_comma))
+        delimiter != ',' && rows.iter().any(|(_, r)| r.iter().any(looks_decimal_comma))
     });
 
     let mut columns: Vec<Vec<f64>> = vec![Vec::with_capacity(rows.len()); width];
@@ -286,10 +311,15 @@ pub fn parse_delimited(
         for (j, col) in columns.iter_mut().enumerate() {
             let cell = r.get(j).unwrap_or("");
             let v = cell_number(cell, decimal_comma).ok_or_else(|| {
-                let hint = if !decimal_comma && looks_decimal_comma(cell) {
-                    " (a decimal comma in a comma-separated file: use ';' or tabs between fields)"
-                } else {
-                    ""
+                let hint = match (decimal_comma, delimiter) {
+                    (false, ',') if looks_decimal_comma(cell) => {
+                        " (a decimal comma in a comma-separated file: use ';' or tabs between \
+                         fields)"
+                    }
+                    (false, _) if looks_decimal_comma(cell) => {
+                        " (a decimal comma, but the map says \"decimal_comma\": false)"
+                    }
+                    _ => "",
                 };
                 RecordingError::Cell {
                     path: name.clone(),

@@ -235,18 +235,41 @@ fn guess(label: &str, format: &RecordingFormat) -> Option<(String, f64)> {
     None
 }
 
-/// `target` relative to the folder `from` (both made absolute); `target` as given when no
-/// relative path exists.
+/// `p` made absolute with its links resolved, also when it does not exist yet (a folder about
+/// to be created): its deepest existing ancestor is resolved and the rest appended.
+fn absolute(p: &Path) -> PathBuf {
+    let p = if p.is_absolute() {
+        p.to_path_buf()
+    } else {
+        std::env::current_dir()
+            .map(|d| d.join(p))
+            .unwrap_or_else(|_| p.to_path_buf())
+    };
+    let mut rest = Vec::new();
+    let mut cur = p.as_path();
+    loop {
+        if let Ok(c) = std::fs::canonicalize(cur) {
+            let mut out = c;
+            for r in rest.iter().rev() {
+                out.push(r);
+            }
+            return out;
+        }
+        match (cur.parent(), cur.file_name()) {
+            (Some(parent), Some(name)) => {
+                rest.push(name.to_os_string());
+                cur = parent;
+            }
+            _ => return p.clone(),
+        }
+    }
+}
+
+/// `target` relative to the folder `from` (which need not exist yet); `target` made absolute
+/// when no relative path exists.
 #[must_use]
 pub fn relative_path(target: &Path, from: &Path) -> PathBuf {
-    let abs = |p: &Path| {
-        std::fs::canonicalize(p).unwrap_or_else(|_| {
-            std::env::current_dir()
-                .map(|d| d.join(p))
-                .unwrap_or_else(|_| p.to_path_buf())
-        })
-    };
-    let (t, f) = (abs(target), abs(from));
+    let (t, f) = (absolute(target), absolute(from));
     let tc: Vec<Component> = t.components().collect();
     let fc: Vec<Component> = f.components().collect();
     let common = tc.iter().zip(&fc).take_while(|(a, b)| a == b).count();

@@ -214,11 +214,13 @@ impl RecordingMap {
         self.path.display().to_string()
     }
 
+    /// An error about `key`; control characters in the key and the reason (a key, a column
+    /// label with a line break) are escaped so that the message stays on one line.
     pub(crate) fn key_error(&self, key: &str, reason: impl Into<String>) -> RecordingError {
         RecordingError::Map {
             path: self.name(),
-            key: key.to_string(),
-            reason: reason.into(),
+            key: crate::printable(key),
+            reason: crate::printable(&reason.into()),
         }
     }
 
@@ -281,7 +283,7 @@ pub fn parse_map(text: &str, path: &Path) -> Result<RecordingMap> {
     let mut map: RecordingMap = serde_json::from_str(text).map_err(|e| RecordingError::Line {
         path: name.clone(),
         line: e.line(),
-        reason: format!("column {}: not a recording map: {e}", e.column()),
+        reason: crate::printable(&format!("column {}: not a recording map: {e}", e.column())),
     })?;
     map.path = path.to_path_buf();
     map.validate()?;

@@ -23,17 +23,28 @@ pub fn read_storage(path: &Path) -> Result<RecordingTable> {
 /// # Errors
 /// What `opensim_files::read_sto` rejects (no `endheader`, a malformed header value, a
 /// duplicate label, no `time` column, a row of the wrong width, a cell that is not a number,
-/// `nRows`/`nColumns` that contradict the data), each naming the line and column, and binary
-/// data.
+/// `nRows`/`nColumns` that contradict the data), each naming the line and column, and an
+/// ASCII control character other than a tab within a line (binary data, a lone carriage
+/// return), naming the line.
 pub fn parse_storage(bytes: &[u8], path: &Path) -> Result<RecordingTable> {
     let name = crate::table::display(path);
-    if bytes.contains(&0) {
-        return Err(RecordingError::file(
-            name,
-            "NUL bytes in the text: not an OpenSim storage file (binary data?)",
-        ));
-    }
     let text = crate::delimited::decode_text(bytes);
+    // no ASCII control character within a line: binary data, and labels and cells quoted in
+    // the messages below stay on one line (a Latin-1 file's bytes 0x80–0x9F are let through)
+    for (i, line) in text.lines().enumerate() {
+        let body = line.strip_suffix('\r').unwrap_or(line);
+        if let Some(c) = body.chars().find(|&c| c.is_ascii_control() && c != '\t') {
+            return Err(RecordingError::Line {
+                path: name,
+                line: i + 1,
+                reason: format!(
+                    "control character U+{:04X} in the text: not an OpenSim storage file \
+                     (binary data?)",
+                    c as u32
+                ),
+            });
+        }
+    }
     let table = opensim_files::read_sto(&text, &name).map_err(|e| RecordingError::Reader {
         path: name.clone(),
         message: e.to_string(),

@@ -88,9 +88,9 @@ pub fn run(args: InspectArgs) -> CmdResult {
     if is_map {
         return run_map(&args, &out_dir, &inputs);
     }
-    // the folder must exist for the map's relative paths to be computed against it
-    let out = OutDir::prepare(&out_dir, &inputs, PLANNED)?;
+    // read everything before the output folder is made: a bad file leaves nothing behind
     let found = recording::inspect::inspect(&args.files, &out_dir).map_err(Failure::bad)?;
+    let out = OutDir::prepare(&out_dir, &inputs, PLANNED)?;
     let say = |l: &str| args.report.say(l);
     for f in &found.files {
         for l in f.lines() {
@@ -133,19 +133,25 @@ pub fn run(args: InspectArgs) -> CmdResult {
 fn run_map(args: &InspectArgs, out_dir: &Path, inputs: &[&Path]) -> CmdResult {
     let map_path = &args.files[0];
     let loaded = load_mapped_trial(map_path)?;
+    let map = recording::read_map(map_path).map_err(Failure::bad)?;
+    // the files as the map reads them (its header line and decimal mark)
+    let opts = recording::DelimitedOptions {
+        header_line: map.header_line,
+        decimal_comma: map.decimal_comma,
+    };
+    let mut files = Vec::new();
+    for f in &loaded.data_files {
+        let t = recording::open_table(f, &opts).map_err(Failure::bad)?;
+        files.push(recording::inspect::FileSummary::of(&t));
+    }
     let mut all_inputs: Vec<&Path> = inputs.to_vec();
     all_inputs.extend(loaded.data_files.iter().map(PathBuf::as_path));
     let out = OutDir::prepare(out_dir, &all_inputs, &PLANNED[1..])?;
     let say = |l: &str| args.report.say(l);
-    let mut files = Vec::new();
-    for f in &loaded.data_files {
-        let t = recording::open_table(f, &recording::DelimitedOptions::default())
-            .map_err(Failure::bad)?;
-        let s = recording::inspect::FileSummary::of(&t);
+    for s in &files {
         for l in s.lines() {
             say(&l);
         }
-        files.push(s);
     }
     let t = &loaded.trial;
     say(&format!(

@@ -30,7 +30,7 @@ pub struct LoadedTrial {
 
 /// What `--trial` and `--unloaded` take (docs/formats.md): a trial CSV or a recording map
 /// (`.json`) of a lab's files; any other data file needs a map.
-fn not_a_trial(p: &Path, kind: recording::FileKind) -> Option<Failure> {
+fn not_a_trial(p: &Path, kind: recording::FileKind, option: &str) -> Option<Failure> {
     let what = match kind {
         recording::FileKind::C3d => "a C3D file",
         recording::FileKind::Storage => "an OpenSim storage file",
@@ -45,7 +45,7 @@ fn not_a_trial(p: &Path, kind: recording::FileKind) -> Option<Failure> {
     };
     Some(Failure::bad(format!(
         "{}: {what}: give a recording map that names its channels (`surae inspect {}` prints \
-         one) as --trial",
+         one) as {option}",
         p.display(),
         p.display()
     )))
@@ -87,7 +87,7 @@ pub fn load_trial(path: Option<&Path>) -> CmdResult<LoadedTrial> {
     match path {
         Some(p) => {
             let kind = recording::file_kind(p);
-            if let Some(f) = not_a_trial(p, kind) {
+            if let Some(f) = not_a_trial(p, kind, "--trial") {
                 return Err(f);
             }
             if kind == recording::FileKind::Map {
@@ -116,7 +116,7 @@ pub fn load_trial(path: Option<&Path>) -> CmdResult<LoadedTrial> {
 /// Reads an unloaded run: an unloaded-run CSV or a recording map of its angle and torque.
 pub fn read_unloaded_any(p: &Path) -> CmdResult<Unloaded> {
     let kind = recording::file_kind(p);
-    if let Some(f) = not_a_trial(p, kind) {
+    if let Some(f) = not_a_trial(p, kind, "the unloaded run") {
         return Err(f);
     }
     if kind == recording::FileKind::Map {

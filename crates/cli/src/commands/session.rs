@@ -33,6 +33,9 @@ pub struct SessionTrial {
     pub correction: Option<experiment::DynamometerCorrection>,
     /// For a CEINMS trial: the moment file's own times and values, where fits are judged.
     pub ceinms: Option<CeinmsModelTrial>,
+    /// The recording checks of a trial file or map (docs/formats.md); none for a CEINMS
+    /// folder, whose moment comes from inverse dynamics.
+    pub checks: Option<recording::checks::TrialChecks>,
 }
 
 impl SessionTrial {
@@ -258,6 +261,16 @@ pub fn load_session(
                 }
                 loaded.push(Loaded::Ceinms(Box::new(c)));
             }
+            TrialSource::Recording(_) if recording::file_kind(p) != recording::FileKind::Map => {
+                return Err(Failure::bad(format!(
+                    "{}: trial {}: recording {} is not a CEINMS trial folder (a folder with \
+                     emg.txt, lmt.txt, R_ankle_feMa.txt and R_ankle_feTorque.txt) nor a \
+                     recording map (.json)",
+                    manifest.path.display(),
+                    t.name,
+                    p.display()
+                )));
+            }
             TrialSource::Csv(_) | TrialSource::Recording(_) => {
                 let (trial, geometry) = read_session_trial(p, model)?;
                 let unloaded = match &t.unloaded {
@@ -355,6 +368,13 @@ pub fn load_session(
         let trial = match l {
             Loaded::Csv(csv) => {
                 let (trial, unloaded, mapped_geometry) = *csv;
+                let checks = super::inspect::trial_checks(&super::LoadedTrial {
+                    trial: trial.clone(),
+                    name: source.clone(),
+                    path: Some(entry.source.path().to_path_buf()),
+                    data_files: Vec::new(),
+                    emg_is_envelope: model.emg_is_envelope,
+                });
                 let opts = experiment::InputOptions {
                     emg_is_envelope: model.emg_is_envelope,
                     knee_angle_deg: entry.knee_angle_deg,
@@ -396,6 +416,7 @@ pub fn load_session(
                     raw_torque: prep.raw_torque,
                     correction: prep.correction,
                     ceinms: None,
+                    checks: Some(checks),
                 }
             }
             Loaded::Ceinms(c) => {
@@ -416,6 +437,7 @@ pub fn load_session(
                     raw_torque: c.torque_nm.clone(),
                     correction: None,
                     ceinms: Some(*c),
+                    checks: None,
                 }
             }
         };

@@ -44,8 +44,6 @@ struct Diagnosed {
     fitted_on_hz: f64,
     /// The samples compared with the model (figures are drawn over them).
     span: Range<usize>,
-    /// The recording checks of a trial file (none for a CEINMS folder).
-    checks: Option<recording::checks::TrialChecks>,
 }
 
 /// Runs `diagnose --session`.
@@ -87,7 +85,7 @@ pub(super) fn run(args: &DiagnoseArgs, session_path: &Path) -> CmdResult {
             r.unloaded.as_deref(),
             r.fitted_on_hz,
             Some(&t.source),
-            r.checks.as_ref(),
+            t.checks.as_ref(),
         )?;
         dir.write("diagnosis.json", text.as_bytes())?;
         write_figures(&dir, &t.name, &r.measured, &r.inputs, &r.d, r.span.clone())?;
@@ -207,7 +205,6 @@ fn diagnose_trial(
                 unloaded_run: None,
                 fitted_on_hz: c.inputs.fs(),
                 span: weighted_span(&c.weights),
-                checks: None,
             }
         }
         None => {
@@ -244,13 +241,7 @@ fn diagnose_trial(
             let fitted_on_hz = unloaded
                 .as_ref()
                 .map_or(trial.sample_rate_hz(), |u| u.sample_rate_hz());
-            let checks = crate::commands::inspect::trial_checks(&crate::commands::LoadedTrial {
-                trial: trial.clone(),
-                name: path.display().to_string(),
-                path: Some(path.to_path_buf()),
-                data_files: Vec::new(),
-                emg_is_envelope: args.emg_is_envelope,
-            });
+
             let inputs = t.problem.inputs().clone();
             let n = inputs.len();
             Diagnosed {
@@ -262,7 +253,6 @@ fn diagnose_trial(
                 unloaded_run: unloaded,
                 fitted_on_hz,
                 span: 0..n,
-                checks: Some(checks),
             }
         }
     };

@@ -77,6 +77,7 @@ pub(super) fn run(args: &IdentifyArgs, session_path: &Path) -> CmdResult {
             "start_rms_nm": rms0,
             "start_r2": r20,
             "dynamometer": t.dynamometer(),
+            "checks": t.checks,
         }));
         predictions.push((pred, base));
     }
@@ -492,6 +493,7 @@ fn run_mcmc(
         let mut entry = super::mcmc::trial_entry(&t.name, fit, t.fit_of(&pred)?);
         entry["source"] = json!(t.source);
         entry["dynamometer"] = t.dynamometer();
+        entry["checks"] = json!(t.checks);
         let base = t.problem.predict(&start).map_err(failed)?;
         predictions.push((pred, base));
         entries.push(entry);
