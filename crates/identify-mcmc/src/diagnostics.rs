@@ -191,58 +191,18 @@ pub fn autocovariance(x: &[f64]) -> Vec<f64> {
     for (r, v) in re.iter_mut().zip(x) {
         *r = v - m;
     }
-    fft(&mut re, &mut im, false);
+    numerics::fft::fft_in_place(&mut re, &mut im, false);
     for (r, i) in re.iter_mut().zip(im.iter_mut()) {
         *r = *r * *r + *i * *i;
         *i = 0.0;
     }
-    fft(&mut re, &mut im, true);
+    numerics::fft::fft_in_place(&mut re, &mut im, true);
     let scale = 1.0 / (size as f64 * n as f64);
     re.truncate(n);
     for r in &mut re {
         *r *= scale;
     }
     re
-}
-
-/// In-place iterative radix-2 complex FFT (unnormalised; `inverse` flips the sign).
-fn fft(re: &mut [f64], im: &mut [f64], inverse: bool) {
-    let n = re.len();
-    debug_assert!(n.is_power_of_two());
-    // Bit-reversal permutation.
-    let mut j = 0;
-    for i in 1..n {
-        let mut bit = n >> 1;
-        while j & bit != 0 {
-            j ^= bit;
-            bit >>= 1;
-        }
-        j |= bit;
-        if i < j {
-            re.swap(i, j);
-            im.swap(i, j);
-        }
-    }
-    let sign = if inverse { 1.0 } else { -1.0 };
-    let mut len = 2;
-    while len <= n {
-        let half = len / 2;
-        let step = std::f64::consts::TAU / len as f64;
-        for k in 0..half {
-            let (s, c) = (sign * step * k as f64).sin_cos();
-            for start in (0..n).step_by(len) {
-                let a = start + k;
-                let b = a + half;
-                let tr = re[b] * c - im[b] * s;
-                let ti = re[b] * s + im[b] * c;
-                re[b] = re[a] - tr;
-                im[b] = im[a] - ti;
-                re[a] += tr;
-                im[a] += ti;
-            }
-        }
-        len <<= 1;
-    }
 }
 
 /// Effective sample size of the columns of `m` (R's `.ess`): Geyer's initial

@@ -27,6 +27,7 @@
 
 pub mod cholesky;
 mod error;
+pub mod fft;
 pub mod interpolate;
 pub mod latin_hypercube;
 pub mod lm;

@@ -957,8 +957,6 @@ struct Welch {
     fs: f64,
     len: usize,
     window: Vec<f64>,
-    cos: Vec<f64>,
-    sin: Vec<f64>,
 }
 
 impl Welch {
@@ -983,18 +981,10 @@ impl Welch {
         let window = (0..fit)
             .map(|j| 0.5 - 0.5 * (tau * j as f64 / fit as f64).cos())
             .collect();
-        let (cos, sin) = (0..fit / 2)
-            .map(|j| {
-                let a = tau * j as f64 / fit as f64;
-                (a.cos(), a.sin())
-            })
-            .unzip();
         Some(Self {
             fs,
             len: fit,
             window,
-            cos,
-            sin,
         })
     }
 
@@ -1017,7 +1007,7 @@ impl Welch {
                 re[j] = (seg[j] - mean) * self.window[j];
                 im[j] = 0.0;
             }
-            fft(&mut re, &mut im, &self.cos, &self.sin);
+            numerics::fft::fft_in_place(&mut re, &mut im, false);
             for (k, a) in acc.iter_mut().enumerate() {
                 *a += re[k] * re[k] + im[k] * im[k];
             }
@@ -1053,40 +1043,6 @@ impl Welch {
         }
         let (m, &best) = line.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1))?;
         Some((best / band, mains[m]))
-    }
-}
-
-/// In-place iterative radix-2 FFT (`X_k = Σ x_j e^{−2πijk/n}`) of a power-of-two length,
-/// with `cos[j] = cos(2πj/n)` and `sin[j] = sin(2πj/n)` for `j < n/2`.
-fn fft(re: &mut [f64], im: &mut [f64], cos: &[f64], sin: &[f64]) {
-    let n = re.len();
-    if n < 2 {
-        return;
-    }
-    let bits = n.trailing_zeros();
-    for i in 0..n {
-        let j = i.reverse_bits() >> (usize::BITS - bits);
-        if j > i {
-            re.swap(i, j);
-            im.swap(i, j);
-        }
-    }
-    let mut len = 2;
-    while len <= n {
-        let stride = n / len;
-        for start in (0..n).step_by(len) {
-            for j in 0..len / 2 {
-                let (c, s) = (cos[j * stride], -sin[j * stride]);
-                let (a, b) = (start + j, start + j + len / 2);
-                let tr = re[b] * c - im[b] * s;
-                let ti = re[b] * s + im[b] * c;
-                re[b] = re[a] - tr;
-                im[b] = im[a] - ti;
-                re[a] += tr;
-                im[a] += ti;
-            }
-        }
-        len <<= 1;
     }
 }
 
@@ -1180,35 +1136,6 @@ fn signed(x: f64, d: usize) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn fft_matches_direct_dft() {
-        let n = 64;
-        let x: Vec<f64> = (0..n)
-            .map(|j| ((j * 7 % 13) as f64).sin() + 0.1 * j as f64)
-            .collect();
-        let tau = 2.0 * std::f64::consts::PI;
-        let cos: Vec<f64> = (0..n / 2)
-            .map(|j| (tau * j as f64 / n as f64).cos())
-            .collect();
-        let sin: Vec<f64> = (0..n / 2)
-            .map(|j| (tau * j as f64 / n as f64).sin())
-            .collect();
-        let (mut re, mut im) = (x.clone(), vec![0.0; n]);
-        fft(&mut re, &mut im, &cos, &sin);
-        for k in 0..n {
-            let (mut r, mut i) = (0.0, 0.0);
-            for (j, v) in x.iter().enumerate() {
-                let a = -tau * (j * k) as f64 / n as f64;
-                r += v * a.cos();
-                i += v * a.sin();
-            }
-            assert!(
-                (re[k] - r).abs() < 1e-9 && (im[k] - i).abs() < 1e-9,
-                "bin {k}"
-            );
-        }
-    }
 
     #[test]
     fn plateau_speed_finds_the_mode() {
