@@ -11,8 +11,10 @@
 //! stored in the repository. No test here runs a fit: every `identify` case
 //! fails while its inputs are read.
 
-use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+mod common;
+
+use common::snapshot;
+use std::path::Path;
 use std::process::{Command, Output};
 
 /// The valid base trial every corrupted trial is made from.
@@ -82,25 +84,6 @@ fn surae(args: &[String], cwd: &Path) -> Output {
         .expect("the surae binary runs")
 }
 
-/// Every file under `dir` (relative path → content; folders as empty entries).
-fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Option<Vec<u8>>> {
-    let mut out = BTreeMap::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            let rel = p.strip_prefix(dir).unwrap().to_path_buf();
-            if p.is_dir() {
-                stack.push(p.clone());
-                out.insert(rel, None);
-            } else {
-                out.insert(rel, Some(std::fs::read(&p).unwrap()));
-            }
-        }
-    }
-    out
-}
-
 /// Runs `command` on `case` in a fresh folder; `Err` describes what is wrong.
 fn check(command: &[&str], case: &Bad, with_out: bool) -> Result<(), String> {
     let dir = tempfile::tempdir().unwrap();
@@ -123,24 +106,7 @@ fn check(command: &[&str], case: &Bad, with_out: bool) -> Result<(), String> {
     let o = surae(&args, dir.path());
     let err = String::from_utf8_lossy(&o.stderr).into_owned();
     let label = format!("{} [{}]", case.what, args.join(" "));
-    let mut problems = Vec::new();
-    if o.status.code() != Some(2) {
-        problems.push(format!("exit code {:?}, expected 2", o.status.code()));
-    }
-    if err.contains("panicked") {
-        problems.push("panicked".into());
-    }
-    if err.trim_end().lines().count() != 1 || err.trim_end().contains('\r') {
-        problems.push("stderr is not exactly one line".into());
-    }
-    if !err.starts_with("error: ") {
-        problems.push("stderr does not start with 'error: '".into());
-    }
-    for n in &case.needles {
-        if !err.contains(n.as_str()) {
-            problems.push(format!("message lacks '{n}'"));
-        }
-    }
+    let mut problems = common::refusal_problems(&o, &case.needles);
     let after = snapshot(dir.path());
     if after != before {
         let new: Vec<String> = after

@@ -9,8 +9,10 @@
 //! tab export at 2048 Hz with a `Time,s` column, OpenSim `.sto`/`.mot` files, a C3D), so the
 //! corpus is not stored; a positive control shows that each base reads.
 
-use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+mod common;
+
+use common::snapshot;
+use std::path::Path;
 use std::process::{Command, Output};
 
 use serde_json::{json, Value};
@@ -98,25 +100,6 @@ fn direct(what: &str, files: Vec<(&str, Vec<u8>)>, trial: &str, needles: &[&str]
     }
 }
 
-/// Every file under `dir` (relative path → content; folders as `None`).
-fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Option<Vec<u8>>> {
-    let mut out = BTreeMap::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            let rel = p.strip_prefix(dir).unwrap().to_path_buf();
-            if p.is_dir() {
-                out.insert(rel, None);
-                stack.push(p);
-            } else {
-                out.insert(rel, Some(std::fs::read(&p).unwrap()));
-            }
-        }
-    }
-    out
-}
-
 fn write_files(dir: &Path, files: &[(String, Vec<u8>)]) {
     for (name, content) in files {
         let p = dir.join(name);
@@ -140,24 +123,7 @@ fn check(case: &Bad) -> Vec<String> {
         args.extend(strings(&["--out", OUT]));
         let o = surae(&args, dir.path());
         let err = String::from_utf8_lossy(&o.stderr).into_owned();
-        let mut p = Vec::new();
-        if o.status.code() != Some(2) {
-            p.push(format!("exit code {:?}, expected 2", o.status.code()));
-        }
-        if err.contains("panicked") {
-            p.push("panicked".into());
-        }
-        if err.trim_end().lines().count() != 1 || err.trim_end().contains('\r') {
-            p.push("stderr is not exactly one line".into());
-        }
-        if !err.starts_with("error: ") {
-            p.push("stderr does not start with 'error: '".into());
-        }
-        for n in &case.needles {
-            if !err.contains(n.as_str()) {
-                p.push(format!("message lacks '{n}'"));
-            }
-        }
+        let mut p = common::refusal_problems(&o, &case.needles);
         let after = snapshot(dir.path());
         if after != before {
             let changed: std::collections::BTreeSet<String> = after

@@ -208,3 +208,48 @@ pub fn truth_with_tibialis() -> ModelParams {
     p.fixed.insert("tibant_r", ta).unwrap();
     p
 }
+
+/// Every file under `dir` (relative path → content; folders as `None`), to check that a failed
+/// run changed nothing.
+pub fn snapshot(dir: &Path) -> std::collections::BTreeMap<std::path::PathBuf, Option<Vec<u8>>> {
+    let mut out = std::collections::BTreeMap::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            let rel = p.strip_prefix(dir).unwrap().to_path_buf();
+            if p.is_dir() {
+                stack.push(p.clone());
+                out.insert(rel, None);
+            } else {
+                out.insert(rel, Some(std::fs::read(&p).unwrap()));
+            }
+        }
+    }
+    out
+}
+
+/// What is wrong with a run that should have refused bad input: exit code 2, one line on
+/// standard error starting with `error: ` and holding every needle, no panic.
+pub fn refusal_problems(o: &Output, needles: &[String]) -> Vec<String> {
+    let err = String::from_utf8_lossy(&o.stderr);
+    let mut problems = Vec::new();
+    if o.status.code() != Some(2) {
+        problems.push(format!("exit code {:?}, expected 2", o.status.code()));
+    }
+    if err.contains("panicked") {
+        problems.push("panicked".into());
+    }
+    if err.trim_end().lines().count() != 1 || err.trim_end().contains('\r') {
+        problems.push("stderr is not exactly one line".into());
+    }
+    if !err.starts_with("error: ") {
+        problems.push("stderr does not start with 'error: '".into());
+    }
+    for n in needles {
+        if !err.contains(n.as_str()) {
+            problems.push(format!("message lacks '{n}'"));
+        }
+    }
+    problems
+}
