@@ -372,6 +372,42 @@ fn basis_lm(ctx: &Context, fit: &Fit, cols: &[Vec<f64>]) -> (f64, usize) {
     }
 }
 
+/// The two structure tests of one fit (module docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct StructureTest {
+    /// `LM` against the motion basis, and its degrees of freedom.
+    pub motion_lm: f64,
+    pub motion_df: usize,
+    /// `LM` against the time blocks, and its degrees of freedom.
+    pub time_lm: f64,
+    pub time_df: usize,
+    /// `ν` of the time test's `F(df, ν)` reference.
+    pub noise_level_dof: f64,
+    /// Bonferroni p-value `min(1, 2·min(p_motion, p_time))`.
+    pub p_value: f64,
+}
+
+/// The structure tests of `fit`'s residual (module docs).
+pub(crate) fn structure_test(ctx: &Context, fit: &Fit) -> StructureTest {
+    structure_test_with(ctx, fit, &time_basis(ctx))
+}
+
+fn structure_test_with(ctx: &Context, fit: &Fit, tcols: &[Vec<f64>]) -> StructureTest {
+    let (motion_lm, motion_df) = structure_lm(ctx, fit);
+    let (time_lm, time_df) = basis_lm(ctx, fit, tcols);
+    let nu = ctx.noise.level_dof;
+    let p_motion = chi2_survival(motion_lm, motion_df);
+    let p_time = f_survival(time_lm / time_df.max(1) as f64, time_df, nu);
+    StructureTest {
+        motion_lm,
+        motion_df,
+        time_lm,
+        time_df,
+        noise_level_dof: nu,
+        p_value: (2.0 * p_motion.min(p_time)).min(1.0),
+    }
+}
+
 /// Builds the analysis of the baseline and final fits.
 pub(crate) fn analyse(
     ctx: &Context,
@@ -469,15 +505,16 @@ pub(crate) fn analyse(
             }
         })
         .collect();
-    let (lb, df) = structure_lm(ctx, baseline);
-    let (le, df_e) = structure_lm(ctx, fin);
     let tcols = time_basis(ctx);
+    let (lb, df) = structure_lm(ctx, baseline);
     let (ltb, tdf) = basis_lm(ctx, baseline, &tcols);
-    let (lte, tdf_e) = basis_lm(ctx, fin, &tcols);
-    let nu = ctx.noise.level_dof;
-    let p_motion = chi2_survival(le, df_e);
-    let p_time = f_survival(lte / tdf_e.max(1) as f64, tdf_e, nu);
-    let p = (2.0 * p_motion.min(p_time)).min(1.0);
+    let fin_test = structure_test_with(ctx, fin, &tcols);
+    let (le, lte, nu, p) = (
+        fin_test.motion_lm,
+        fin_test.time_lm,
+        fin_test.noise_level_dof,
+        fin_test.p_value,
+    );
     ResidualAnalysis {
         baseline_bins: bb,
         extended_bins: eb,

@@ -15,7 +15,7 @@ use crate::profile::{ProfileInterval, ProfileSettings};
 use crate::selection::Selection;
 use crate::{
     CandidateReport, DiagnoseError, DiagnoseSettings, Diagnosis, Gain, ModelReport, NearTie,
-    ParamInterval, ResidualAnalysis, Verdict,
+    ParamInterval, ResidualAnalysis, Unexplained, Verdict,
 };
 
 /// The diagnosis of the selected model: verdict, named causes and their near ties, the
@@ -25,6 +25,7 @@ pub(crate) fn diagnosis(
     ctx: Context,
     selection: Selection,
     ra: ResidualAnalysis,
+    unexplained: Option<Unexplained>,
     intervals: &[(usize, ProfileInterval)],
     settings: &DiagnoseSettings,
     evaluations: usize,
@@ -37,9 +38,9 @@ pub(crate) fn diagnosis(
         confounded,
         mut ties,
     } = selection;
-    let unexplained = ra.structure_evidence > settings.structure_threshold;
+    let structure = ra.structure_evidence > settings.structure_threshold || unexplained.is_some();
     let causes: Vec<String> = current.kinds.iter().map(|k| k.name().to_string()).collect();
-    let verdict = if causes.is_empty() && !unexplained {
+    let verdict = if causes.is_empty() && !structure {
         Verdict::Adequate
     } else {
         Verdict::Deficient
@@ -75,7 +76,8 @@ pub(crate) fn diagnosis(
     Diagnosis {
         verdict,
         causes,
-        unexplained_structure: unexplained,
+        unexplained_structure: structure,
+        unexplained,
         baseline: base_rep,
         extended: ext_rep,
         gain,

@@ -128,7 +128,7 @@ impl Context {
         (ss / cnt.max(1) as f64).sqrt()
     }
 
-    fn residual_fn<'a>(
+    pub(crate) fn residual_fn<'a>(
         &'a self,
         problem: &'a Problem,
         plan: &'a WhitenPlan,
@@ -357,7 +357,7 @@ impl Context {
 /// inside the moment's bounds) and the result is returned in `(m, φ)` with `φ ∈ [−90°, 90°]`,
 /// its Jacobian columns transformed by the chain rule. Without a gravity term this is
 /// [`minimise`].
-fn minimise_model<F>(
+pub(crate) fn minimise_model<F>(
     free: &[ParamId],
     f: &F,
     x0: &[f64],
@@ -392,7 +392,7 @@ where
 /// phase held, 1.261.
 /// The phase is a property of the attachment, not of a cycle; the BIC of the full fit still
 /// pays for it.
-fn minimise_fold<F>(
+pub(crate) fn minimise_fold<F>(
     free: &[ParamId],
     f: &F,
     x0: &[f64],
@@ -417,6 +417,42 @@ where
     let mut br = bounds.to_vec();
     br.remove(k);
     minimise(&held, &xr, &br, lm).map(|o| (put(&o.x), o.evaluations))
+}
+
+/// The whitened residual `W(y − τ̂(x))` of `problem` under the trial's plan, as residuals for
+/// the finite-difference Jacobian.
+struct WhitenedResiduals<'a> {
+    ctx: &'a Context,
+    problem: &'a Problem,
+}
+
+impl numerics::Residuals for WhitenedResiduals<'_> {
+    type Workspace = ();
+    fn workspace(&self) {}
+    fn residuals(&self, x: &[f64], _: &mut (), out: &mut Vec<f64>) -> bool {
+        match self.ctx.residual_fn(self.problem, &self.ctx.plan)(x) {
+            Some(w) => {
+                *out = w;
+                true
+            }
+            None => false,
+        }
+    }
+}
+
+/// The forward-difference Jacobian (steps of `lm`) of the whitened residual `w` at `x`;
+/// `None` when the model cannot be simulated near `x`.
+pub(crate) fn whitened_jacobian(
+    ctx: &Context,
+    problem: &Problem,
+    x: &[f64],
+    w: &[f64],
+    bounds: &[(f64, f64)],
+    lm: &LevenbergMarquardtSettings,
+) -> Option<DMatrix<f64>> {
+    let res = WhitenedResiduals { ctx, problem };
+    let (jac, _) = numerics::lm::finite_difference_jacobian(&res, x, w, bounds, lm).ok()?;
+    Some(DMatrix::from_vec(w.len(), x.len(), jac?))
 }
 
 /// Where a gravity term's moment and phase sit in a parameter vector.

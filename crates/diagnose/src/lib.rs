@@ -80,12 +80,14 @@
 // one-line closures.
 #![allow(clippy::needless_range_loop, clippy::type_complexity)]
 
+mod adequacy;
 pub mod analysis;
 mod assemble;
 mod baseline;
 mod context;
 mod error;
 mod fit;
+pub mod flexible;
 pub mod lm;
 pub mod noise;
 pub mod power;
@@ -107,8 +109,12 @@ use std::time::Instant;
 use experiment::{Trial, Unloaded};
 use muscle_model::{Effects, ModelParams};
 
+pub use adequacy::{adequacy, adequacy_of_recording, Adequacy};
 pub use analysis::{AcfPoint, Bin, ResidualAnalysis, Series};
 pub use error::DiagnoseError;
+pub use flexible::{
+    FlexibleExtension, FlexibleTerm, Replacement, StateVariable, Unexplained, VariableGain,
+};
 pub use noise::{NoiseModelSource, Transient, TrialNoiseModel};
 pub use profile::ProfileSettings;
 pub use progress::{no_observer, DiagnosisProgress, DiagnosisStage};
@@ -216,6 +222,38 @@ pub(crate) fn run_member(
     diagnose_target(target, unloaded, inputs, seg, settings, observer, t0)
 }
 
+/// Drops the causes `replaced` from the selected model (refitted without them, from its own
+/// values) and from the accepted candidates; returns the simulations spent.
+fn drop_causes(
+    ctx: &fit::Context,
+    selection: &mut selection::Selection,
+    replaced: &[Replacement],
+) -> Result<usize, DiagnoseError> {
+    if replaced.is_empty() {
+        return Ok(0);
+    }
+    let drop: Vec<muscle_model::EffectKind> = replaced
+        .iter()
+        .filter_map(|x| muscle_model::EffectKind::from_name(&x.effect))
+        .collect();
+    let (kinds, x) = flexible::without_effects(&selection.model, &drop);
+    let mut evaluations = 0;
+    selection.model = if kinds.is_empty() {
+        selection.baseline.clone()
+    } else {
+        let f = ctx.fit(&kinds, &x, true)?;
+        evaluations += f.evaluations;
+        f
+    };
+    for k in &drop {
+        if let Some(rep) = selection.reports.get_mut(k) {
+            rep.accepted = false;
+        }
+        selection.ties.remove(k);
+    }
+    Ok(evaluations)
+}
+
 /// The stages of a diagnosis (module docs) on prepared inputs.
 fn diagnose_target(
     target: context::Target<'_>,
@@ -260,14 +298,77 @@ fn diagnose_target(
         &mut evaluations,
     )?;
 
-    // Analysis: the smallest detectable size of every effect not named, and the structure
-    // left in the final residual.
+    // Beyond the catalogue: a named cause that a flexible term in its own variable explains
+    // better is not named (no false story).
+    let mut replaced = Vec::new();
+    if settings.flexible_terms && !selection.model.kinds.is_empty() {
+        notify(
+            observer,
+            DiagnosisStage::Analysis,
+            "reviewing the named causes against flexible terms".into(),
+            evaluations,
+        )?;
+        let (r, ev) = flexible::review_causes(
+            &ctx,
+            &selection.model,
+            settings.flexible_margin_bic,
+            nobs,
+        )?;
+        evaluations += ev;
+        evaluations += drop_causes(&ctx, &mut selection, &r)?;
+        replaced = r;
+    }
+
+    // The structure left in the final residual, and what it depends on: the vocabulary's
+    // flexible terms ranked, the model extended with the best; a named cause the extension
+    // makes unnecessary is dropped and the smaller model characterised again.
     notify(
         observer,
         DiagnosisStage::Analysis,
         "residual analysis".into(),
         evaluations,
     )?;
+    let mut ra = analysis::analyse(
+        &ctx,
+        &selection.baseline,
+        &selection.model,
+        settings.structure_threshold,
+    );
+    let mut unexplained = None;
+    while settings.flexible_terms
+        && (ra.structure_evidence > settings.structure_threshold || !replaced.is_empty())
+    {
+        notify(
+            observer,
+            DiagnosisStage::Analysis,
+            "ranking flexible terms in the state variables".into(),
+            evaluations,
+        )?;
+        let c = flexible::characterise(
+            &ctx,
+            &selection.model,
+            &eligible,
+            replaced.clone(),
+            settings.min_flexible_gain,
+            settings.flexible_margin_bic,
+            nobs,
+        )?;
+        evaluations += c.evaluations;
+        if c.unneeded.is_empty() {
+            unexplained = Some(c.unexplained);
+            break;
+        }
+        evaluations += drop_causes(&ctx, &mut selection, &c.unneeded)?;
+        replaced.extend(c.unneeded);
+        ra = analysis::analyse(
+            &ctx,
+            &selection.baseline,
+            &selection.model,
+            settings.structure_threshold,
+        );
+    }
+
+    // The smallest detectable size of every effect not named.
     notify(
         observer,
         DiagnosisStage::Analysis,
@@ -281,12 +382,6 @@ fn diagnose_target(
             rep.detection_limit = Some(limit);
         }
     }
-    let ra = analysis::analyse(
-        &ctx,
-        &selection.baseline,
-        &selection.model,
-        settings.structure_threshold,
-    );
 
     // Uncertainty: profile-likelihood intervals of the final model's parameters.
     notify(
@@ -302,7 +397,15 @@ fn diagnose_target(
         .sum::<usize>();
 
     // Report.
-    let mut diagnosis = assemble::diagnosis(ctx, selection, ra, &intervals, settings, evaluations);
+    let mut diagnosis = assemble::diagnosis(
+        ctx,
+        selection,
+        ra,
+        unexplained,
+        &intervals,
+        settings,
+        evaluations,
+    );
     diagnosis.not_testable = not_testable
         .into_iter()
         .map(|k| NotTestable {

@@ -198,6 +198,10 @@ pub struct Diagnosis {
     pub causes: Vec<String>,
     /// The final residual keeps structure that no catalogued effect explains.
     pub unexplained_structure: bool,
+    /// What the structure left depends on (when `unexplained_structure`, or when a flexible
+    /// term explained a cause the selection had found better than that cause).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub unexplained: Option<crate::Unexplained>,
     /// The baseline fit.
     pub baseline: ModelReport,
     /// The final model (the baseline again when no cause is named).
@@ -287,6 +291,23 @@ fn sig(v: f64) -> String {
 }
 
 impl Diagnosis {
+    /// The command line that identifies the muscle parameters together with the named causes
+    /// (`surae identify --method mcmc <trial_args> --with a,b`), `None` when nothing is named.
+    /// `trial_args` are the arguments that name the trial (e.g. `--trial t.csv --unloaded u.csv`).
+    pub fn identify_command(&self, trial_args: &str) -> Option<String> {
+        if self.causes.is_empty() {
+            return None;
+        }
+        let mut cmd = String::from("surae identify --method mcmc");
+        if !trial_args.trim().is_empty() {
+            cmd.push(' ');
+            cmd.push_str(trial_args.trim());
+        }
+        cmd.push_str(" --with ");
+        cmd.push_str(&self.causes.join(","));
+        Some(cmd)
+    }
+
     /// The `diagnosis.json` text (pretty-printed).
     pub fn to_json(&self) -> String {
         serde_json::to_string_pretty(self).unwrap_or_else(|e| format!("{{\"error\": \"{e}\"}}"))
@@ -407,6 +428,9 @@ impl Diagnosis {
             ra.extended_time_structure_lm,
             ra.time_structure_df
         ));
+        if let Some(u) = &self.unexplained {
+            l.extend(u.summary_lines());
+        }
         if !self.not_testable.is_empty() {
             let names: Vec<&str> = self
                 .not_testable

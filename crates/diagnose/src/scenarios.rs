@@ -240,3 +240,142 @@ mod tests {
         );
     }
 }
+
+/// Effects outside the catalogue (docs/diagnosis.md, "Beyond the catalogue"), hidden in a
+/// `relaxed+2` trial with no catalogued effect:
+///
+/// | effect | added to the recording | drawn size (uniform) | lives in |
+/// |---|---|---|---|
+/// | `coulomb_friction` | `τ += c·tanh(q̇/1°/s)` (bearing friction) | `c` ∈ [2, 4] N·m | direction |
+/// | `torque_drift` | `τ += d·(t − t₀)/T` (torque cell drift over the trial) | `|d|` ∈ [2, 5] N·m, random sign | time |
+/// | `emg_crosstalk` | `emg_sol += f·emg_ta` (raw, before filtering), TA drive 0.3 throughout | `f` ∈ [0.5, 1.0] | activation |
+/// | `strap_slip` | `τ += s` from a time in the middle 40 % of the trial on (the foot settles in its strap) | `|s|` ∈ [2, 4] N·m, random sign | time |
+///
+/// Crosstalk raises the soleus envelope most where the triceps is quiet, so its torque is a
+/// function of the triceps activation; the TA's own torque is left out (that is the catalogued
+/// antagonist effect).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Uncatalogued {
+    /// Coulomb friction in the dynamometer's bearing.
+    CoulombFriction,
+    /// A linear drift of the torque cell.
+    TorqueDrift,
+    /// TA crosstalk into the soleus electrode.
+    EmgCrosstalk,
+    /// A step in the torque when the foot settles in its strap.
+    StrapSlip,
+}
+
+impl Uncatalogued {
+    /// All of them.
+    pub const ALL: [Uncatalogued; 4] = [
+        Uncatalogued::CoulombFriction,
+        Uncatalogued::TorqueDrift,
+        Uncatalogued::EmgCrosstalk,
+        Uncatalogued::StrapSlip,
+    ];
+
+    /// Name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Uncatalogued::CoulombFriction => "coulomb_friction",
+            Uncatalogued::TorqueDrift => "torque_drift",
+            Uncatalogued::EmgCrosstalk => "emg_crosstalk",
+            Uncatalogued::StrapSlip => "strap_slip",
+        }
+    }
+
+    /// The state variable its torque is a function of (what `depends_on` should name first).
+    pub fn lives_in(self) -> crate::StateVariable {
+        match self {
+            Uncatalogued::CoulombFriction => crate::StateVariable::Direction,
+            Uncatalogued::TorqueDrift | Uncatalogued::StrapSlip => crate::StateVariable::Time,
+            Uncatalogued::EmgCrosstalk => crate::StateVariable::Activation,
+        }
+    }
+}
+
+/// A trial hiding an uncatalogued effect.
+#[derive(Clone, Debug)]
+pub struct UncataloguedTrial {
+    /// The trial (no catalogued effect) with the effect added.
+    pub hidden: HiddenTrial,
+    /// The effect.
+    pub kind: Uncatalogued,
+    /// Its drawn size (N·m, or the crosstalk fraction).
+    pub size: f64,
+    /// The effect and its size in words.
+    pub description: String,
+}
+
+/// Makes a `relaxed+2` trial from `seed` (random true parameters, noise, unloaded run) and
+/// hides `kind` in it (module table; its size drawn from a stream of its own).
+///
+/// # Errors
+/// A failed synthesis.
+pub fn uncatalogued_trial(
+    kind: Uncatalogued,
+    seed: u64,
+) -> Result<UncataloguedTrial, DiagnoseError> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let params = random_params(&mut rng, &ModelParams::nominal());
+    let mut cfg = SynthConfig::new("relaxed+2".parse()?, seed).with_params(params);
+    if kind == Uncatalogued::EmgCrosstalk {
+        cfg.emg.include_ta = true;
+        cfg.emg.ta_rest_level = 0.3;
+        cfg.emg.ta_concentric_level = 0.3;
+        cfg.emg.ta_eccentric_level = 0.3;
+    }
+    let mut synthetic = synthesize(&cfg)?;
+    let mut draw = ChaCha8Rng::seed_from_u64(seed ^ 0x0c47_a10e);
+    let sign = |r: &mut ChaCha8Rng| if r.random::<bool>() { 1.0 } else { -1.0 };
+    let trial = &mut synthetic.trial;
+    let t0 = trial.time_s[0];
+    let span = trial.time_s[trial.time_s.len() - 1] - t0;
+    let (size, description) = match kind {
+        Uncatalogued::CoulombFriction => {
+            let c = 2.0 + 2.0 * draw.random::<f64>();
+            let vel = synthetic.inputs.velocity();
+            for (y, w) in trial.torque_nm.iter_mut().zip(vel) {
+                *y += c * (w.to_degrees() / 1.0).tanh();
+            }
+            (c, format!("Coulomb friction {c:.2} N·m"))
+        }
+        Uncatalogued::TorqueDrift => {
+            let d = sign(&mut draw) * (2.0 + 3.0 * draw.random::<f64>());
+            for (y, t) in trial.torque_nm.iter_mut().zip(&trial.time_s) {
+                *y += d * (t - t0) / span;
+            }
+            (d, format!("torque drift {d:+.2} N·m over the trial"))
+        }
+        Uncatalogued::EmgCrosstalk => {
+            let f = 0.5 + 0.5 * draw.random::<f64>();
+            let ta = trial.emg_ta.clone().unwrap_or_default();
+            for (s, a) in trial.emg_sol.iter_mut().zip(&ta) {
+                *s += f * a;
+            }
+            (f, format!("TA crosstalk {f:.2} × emg_ta into emg_sol"))
+        }
+        Uncatalogued::StrapSlip => {
+            let s = sign(&mut draw) * (2.0 + 2.0 * draw.random::<f64>());
+            let at = t0 + span * (0.3 + 0.4 * draw.random::<f64>());
+            for (y, t) in trial.torque_nm.iter_mut().zip(&trial.time_s) {
+                if *t >= at {
+                    *y += s;
+                }
+            }
+            (s, format!("strap slip {s:+.2} N·m at {:.1} s", at - t0))
+        }
+    };
+    Ok(UncataloguedTrial {
+        hidden: HiddenTrial {
+            synthetic,
+            effects: Effects::none(),
+            params,
+            seed,
+        },
+        kind,
+        size,
+        description,
+    })
+}

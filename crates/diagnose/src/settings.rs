@@ -64,6 +64,15 @@ pub struct DiagnoseSettings {
     pub start_seed: u64,
     /// Profile-likelihood intervals of the final model's parameters (docs/diagnosis.md).
     pub profile: ProfileSettings,
+    /// Whether named causes are reviewed against flexible terms and unexplained structure is
+    /// characterised by them (docs/diagnosis.md, "Beyond the catalogue").
+    pub flexible_terms: bool,
+    /// BIC margin by which a named catalogued effect must beat a flexible term in its own
+    /// variable (otherwise the flexible term is reported instead): 2, "positive evidence" on
+    /// Kass and Raftery's scale.
+    pub flexible_margin_bic: f64,
+    /// Held-out deviance gain above which a variable's flexible term enters `depends_on`.
+    pub min_flexible_gain: f64,
 }
 
 /// Cross-validation folds of the held-out error.
@@ -181,6 +190,9 @@ impl Default for DiagnoseSettings {
             extended_extra_starts: 4,
             start_seed: 0x5eed_d1a9,
             profile: ProfileSettings::default(),
+            flexible_terms: true,
+            flexible_margin_bic: 2.0,
+            min_flexible_gain: 10.0,
         }
     }
 }
@@ -213,6 +225,12 @@ impl DiagnoseSettings {
         }
         if !self.min_heldout_dev_gain.is_finite() {
             return bad("min_heldout_dev_gain", "must be finite");
+        }
+        if !(self.flexible_margin_bic.is_finite() && self.min_flexible_gain.is_finite()) {
+            return bad(
+                "flexible_margin_bic",
+                "flexible_margin_bic and min_flexible_gain must be finite",
+            );
         }
         if !(self.confound_cos > 0.0 && self.confound_cos <= 1.0) {
             return bad("confound_cos", "must be in (0, 1]");

@@ -1,0 +1,945 @@
+//! Flexible terms: what a structure no catalogued effect explains depends on, and a model
+//! extended with it (docs/diagnosis.md, "Beyond the catalogue").
+//!
+//! A flexible term in a state variable `v` adds to the model torque
+//!
+//! ```text
+//! τ += Σ_j β_j h_j(v(t))
+//! ```
+//!
+//! with piecewise-linear hat functions `h_j` on knots spread uniformly over the observed range
+//! of `v` (so the term's value at knot `j` is `β_j`), or, for `direction`, the single column
+//! `sign(q̇)` (0 while the joint is still). The vocabulary: `angle` (°), `velocity` (°/s),
+//! `direction`, `acceleration` (°/s²), `time` (s), `activation` (the mean normalised triceps
+//! surae envelope) and `activation_ta` (the normalised tibialis anterior envelope).
+//!
+//! **Fit.** The term is linear in `β`, so it is fitted by variable projection: for muscle
+//! (and effect) parameters `x` the whitened residual `w(x) = W(y − τ̂(x))` is projected off the
+//! whitened basis `WB` (`β̂(x)` by least squares, rank-revealing), and the bounded
+//! Levenberg–Marquardt of the catalogued effects refits `x` on `‖(I − UUᵀ)w(x)‖²`, `U` the
+//! left singular vectors of `WB`. The noise model, the whitening and the cross-validation
+//! folds are those of the catalogued effects; in each fold the basis is whitened over the
+//! training samples only and the held-out samples are predicted by `τ̂(x_f) + Bβ̂_f`.
+//!
+//! **Ranking.** When the residual keeps structure, every variable's term is added to the
+//! final model and ranked by its held-out deviance gain `G_v = D(model) − D(model + term)`;
+//! `depends_on` holds the best variable when `G_v` exceeds
+//! [`DiagnoseSettings::min_flexible_gain`](crate::DiagnoseSettings::min_flexible_gain), and
+//! the second best when adding it to the first gains that much again.
+//!
+//! **No false story.** A named catalogued effect `e` stays named only when the model with it
+//! beats, by [`DiagnoseSettings::flexible_margin_bic`](crate::DiagnoseSettings::flexible_margin_bic)
+//! in BIC, the model without it but with a flexible term in each variable its shape lives in
+//! ([`StateVariable::of_effect`]); otherwise the flexible term is reported instead.
+//!
+//! **Band.** The term's uncertainty is from the Gauss–Newton covariance of the full problem
+//! `r(x, β) = w(x) − WBβ`: `Cov = s²(JᵀJ)⁺`, `J = [J_w, −WB]`, `s² = max(1, ‖r‖²/(n − k))`;
+//! the band is ±1.96 standard errors of each knot value.
+
+use muscle_model::{EffectKind, Muscle, ParamId};
+use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::fit::{minimise_fold, minimise_model, Context, Fit};
+use crate::DiagnoseError;
+
+/// A state variable of the flexible terms' vocabulary.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum StateVariable {
+    /// Ankle angle (°).
+    Angle,
+    /// Angular velocity (°/s).
+    Velocity,
+    /// Sign of the angular velocity.
+    Direction,
+    /// Angular acceleration (°/s²).
+    Acceleration,
+    /// Time since the start of the trial (s).
+    Time,
+    /// Mean normalised triceps surae envelope.
+    Activation,
+    /// Normalised tibialis anterior envelope.
+    ActivationTa,
+}
+
+impl StateVariable {
+    /// The vocabulary, in report order.
+    pub const ALL: [StateVariable; 7] = [
+        StateVariable::Angle,
+        StateVariable::Velocity,
+        StateVariable::Direction,
+        StateVariable::Acceleration,
+        StateVariable::Time,
+        StateVariable::Activation,
+        StateVariable::ActivationTa,
+    ];
+
+    /// Name in `diagnosis.json`.
+    pub fn name(self) -> &'static str {
+        match self {
+            StateVariable::Angle => "angle",
+            StateVariable::Velocity => "velocity",
+            StateVariable::Direction => "direction",
+            StateVariable::Acceleration => "acceleration",
+            StateVariable::Time => "time",
+            StateVariable::Activation => "activation",
+            StateVariable::ActivationTa => "activation_ta",
+        }
+    }
+
+    /// Unit of the variable's values (empty: dimensionless).
+    pub fn unit(self) -> &'static str {
+        match self {
+            StateVariable::Angle => "°",
+            StateVariable::Velocity => "°/s",
+            StateVariable::Acceleration => "°/s²",
+            StateVariable::Time => "s",
+            StateVariable::Direction | StateVariable::Activation | StateVariable::ActivationTa => {
+                ""
+            }
+        }
+    }
+
+    /// The variables a catalogued effect's torque is a function of, which its flexible
+    /// alternatives are drawn from: an offset is a constant of time, fatigue a decay over time
+    /// that scales the active force, an antagonist term follows the TA, eccentric enhancement
+    /// and damping follow the velocity and its sign, inertia the acceleration, the passive
+    /// torque and gravity the angle, and a delay shifts the activation.
+    pub fn of_effect(kind: EffectKind) -> &'static [StateVariable] {
+        use StateVariable as V;
+        match kind {
+            EffectKind::TorqueOffset => &[V::Time],
+            EffectKind::PassiveJointTorque | EffectKind::Gravity => &[V::Angle],
+            EffectKind::ElectromechanicalDelay => &[V::Activation],
+            EffectKind::Fatigue => &[V::Time, V::Activation],
+            EffectKind::AntagonistCoactivation => &[V::ActivationTa],
+            EffectKind::EccentricEnhancement | EffectKind::ViscousDamping => {
+                &[V::Velocity, V::Direction]
+            }
+            EffectKind::Inertia => &[V::Acceleration],
+        }
+    }
+}
+
+impl Serialize for StateVariable {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.name())
+    }
+}
+
+/// The basis of one variable's flexible term: its columns, each centred on its mean over the
+/// compared samples (a constant is the catalogued offset's, not the variable's), and the
+/// points at which its shape is reported with the basis row at each.
+#[derive(Clone, Debug)]
+pub(crate) struct FlexBasis {
+    pub variable: StateVariable,
+    /// Points of the reported shape (variable units).
+    pub points: Vec<f64>,
+    /// Basis row (centred) at each point.
+    pub rows: Vec<Vec<f64>>,
+    /// Columns, one value per sample.
+    pub cols: Vec<Vec<f64>>,
+}
+
+/// Fraction of the largest speed below which the joint counts as still for `direction`.
+const STILL_FRACTION: f64 = 0.05;
+
+/// Knots of the hat bases (the TA's range is narrower: four).
+fn knot_count(v: StateVariable) -> usize {
+    match v {
+        StateVariable::ActivationTa => 4,
+        _ => 5,
+    }
+}
+
+/// The variable per sample, `None` when the recording has no such variable (no TA channel)
+/// or it does not change over the compared samples (no joint angle).
+fn series(ctx: &Context, v: StateVariable) -> Option<Vec<f64>> {
+    let inp = &ctx.inputs;
+    let n = inp.len();
+    let deg = |x: &[f64]| x.iter().map(|a| a.to_degrees()).collect::<Vec<f64>>();
+    let s = match v {
+        StateVariable::Angle => deg(inp.angle()),
+        StateVariable::Velocity | StateVariable::Direction => deg(inp.velocity()),
+        StateVariable::Acceleration => deg(inp.acceleration()),
+        StateVariable::Time => inp.times().to_vec(),
+        StateVariable::Activation => (0..n)
+            .map(|i| Muscle::ALL.iter().map(|m| inp.envelope(*m)[i]).sum::<f64>() / 3.0)
+            .collect(),
+        StateVariable::ActivationTa => inp.envelope_ta()?.to_vec(),
+    };
+    let (lo, hi) = observed_range(ctx, &s)?;
+    (hi - lo > 1e-9 * (1.0 + hi.abs().max(lo.abs()))).then_some(s)
+}
+
+/// Smallest and largest value over the compared samples.
+fn observed_range(ctx: &Context, x: &[f64]) -> Option<(f64, f64)> {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for (i, v) in x.iter().enumerate() {
+        if ctx.is_observed(i) && v.is_finite() {
+            lo = lo.min(*v);
+            hi = hi.max(*v);
+        }
+    }
+    (lo <= hi).then_some((lo, hi))
+}
+
+/// The uncentred basis functions of a variable at value `v`.
+enum Functions {
+    /// Hat functions on uniform knots, constant beyond the ends.
+    Hats(Vec<f64>),
+    /// Indicators of `v > still` and `v < −still` (a level for each direction of motion).
+    Sign { still: f64 },
+    /// A straight line over `[lo, hi]` (−1 … 1).
+    Line { lo: f64, hi: f64 },
+}
+
+impl Functions {
+    fn eval(&self, v: f64) -> Vec<f64> {
+        match self {
+            Functions::Hats(knots) => {
+                let k = knots.len();
+                let (lo, hi) = (knots[0], knots[k - 1]);
+                let h = (hi - lo) / (k - 1) as f64;
+                let u = ((v.clamp(lo, hi) - lo) / h).min((k - 1) as f64);
+                let j = (u.floor() as usize).min(k - 2);
+                let f = u - j as f64;
+                let mut row = vec![0.0; k];
+                row[j] = 1.0 - f;
+                row[j + 1] = f;
+                row
+            }
+            Functions::Sign { still } => vec![
+                if v > *still { 1.0 } else { 0.0 },
+                if v < -*still { 1.0 } else { 0.0 },
+            ],
+            Functions::Line { lo, hi } => vec![2.0 * (v - lo) / (hi - lo) - 1.0],
+        }
+    }
+}
+
+/// The flexible basis of `v` on this recording (module docs), `None` when it has no such
+/// variable: hats for angle, velocity, acceleration and the activations, `sign(q̇)` for
+/// direction, and for time a straight line (a cycle held out is predicted from the others
+/// only through a trend: anything more local in time does not generalise across cycles).
+pub(crate) fn basis(ctx: &Context, v: StateVariable) -> Option<FlexBasis> {
+    let s = series(ctx, v)?;
+    let (lo, hi) = observed_range(ctx, &s)?;
+    let (funcs, points) = match v {
+        StateVariable::Direction => {
+            let still = STILL_FRACTION * lo.abs().max(hi.abs());
+            (Functions::Sign { still }, vec![-1.0, 1.0])
+        }
+        StateVariable::Time => (
+            Functions::Line { lo, hi },
+            (0..5).map(|j| lo + (hi - lo) * j as f64 / 4.0).collect(),
+        ),
+        _ => {
+            let k = knot_count(v);
+            let knots: Vec<f64> = (0..k)
+                .map(|j| lo + (hi - lo) * j as f64 / (k - 1) as f64)
+                .collect();
+            (Functions::Hats(knots.clone()), knots)
+        }
+    };
+    let m = funcs.eval(lo).len();
+    let mut cols = vec![vec![0.0; s.len()]; m];
+    let (mut mean, mut cnt) = (vec![0.0; m], 0usize);
+    for (i, x) in s.iter().enumerate() {
+        let row = funcs.eval(*x);
+        for j in 0..m {
+            cols[j][i] = row[j];
+        }
+        if ctx.is_observed(i) {
+            for j in 0..m {
+                mean[j] += row[j];
+            }
+            cnt += 1;
+        }
+    }
+    for j in 0..m {
+        mean[j] /= cnt.max(1) as f64;
+        cols[j].iter_mut().for_each(|c| *c -= mean[j]);
+    }
+    let rows = points
+        .iter()
+        .map(|p| {
+            // for direction the points are the two signs themselves
+            let at = if v == StateVariable::Direction {
+                p * (1.0 + lo.abs().max(hi.abs()))
+            } else {
+                *p
+            };
+            funcs
+                .eval(at)
+                .iter()
+                .zip(&mean)
+                .map(|(a, b)| a - b)
+                .collect()
+        })
+        .collect();
+    Some(FlexBasis {
+        variable: v,
+        points,
+        rows,
+        cols,
+    })
+}
+
+/// Least squares on a whitened basis: `β = V Σ⁻¹ Uᵀ w` over the singular values above
+/// `10⁻⁹` of the largest (columns without a training sample drop out, `β` = 0 along them).
+struct Projector {
+    u: DMatrix<f64>,
+    solve: DMatrix<f64>,
+}
+
+impl Projector {
+    fn new(plan: &muscle_model::WhitenPlan, cols: &[&Vec<f64>]) -> Projector {
+        let n = cols.first().map_or(0, |c| c.len());
+        let mut wb = DMatrix::zeros(n, cols.len());
+        let mut w = vec![0.0; n];
+        for (j, c) in cols.iter().enumerate() {
+            plan.whiten(c, &mut w);
+            wb.set_column(j, &DVector::from_column_slice(&w));
+        }
+        let svd = wb.svd(true, true);
+        let (u, vt) = (svd.u.expect("u"), svd.v_t.expect("v_t"));
+        let smax = svd.singular_values.max();
+        let keep: Vec<usize> = (0..svd.singular_values.len())
+            .filter(|&i| svd.singular_values[i] > 1e-9 * smax && smax > 0.0)
+            .collect();
+        let mut uk = DMatrix::zeros(n, keep.len());
+        let mut solve = DMatrix::zeros(cols.len(), keep.len());
+        for (c, &i) in keep.iter().enumerate() {
+            uk.set_column(c, &u.column(i));
+            let s = svd.singular_values[i];
+            for r in 0..cols.len() {
+                solve[(r, c)] = vt[(i, r)] / s;
+            }
+        }
+        Projector { u: uk, solve }
+    }
+
+    fn rank(&self) -> usize {
+        self.u.ncols()
+    }
+
+    /// `Uᵀw`.
+    fn coords(&self, w: &[f64]) -> DVector<f64> {
+        self.u.tr_mul(&DVector::from_column_slice(w))
+    }
+
+    /// `(I − UUᵀ)w`.
+    fn residual(&self, w: &[f64]) -> Vec<f64> {
+        let c = self.coords(w);
+        let p = &self.u * c;
+        w.iter().zip(p.iter()).map(|(a, b)| a - b).collect()
+    }
+
+    /// `β̂` for the whitened residual `w`.
+    fn beta(&self, w: &[f64]) -> Vec<f64> {
+        (&self.solve * self.coords(w)).iter().copied().collect()
+    }
+}
+
+/// `Σ_j β_j col_j`.
+fn combine(cols: &[&Vec<f64>], beta: &[f64], n: usize) -> Vec<f64> {
+    let mut t = vec![0.0; n];
+    for (c, b) in cols.iter().zip(beta) {
+        for (ti, ci) in t.iter_mut().zip(c.iter()) {
+            *ti += b * ci;
+        }
+    }
+    t
+}
+
+/// A model with flexible terms: the catalogued part `model` (its `pred` without the terms,
+/// its `white`, `white_ss`, `loglik`, `rms` and held-out errors with them), the terms'
+/// coefficients and, when asked for, their covariance.
+#[derive(Clone, Debug)]
+pub(crate) struct FlexFit {
+    pub model: Fit,
+    pub bases: Vec<FlexBasis>,
+    pub beta: Vec<f64>,
+    /// Covariance of `beta` (empty unless the band was asked for).
+    pub beta_cov: Option<DMatrix<f64>>,
+    /// Independent coefficients (the rank of the whitened basis).
+    pub rank: usize,
+}
+
+impl FlexFit {
+    pub fn k(&self) -> usize {
+        self.model.k() + self.rank
+    }
+
+    pub fn bic(&self, n: usize) -> f64 {
+        -2.0 * self.model.loglik + self.k() as f64 * (n as f64).ln()
+    }
+
+    pub fn variables(&self) -> Vec<StateVariable> {
+        self.bases.iter().map(|b| b.variable).collect()
+    }
+}
+
+/// Share of the velocity term's held-out gain the direction term must reach to be reported
+/// before it.
+const COARSER_SHARE: f64 = 0.8;
+
+/// Levenberg–Marquardt iterations of a flexible fit from the current model (it starts next to
+/// its optimum: the terms are linear and profiled out).
+const FLEX_ITERATIONS: usize = 12;
+
+/// Fits the catalogued effects `kinds` (from `x0`) plus flexible terms in `bases`, with the
+/// cross-validation; `band`: also the coefficients' covariance (module docs).
+pub(crate) fn fit_flexible(
+    ctx: &Context,
+    kinds: &[EffectKind],
+    x0: &[f64],
+    bases: &[FlexBasis],
+    band: bool,
+) -> Result<FlexFit, DiagnoseError> {
+    let problem = ctx.problem(kinds)?;
+    let bounds = problem.bounds().to_vec();
+    let cols: Vec<&Vec<f64>> = bases.iter().flat_map(|b| b.cols.iter()).collect();
+    let n = ctx.y.len();
+    let proj = Projector::new(&ctx.plan, &cols);
+    let f = ctx.residual_fn(&problem, &ctx.plan);
+    let g = |x: &[f64]| f(x).map(|w| proj.residual(&w));
+    let name = || {
+        let vars: Vec<&str> = bases.iter().map(|b| b.variable.name()).collect();
+        format!(
+            "{}+flexible({})",
+            crate::fit::model_name(kinds),
+            vars.join(",")
+        )
+    };
+    let lm = numerics::LevenbergMarquardtSettings {
+        max_iterations: ctx.lm.max_iterations.min(FLEX_ITERATIONS),
+        ..ctx.lm
+    };
+    let out =
+        minimise_model(problem.free(), &g, x0, &bounds, &lm).ok_or_else(|| DiagnoseError::Fit {
+            model: name(),
+            reason: "the model cannot be simulated at the start point".into(),
+        })?;
+    let mut evaluations = out.evaluations;
+    let w = f(&out.x).ok_or_else(|| DiagnoseError::Fit {
+        model: name(),
+        reason: "the model cannot be simulated at the fitted point".into(),
+    })?;
+    let beta = proj.beta(&w);
+    let pred = problem.predict(&out.x)?;
+    let term = combine(&cols, &beta, n);
+    let total: Vec<f64> = pred.iter().zip(&term).map(|(a, b)| a + b).collect();
+    let rms = ctx.observed_rms(&ctx.y, &total);
+    let k = out.x.len() + proj.rank();
+
+    // Gauss–Newton covariance of (x, β): J = [J_w, −WB]; J_w by forward differences
+    let beta_cov = if band {
+        evaluations += out.x.len();
+        crate::fit::whitened_jacobian(ctx, &problem, &out.x, &w, &bounds, &ctx.lm).and_then(|jw| {
+            let p = out.x.len();
+            let m = cols.len();
+            let mut jac = DMatrix::zeros(n, p + m);
+            jac.columns_mut(0, p).copy_from(&jw);
+            let mut wc = vec![0.0; n];
+            for (j, c) in cols.iter().enumerate() {
+                ctx.plan.whiten(c, &mut wc);
+                for (i, v) in wc.iter().enumerate() {
+                    jac[(i, p + j)] = -v;
+                }
+            }
+            let ss: f64 = out.residual.iter().map(|v| v * v).sum();
+            let s2 = (ss / ctx.plan.n_obs().saturating_sub(k).max(1) as f64).max(1.0);
+            let jtj = jac.tr_mul(&jac);
+            let eps = 1e-12 * jtj.norm();
+            let cov = jtj.pseudo_inverse(eps).ok()?;
+            Some(cov.view((p, p), (m, m)).into_owned() * s2)
+        })
+    } else {
+        None
+    };
+    let (heldout_rms, heldout_dev, ev) = cross_validate(ctx, &problem, &out.x, &cols);
+    evaluations += ev;
+    let model = Fit {
+        kinds: kinds.to_vec(),
+        free: problem.free().to_vec(),
+        x: out.x,
+        pred,
+        white: out.residual,
+        white_ss: out.cost,
+        loglik: ctx.plan.log_likelihood(out.cost),
+        rms,
+        jac: out.jacobian,
+        heldout_rms,
+        heldout_dev,
+        evaluations,
+    };
+    Ok(FlexFit {
+        model,
+        bases: bases.to_vec(),
+        beta,
+        beta_cov,
+        rank: proj.rank(),
+    })
+}
+
+/// Cross-validation of a model with flexible terms (the folds of [`Context`]): pooled held-out
+/// RMS, held-out deviance and the simulations.
+fn cross_validate(
+    ctx: &Context,
+    problem: &muscle_model::Problem,
+    x: &[f64],
+    cols: &[&Vec<f64>],
+) -> (f64, f64, usize) {
+    let bounds = problem.bounds();
+    let n = ctx.y.len();
+    let res: Vec<(f64, f64, usize, usize)> = ctx
+        .folds
+        .par_iter()
+        .map(|(held, plan)| {
+            let proj = Projector::new(plan, cols);
+            let f = ctx.residual_fn(problem, plan);
+            let g = |x: &[f64]| f(x).map(|w| proj.residual(&w));
+            let (xf, ev) = minimise_fold(problem.free(), &g, x, bounds, &ctx.cv_lm)
+                .unwrap_or_else(|| (x.to_vec(), 0));
+            let beta = f(&xf)
+                .map(|w| proj.beta(&w))
+                .unwrap_or_else(|| vec![0.0; cols.len()]);
+            let term = combine(cols, &beta, n);
+            let pred = problem.predict(&xf).unwrap_or_else(|_| vec![0.0; n]);
+            let e: Vec<f64> = (0..n).map(|i| ctx.y[i] - pred[i] - term[i]).collect();
+            let mut w = vec![0.0; n];
+            ctx.plan.whiten(&e, &mut w);
+            let (mut ss, mut dev, mut cnt) = (0.0, 0.0, 0);
+            for i in 0..n {
+                if held[i] {
+                    ss += e[i] * e[i];
+                    dev += w[i] * w[i];
+                    cnt += 1;
+                }
+            }
+            (ss, dev, cnt, ev)
+        })
+        .collect();
+    let ss: f64 = res.iter().map(|r| r.0).sum();
+    let dev: f64 = res.iter().map(|r| r.1).sum();
+    let cnt: usize = res.iter().map(|r| r.2).sum();
+    let ev: usize = res.iter().map(|r| r.3).sum();
+    ((ss / cnt.max(1) as f64).sqrt(), dev, ev)
+}
+
+/// `fit`'s effects and parameter vector without the effects `drop`.
+pub(crate) fn without_effects(fit: &Fit, drop: &[EffectKind]) -> (Vec<EffectKind>, Vec<f64>) {
+    let kinds: Vec<EffectKind> = fit
+        .kinds
+        .iter()
+        .copied()
+        .filter(|k| !drop.contains(k))
+        .collect();
+    let x: Vec<f64> = fit
+        .free
+        .iter()
+        .zip(&fit.x)
+        .filter(|(id, _)| !matches!(id, ParamId::Effect(k, _) if drop.contains(k)))
+        .map(|(_, v)| *v)
+        .collect();
+    (kinds, x)
+}
+
+// ---------------------------------------------------------------------------------------
+// Report
+
+/// A variable's flexible term added to the final model.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct VariableGain {
+    /// State variable.
+    pub variable: StateVariable,
+    /// Held-out deviance of the final model minus that of the model with the term (χ² units;
+    /// positive: the term predicts held-out data better).
+    pub heldout_deviance_gain: f64,
+    /// Pooled held-out RMS with the term (N·m).
+    pub heldout_rms_nm: f64,
+    /// BIC with the term minus the final model's.
+    pub delta_bic: f64,
+    /// Independent coefficients of the term.
+    pub parameters: usize,
+}
+
+/// The fitted shape of one flexible term: its value at points of its variable with a 95 %
+/// band. The term is centred: its mean over the trial is zero.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FlexibleTerm {
+    /// State variable.
+    pub variable: StateVariable,
+    /// Unit of `points` (empty: dimensionless).
+    pub unit: String,
+    /// Points of the variable (for `direction`: −1 and +1, the sign of the velocity).
+    pub points: Vec<f64>,
+    /// Term at each point (N·m).
+    pub value_nm: Vec<f64>,
+    /// Half-width of the 95 % band at each point (N·m; NaN when not computed).
+    pub band_nm: Vec<f64>,
+}
+
+/// The final model extended with the flexible terms of `depends_on`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FlexibleExtension {
+    /// The variables of its terms.
+    pub variables: Vec<StateVariable>,
+    /// Pooled held-out RMS (N·m).
+    pub heldout_rms_nm: f64,
+    /// Reduction of the held-out RMS against the final catalogued model (%).
+    pub heldout_rms_reduction_pct: f64,
+    /// Held-out deviance gain against the final catalogued model.
+    pub heldout_deviance_gain: f64,
+    /// In-sample RMS (N·m).
+    pub rms_nm: f64,
+    /// BIC against the final catalogued model.
+    pub delta_bic: f64,
+    /// The terms' shapes.
+    pub terms: Vec<FlexibleTerm>,
+    /// Per-sample torque of the terms (N·m; not serialised; for the figures).
+    #[serde(skip)]
+    pub term_nm: Vec<f64>,
+}
+
+/// A catalogued effect the selection found that a flexible term in its own variable explains
+/// better: not named.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Replacement {
+    /// Effect.
+    pub effect: String,
+    /// The variable whose flexible term explains its share better.
+    pub variable: StateVariable,
+    /// BIC of the model with the effect minus that with the flexible term instead (above
+    /// `−margin`: not named).
+    pub delta_bic: f64,
+}
+
+/// What the unexplained structure depends on (`unexplained` in `diagnosis.json`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Unexplained {
+    /// The best one or two variables (empty: none of the vocabulary explains it).
+    pub depends_on: Vec<StateVariable>,
+    /// Every variable's term added to the final model, best held-out gain first.
+    pub ranking: Vec<VariableGain>,
+    /// The model extended with the terms of `depends_on`.
+    pub extension: Option<FlexibleExtension>,
+    /// A catalogued effect not named whose shape, added to the final model, explains the
+    /// structure as well as the flexible term in the best variable (by the margin).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub catalogued_shape: Option<String>,
+    /// Catalogued effects the selection found that a flexible term explains better.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub replaced: Vec<Replacement>,
+}
+
+impl Unexplained {
+    /// Lines of the terminal summary.
+    pub fn summary_lines(&self) -> Vec<String> {
+        let mut l = Vec::new();
+        for r in &self.replaced {
+            l.push(format!(
+                "not named    {}: a flexible term in {} explains its share better (ΔBIC {:+.1})",
+                r.effect,
+                r.variable.name(),
+                -r.delta_bic
+            ));
+        }
+        match (&self.depends_on[..], &self.extension) {
+            ([], _) | (_, None) => l.push(
+                "depends on   none of angle, velocity, direction, acceleration, time, \
+                 activation, activation_ta"
+                    .to_string(),
+            ),
+            (vars, Some(e)) => {
+                let names: Vec<&str> = vars.iter().map(|v| v.name()).collect();
+                l.push(format!(
+                    "depends on   {}: a flexible term lowers the held-out RMS to {:.2} N·m \
+                     (−{:.1} %, held-out deviance −{:.0})",
+                    names.join(" and "),
+                    e.heldout_rms_nm,
+                    e.heldout_rms_reduction_pct,
+                    e.heldout_deviance_gain
+                ));
+            }
+        }
+        if let Some(k) = &self.catalogued_shape {
+            l.push(format!(
+                "shape        that of {k} after all (its term explains the structure as well)"
+            ));
+        }
+        l
+    }
+}
+
+/// The shapes of a flexible fit's terms.
+fn terms_of(ff: &FlexFit) -> Vec<FlexibleTerm> {
+    let mut out = Vec::new();
+    let mut j = 0;
+    for b in &ff.bases {
+        let m = b.cols.len();
+        let beta = &ff.beta[j..j + m];
+        let (value_nm, band_nm) = b
+            .rows
+            .iter()
+            .map(|row| {
+                let v: f64 = row.iter().zip(beta).map(|(a, c)| a * c).sum();
+                let var = ff.beta_cov.as_ref().map_or(f64::NAN, |cov| {
+                    let mut q = 0.0;
+                    for (r, a) in row.iter().enumerate() {
+                        for (c, bb) in row.iter().enumerate() {
+                            q += a * cov[(j + r, j + c)] * bb;
+                        }
+                    }
+                    q
+                });
+                (v, 1.96 * var.max(0.0).sqrt())
+            })
+            .unzip();
+        out.push(FlexibleTerm {
+            variable: b.variable,
+            unit: b.variable.unit().to_string(),
+            points: b.points.clone(),
+            value_nm,
+            band_nm,
+        });
+        j += m;
+    }
+    out
+}
+
+/// For each effect of `model` (or only those in `only`), the model without it plus a flexible
+/// term in each of `vars(effect)` (or `extra` added to every model). Returns the effects a
+/// flexible alternative beats (`BIC(with) > BIC(without + term) − margin`) and the
+/// simulations spent. `reference` is the model they are compared with (its BIC).
+fn review(
+    ctx: &Context,
+    model: &Fit,
+    reference_bic: f64,
+    extra: &[FlexBasis],
+    margin_bic: f64,
+    nobs: usize,
+) -> Result<(Vec<Replacement>, usize), DiagnoseError> {
+    let mut out = Vec::new();
+    let mut evaluations = 0;
+    for &kind in &model.kinds {
+        let (kinds, x) = without_effects(model, &[kind]);
+        // each of its own variables' terms, beside the extension's (when not among them)
+        let alternatives: Vec<Vec<FlexBasis>> = StateVariable::of_effect(kind)
+            .iter()
+            .filter_map(|v| basis(ctx, *v))
+            .map(|b| {
+                let mut set = extra.to_vec();
+                if !set.iter().any(|e| e.variable == b.variable) {
+                    set.push(b);
+                }
+                set
+            })
+            .collect();
+        let fits: Vec<Result<FlexFit, DiagnoseError>> = alternatives
+            .par_iter()
+            .map(|b| fit_flexible(ctx, &kinds, &x, b, false))
+            .collect();
+        let mut best: Option<(StateVariable, f64)> = None;
+        for f in fits {
+            let f = f?;
+            evaluations += f.model.evaluations;
+            let d = reference_bic - f.bic(nobs);
+            if best.is_none_or(|(_, b)| d > b) {
+                best = Some((f.bases.last().expect("a term").variable, d));
+            }
+        }
+        if let Some((variable, d)) = best {
+            // named only when BIC(with the effect) ≤ BIC(flexible instead) − margin
+            if d > -margin_bic {
+                out.push(Replacement {
+                    effect: kind.name().to_string(),
+                    variable,
+                    delta_bic: d,
+                });
+            }
+        }
+    }
+    Ok((out, evaluations))
+}
+
+/// The no-false-story review of the selected causes (module docs): for each named effect, the
+/// model without it plus a flexible term in each of its own variables.
+pub(crate) fn review_causes(
+    ctx: &Context,
+    model: &Fit,
+    margin_bic: f64,
+    nobs: usize,
+) -> Result<(Vec<Replacement>, usize), DiagnoseError> {
+    review(ctx, model, model.bic(nobs), &[], margin_bic, nobs)
+}
+
+/// The ranking of the vocabulary on the final model `fin` and its extension (module docs).
+pub(crate) struct Characterisation {
+    pub unexplained: Unexplained,
+    /// Named causes that the extension makes unnecessary (to be dropped by the caller, who
+    /// then characterises the smaller model again).
+    pub unneeded: Vec<Replacement>,
+    pub evaluations: usize,
+}
+
+/// Ranks the vocabulary's flexible terms on the final model `fin` and extends it with the best
+/// one or two (module docs); `catalogued` are the effects eligible on this trial.
+pub(crate) fn characterise(
+    ctx: &Context,
+    fin: &Fit,
+    catalogued: &[EffectKind],
+    replaced: Vec<Replacement>,
+    min_gain: f64,
+    margin_bic: f64,
+    nobs: usize,
+) -> Result<Characterisation, DiagnoseError> {
+    let mut evaluations = 0;
+    let bases: Vec<FlexBasis> = StateVariable::ALL
+        .iter()
+        .filter_map(|v| basis(ctx, *v))
+        .collect();
+    let fits: Vec<Result<FlexFit, DiagnoseError>> = bases
+        .par_iter()
+        .map(|b| fit_flexible(ctx, &fin.kinds, &fin.x, std::slice::from_ref(b), false))
+        .collect();
+    let mut fits: Vec<FlexFit> = fits.into_iter().collect::<Result<_, _>>()?;
+    evaluations += fits.iter().map(|f| f.model.evaluations).sum::<usize>();
+    let gain = |f: &FlexFit| fin.heldout_dev - f.model.heldout_dev;
+    fits.sort_by(|a, b| gain(b).total_cmp(&gain(a)));
+    let ranking: Vec<VariableGain> = fits
+        .iter()
+        .map(|f| VariableGain {
+            variable: f.bases[0].variable,
+            heldout_deviance_gain: gain(f),
+            heldout_rms_nm: f.model.heldout_rms,
+            delta_bic: f.bic(nobs) - fin.bic(nobs),
+            parameters: f.rank,
+        })
+        .collect();
+    // The terms that generalise (held-out gain above the threshold), best first; the sign of
+    // the velocity before a function of the velocity that gains at most a fifth more (the
+    // coarser explanation, module docs).
+    let mut eligible: Vec<&FlexFit> = fits.iter().filter(|f| gain(f) > min_gain).collect();
+    let at = |v: StateVariable, e: &[&FlexFit]| e.iter().position(|f| f.bases[0].variable == v);
+    if let (Some(iv), Some(id)) = (
+        at(StateVariable::Velocity, &eligible),
+        at(StateVariable::Direction, &eligible),
+    ) {
+        if iv < id && gain(eligible[id]) >= COARSER_SHARE * gain(eligible[iv]) {
+            let d = eligible.remove(id);
+            eligible.insert(iv, d);
+        }
+    }
+    let mut chosen: Option<Vec<FlexBasis>> = None;
+    if let Some(first) = eligible.first() {
+        chosen = Some(first.bases.clone());
+        if let Some(second) = eligible.get(1) {
+            let pair = vec![first.bases[0].clone(), second.bases[0].clone()];
+            let both = fit_flexible(ctx, &fin.kinds, &first.model.x, &pair, false)?;
+            evaluations += both.model.evaluations;
+            if first.model.heldout_dev - both.model.heldout_dev > min_gain {
+                chosen = Some(pair);
+            }
+        }
+    }
+    let mut catalogued_shape = None;
+    let mut unneeded = Vec::new();
+    let extension = match &chosen {
+        None => None,
+        Some(chosen) => {
+            let ff = fit_flexible(ctx, &fin.kinds, &fin.x, chosen, true)?;
+            evaluations += ff.model.evaluations;
+            // a named cause the extension makes unnecessary is not named either
+            let (u, ev) = review(ctx, &ff.model, ff.bic(nobs), chosen, margin_bic, nobs)?;
+            evaluations += ev;
+            unneeded = u;
+            // a catalogued effect of the best variable that explains it as well, after all
+            let top = chosen[0].variable;
+            let single = fits
+                .iter()
+                .find(|f| f.bases[0].variable == top)
+                .expect("the chosen variable was fitted");
+            let mut best: Option<(EffectKind, f64)> = None;
+            for &k in catalogued
+                .iter()
+                .filter(|k| !fin.kinds.contains(k) && StateVariable::of_effect(**k).contains(&top))
+            {
+                let mut kinds = fin.kinds.clone();
+                kinds.push(k);
+                let mut x0 = fin.x.clone();
+                x0.extend(k.null_values().iter().take(k.params().len()));
+                if let Ok(cf) = ctx.fit(&kinds, &x0, false) {
+                    evaluations += cf.evaluations;
+                    let d = single.bic(nobs) - cf.bic(nobs);
+                    if d >= margin_bic && best.is_none_or(|(_, b)| d > b) {
+                        best = Some((k, d));
+                    }
+                }
+            }
+            catalogued_shape = best.map(|(k, _)| k.name().to_string());
+            let cols: Vec<&Vec<f64>> = ff.bases.iter().flat_map(|b| b.cols.iter()).collect();
+            Some(FlexibleExtension {
+                variables: ff.variables(),
+                heldout_rms_nm: ff.model.heldout_rms,
+                heldout_rms_reduction_pct: 100.0 * (1.0 - ff.model.heldout_rms / fin.heldout_rms),
+                heldout_deviance_gain: gain(&ff),
+                rms_nm: ff.model.rms,
+                delta_bic: ff.bic(nobs) - fin.bic(nobs),
+                terms: terms_of(&ff),
+                term_nm: combine(&cols, &ff.beta, ctx.y.len()),
+            })
+        }
+    };
+    Ok(Characterisation {
+        unexplained: Unexplained {
+            depends_on: chosen
+                .map(|c| c.iter().map(|b| b.variable).collect())
+                .unwrap_or_default(),
+            ranking,
+            extension,
+            catalogued_shape,
+            replaced,
+        },
+        unneeded,
+        evaluations,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Functions;
+
+    #[test]
+    fn hats_interpolate_their_knot_values() {
+        let f = Functions::Hats(vec![0.0, 1.0, 2.0, 3.0]);
+        let beta = [2.0, -1.0, 4.0, 0.5];
+        let want = |v: f64| {
+            // the piecewise-linear interpolant of beta, constant beyond the ends
+            let u = v.clamp(0.0, 3.0);
+            let j = (u.floor() as usize).min(2);
+            beta[j] + (beta[j + 1] - beta[j]) * (u - j as f64)
+        };
+        for v in [-1.0, 0.0, 0.25, 1.5, 3.0, 4.0] {
+            let row = f.eval(v);
+            let s: f64 = row.iter().zip(beta).map(|(a, b)| a * b).sum();
+            assert!((s - want(v)).abs() < 1e-12, "at {v}: {s} vs {}", want(v));
+            assert!((row.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn sign_and_legendre_rows() {
+        let s = Functions::Sign { still: 1.5 };
+        assert_eq!(s.eval(30.0), vec![1.0, 0.0]);
+        assert_eq!(s.eval(-2.0), vec![0.0, 1.0]);
+        assert_eq!(s.eval(1.0), vec![0.0, 0.0]);
+        let l = Functions::Line { lo: 2.0, hi: 6.0 };
+        assert_eq!(l.eval(2.0), vec![-1.0]);
+        assert_eq!(l.eval(4.0), vec![0.0]);
+        assert_eq!(l.eval(6.0), vec![1.0]);
+    }
+}
