@@ -273,6 +273,7 @@ pub fn identify<'py>(
         trial,
         session,
         free,
+        with_effects: None,
         chains,
         unloaded,
         seed,

@@ -25,7 +25,8 @@ enum Command {
     Simulate(commands::simulate::SimulateArgs),
     /// One-at-a-time ±20 % parameter sweeps: RMS torque change (dissertation Fig. 6).
     Sensitivity(commands::sensitivity::SensitivityArgs),
-    /// Identify LST, F0 and α0 of sol, gm, gl (writes identify.json).
+    /// Identify LST, F0 and α0 of sol, gm, gl, and with --with the parameters of named
+    /// effects; then test the fit for structure left in its residual (writes identify.json).
     Identify(commands::identify::IdentifyArgs),
     /// What the model gets wrong: residual analysis, the named cause(s), the
     /// extended model and its held-out gain (writes diagnosis.json).

@@ -1,16 +1,18 @@
-//! `surae identify`: fit LST, F0 and α0 of the three muscles (docs/results.md) by
-//! simulated annealing or MCMC.
+//! `surae identify`: fit LST, F0 and α0 of the three muscles (docs/results.md), and with
+//! `--with` the parameters of catalogued effects, by simulated annealing or MCMC; then test
+//! the identified model for structure left in its residual (`"adequacy"`).
 
 mod joint;
 mod mcmc;
 mod other_tools;
+mod with;
 
 use super::{load_model_config, load_trial, load_unloaded, trial_inputs, LoadedTrial, ModelArgs};
 use crate::error::{CmdResult, Failure};
 use crate::figures::{self, FigureSet};
 use crate::output::OutDir;
 use crate::progress::ProgressDisplay;
-use muscle_model::{ModelParams, ParamId, Problem};
+use muscle_model::{EffectKind, Effects, ModelParams, ParamId, Problem};
 use serde_json::{json, Map, Value};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -73,6 +75,16 @@ pub struct IdentifyArgs {
         value_name = "NAMES"
     )]
     pub free: Option<Vec<String>>,
+    /// Catalogued effects whose parameters are identified with the muscles', comma-separated
+    /// (e.g. `electromechanical_delay,passive_joint_torque`): torque_offset,
+    /// passive_joint_torque, gravity, electromechanical_delay, fatigue,
+    /// antagonist_coactivation, eccentric_enhancement, viscous_damping, inertia (parameters and
+    /// ranges in docs/results.md, "Effects identified with the muscles"). Each starts at its
+    /// value in --effects, or at its null value, and has a uniform prior on its range. With
+    /// --session its parameters join the free ones, shared by the trials (a per-trial effect,
+    /// torque_offset or gravity, is refused in a session of several trials).
+    #[arg(long = "with", value_delimiter = ',', value_name = "EFFECTS")]
+    pub with_effects: Option<Vec<String>>,
     /// SA only: number of annealing chains (starts); chain 0 starts from the base values, the
     /// others from random points. Default 4.
     #[arg(long, value_name = "N")]
@@ -104,6 +116,12 @@ pub struct IdentifyArgs {
 
 /// Reads a truth file: a parameters JSON, or an object with a `params` member.
 pub fn read_truth(path: &Path, text: &str) -> CmdResult<ModelParams> {
+    read_truth_model(path, text).map(|(p, _)| p)
+}
+
+/// Reads a truth file with its effects: a parameters JSON (no effect), or an object with a
+/// `params` member and, as a fixture's `truth.json` has, an `effects` member.
+pub fn read_truth_model(path: &Path, text: &str) -> CmdResult<(ModelParams, Effects)> {
     let v: Value = serde_json::from_str(text).map_err(|e| {
         Failure::bad(format!(
             "{}:{}:{}: invalid JSON: {e}",
@@ -112,13 +130,19 @@ pub fn read_truth(path: &Path, text: &str) -> CmdResult<ModelParams> {
             e.column()
         ))
     })?;
-    let params = match v.get("params") {
-        Some(p) => p.clone(),
-        None => v,
+    let (params, effects) = match v.get("params") {
+        Some(p) => (p.clone(), v.get("effects").cloned()),
+        None => (v, None),
     };
-    ModelParams::nominal()
+    let effects = match effects {
+        Some(e) => Effects::from_json(&e)
+            .map_err(|e| Failure::bad(format!("{}: effects: {e}", path.display())))?,
+        None => Effects::none(),
+    };
+    let params = ModelParams::nominal()
         .merged_json(&params)
-        .map_err(|e| Failure::bad(format!("{}: {e}", path.display())))
+        .map_err(|e| Failure::bad(format!("{}: {e}", path.display())))?;
+    Ok((params, effects))
 }
 
 /// Everything both methods need.
@@ -134,21 +158,30 @@ pub struct Prepared {
     /// The dynamometer correction subtracted (`"dynamometer"` in the JSON; `null` without an
     /// unloaded run, when nothing is subtracted).
     pub dynamometer: Value,
-    /// True parameters, if known.
-    pub truth: Option<ModelParams>,
+    /// True parameters and effects, if known.
+    pub truth: Option<(ModelParams, Effects)>,
     /// The dynamometer correction estimated from the unloaded run, if any (MCMC takes its
     /// noise model from it).
     pub correction: Option<experiment::DynamometerCorrection>,
     /// Files read (never overwritten).
     pub inputs: Vec<PathBuf>,
+    /// The unloaded run, if any (the adequacy test corrects the trial with it).
+    pub unloaded: Option<experiment::Unloaded>,
+    /// How the trial's EMG and knee angle were read.
+    pub options: experiment::InputOptions,
+    /// The effects `--with` added to the identified parameters.
+    pub with: Vec<EffectKind>,
 }
 
-/// Loads the trial, unloaded run and truth and builds the problem.
+/// Loads the trial, unloaded run and truth and builds the problem: the 9 muscle parameters and
+/// the parameters of the effects `with` (switched on at their null values unless `--effects`
+/// gives them).
 pub fn prepare(
     trial: Option<&Path>,
     unloaded: Option<&Path>,
     truth: Option<&Path>,
     model: &ModelArgs,
+    with: &[EffectKind],
 ) -> CmdResult<Prepared> {
     let (params, effects, mut inputs_read) = load_model_config(model)?;
     let loaded = load_trial(trial)?;
@@ -160,10 +193,10 @@ pub fn prepare(
         Some(p) => {
             let text = super::read_text(p)?;
             inputs_read.push(p.to_path_buf());
-            Some(read_truth(p, &text)?)
+            Some(read_truth_model(p, &text)?)
         }
         None if trial.is_none() => Some(
-            read_truth(
+            read_truth_model(
                 Path::new(crate::bundled::SEED_TRUTH_NAME),
                 crate::bundled::SEED_TRUTH,
             )
@@ -203,10 +236,17 @@ pub fn prepare(
         prep.problem.inputs().clone(),
         prep.problem.measured().to_vec(),
         params,
-        effects,
-        ParamId::identified().to_vec(),
+        with::with_effects(effects, with),
+        with::with_free(ParamId::identified().to_vec(), with),
     )
     .map_err(|e| Failure::bad(format!("{}: {e}", loaded.name)))?;
+    if !with.is_empty() {
+        // an effect the trial cannot carry (antagonist_coactivation without emg_ta) is refused
+        // before anything is written
+        problem
+            .predict(&problem.base_vector())
+            .map_err(|e| Failure::bad(format!("{}: --with: {e}", loaded.name)))?;
+    }
     Ok(Prepared {
         loaded,
         problem,
@@ -216,20 +256,24 @@ pub fn prepare(
         truth,
         correction: prep.correction,
         inputs: inputs_read,
+        unloaded: unloaded.map(|(u, _)| u),
+        options: opts,
+        with: with.to_vec(),
     })
 }
 
+/// `100·|estimate − truth|/|truth|` of every parameter whose true value is known and not 0 (an
+/// effect's parameter at a null value of 0 has no relative error).
 pub(super) fn errors_pct(
     params: &BTreeMap<String, f64>,
-    truth: &ModelParams,
+    truth: &(ModelParams, Effects),
 ) -> BTreeMap<String, f64> {
-    let effects = muscle_model::Effects::none();
     params
         .iter()
         .filter_map(|(name, v)| {
             let id = ParamId::parse(name).ok()?;
-            let t = id.get(truth, &effects);
-            Some((name.clone(), 100.0 * (v - t).abs() / t.abs()))
+            let t = id.get(&truth.0, &truth.1);
+            (t != 0.0).then(|| (name.clone(), 100.0 * (v - t).abs() / t.abs()))
         })
         .collect()
 }
@@ -240,6 +284,7 @@ fn rms(a: &[f64], b: &[f64]) -> f64 {
 
 /// Runs the command.
 pub fn run(args: IdentifyArgs) -> CmdResult {
+    let with = with::parse_with(args.with_effects.as_deref())?;
     if args.max_iterations.is_some() && args.method != Method::Mcmc {
         return Err(Failure::bad(
             "--max-iterations applies to --method mcmc only",
@@ -260,7 +305,7 @@ pub fn run(args: IdentifyArgs) -> CmdResult {
                  applies to --trial",
             ));
         }
-        return joint::run(&args, session);
+        return joint::run(&args, session, &with);
     }
     if let Some(folder) = args.trial.as_deref().filter(|p| p.is_dir()) {
         if args.unloaded.is_some() {
@@ -270,13 +315,14 @@ pub fn run(args: IdentifyArgs) -> CmdResult {
                 folder.display()
             )));
         }
-        return joint::run(&args, folder);
+        return joint::run(&args, folder, &with);
     }
     let prep = prepare(
         args.trial.as_deref(),
         args.unloaded.as_deref(),
         args.truth.as_deref(),
         &args.model,
+        &with,
     )?;
     let out_dir = args
         .out
@@ -304,7 +350,31 @@ pub fn run(args: IdentifyArgs) -> CmdResult {
                 .collect()
         })
         .unwrap_or_default();
+    // does the identified model leave structure in its residual?
+    let (point_params, point_effects) = with::identified_point(
+        prep.problem.base_params(),
+        prep.problem.base_effects(),
+        &doc["params"],
+    )?;
+    let adequacy = diagnose::adequacy(
+        &prep.loaded.trial,
+        prep.unloaded.as_ref(),
+        &point_params,
+        &point_effects,
+        prep.problem.free(),
+        &with::settings(prep.options),
+    )
+    .map_err(|e| e.to_string());
+    let adequacy_lines = with::adequacy_lines(&adequacy, None);
     let obj = doc.as_object_mut().expect("identify document is an object");
+    obj.insert(
+        "with".into(),
+        json!(prep.with.iter().map(|k| k.name()).collect::<Vec<_>>()),
+    );
+    if !point_effects.enabled().is_empty() {
+        obj.insert("effects".into(), point_effects.to_json_value());
+    }
+    obj.insert("adequacy".into(), with::adequacy_json(&adequacy));
     obj.insert("trial".into(), json!(prep.loaded.name));
     obj.insert("seed".into(), json!(args.seed));
     obj.insert("noise".into(), prep.noise.clone());
@@ -363,6 +433,17 @@ pub fn run(args: IdentifyArgs) -> CmdResult {
                     get("alpha_deg")
                 ));
             }
+            for (name, err) in e {
+                if ParamId::parse(name).is_ok_and(|id| id.muscle().is_none()) {
+                    say(&format!(
+                        "  {name:<32} {:6.2}",
+                        err.as_f64().unwrap_or(f64::NAN)
+                    ));
+                }
+            }
+        }
+        for l in &adequacy_lines {
+            say(l);
         }
         say(&format!(
             "wrote {} and {} figures/report files in {}",
@@ -450,13 +531,24 @@ fn run_sa(prep: &Prepared, seed: u64, chains: Option<u32>, show: bool) -> CmdRes
         "  torque RMS {:.2} N·m after removing the dynamometer's cycle-locked error ({:.2} N·m against the raw torque)",
         fit.rms_nm, rms_raw
     ));
-    lines.push("  parameter            estimate    bounds".into());
+    let width = prep
+        .problem
+        .names()
+        .iter()
+        .map(|n| n.len())
+        .max()
+        .unwrap_or(0)
+        .max(16);
+    lines.push(format!(
+        "  {:<width$} {:>12}    bounds",
+        "parameter", "estimate"
+    ));
     for (i, id) in prep.problem.free().iter().enumerate() {
         let (lo, hi) = prep.problem.bounds()[i];
         let v = fit.x[i];
         let at_bound = (v - lo).abs() <= 1e-9 * (hi - lo) || (hi - v).abs() <= 1e-9 * (hi - lo);
         lines.push(format!(
-            "  {:<16} {v:>12.5}    [{lo:.5}, {hi:.5}]{}",
+            "  {:<width$} {v:>12.5}    [{lo:.5}, {hi:.5}]{}",
             id.name(),
             if at_bound { "  at bound" } else { "" }
         ));
@@ -493,9 +585,21 @@ fn write_figures(
     );
     set.page().paragraph(format!(
         "Identification of tendon slack length (LST), maximum isometric force (F0) and \
-         pennation angle (α0) of soleus, gastrocnemius medialis and lateralis by {}. \
+         pennation angle (α0) of soleus, gastrocnemius medialis and lateralis{} by {}. \
          The measured torque is shown after removing the dynamometer's cycle-locked error \
          estimated from the unloaded run (when one was given).",
+        if prep.with.is_empty() {
+            String::new()
+        } else {
+            format!(
+                ", with the parameters of {}",
+                prep.with
+                    .iter()
+                    .map(|k| k.name())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        },
         match method {
             Method::Sa => "simulated annealing with a Levenberg–Marquardt polish",
             Method::Mcmc => "Metropolis–Hastings sampling",
@@ -503,6 +607,10 @@ fn write_figures(
     ));
     let nominal = ModelParams::nominal();
     let none = muscle_model::Effects::none();
+    let truth = prep
+        .truth
+        .as_ref()
+        .map(|t| with::truth_values(prep.problem.free(), t));
     let mut rows = Vec::new();
     for (i, id) in prep.problem.free().iter().enumerate() {
         let name = id.name();
@@ -518,8 +626,8 @@ fn write_figures(
                 report::format_sig(hi, 4)
             ),
         ];
-        if let Some(t) = &prep.truth {
-            row.push(report::format_sig(id.get(t, &none), 5));
+        if let Some(t) = &truth {
+            row.push(report::format_sig(t[i], 5));
             row.push(
                 doc["errors_pct"][&name]
                     .as_f64()
@@ -547,8 +655,17 @@ fn write_figures(
                 "wall time (s)",
                 format!("{:.2}", doc["wall_s"].as_f64().unwrap_or(f64::NAN)),
             ),
+            (
+                "residual structure p",
+                doc["adequacy"]["structure_p"]
+                    .as_f64()
+                    .map_or("not tested".into(), |p| format!("{p:.3e}")),
+            ),
         ],
     );
+    if let Some(w) = doc["adequacy"]["warning"].as_str() {
+        set.page().paragraph(format!("Warning: {w}."));
+    }
     let env = figures::envelopes(inputs);
     set.add(
         "torque_fit",

@@ -1,7 +1,10 @@
 //! `surae identify --session`: the session's trials identified together, by simulated
 //! annealing (the cost is the sum of the trials' squared torque errors) or by MCMC (the
 //! log-likelihood is the sum of the trials', each with its own dynamometer correction, noise
-//! model and offset nuisance), with each trial's fit reported where it is judged.
+//! model and offset nuisance), with each trial's fit reported where it is judged. `--with`
+//! adds the parameters of catalogued effects to the session's free parameters (shared by the
+//! trials), and every trial's residual is tested for structure the model leaves
+//! (`"adequacy"`).
 
 use super::super::session::{file_stem, load_session, LoadedSession};
 use super::IdentifyArgs;
@@ -9,16 +12,21 @@ use crate::error::{CmdResult, Failure};
 use crate::figures::{self, FigureSet};
 use crate::output::OutDir;
 use crate::progress::ProgressDisplay;
+use muscle_model::{EffectKind, Effects, ModelParams, ParamId};
 use serde_json::{json, Map, Value};
 use std::path::Path;
 
+/// True parameters and effects.
+type Truth = (ModelParams, Effects);
+
 /// Runs `identify --session`.
-pub(super) fn run(args: &IdentifyArgs, session_path: &Path) -> CmdResult {
+pub(super) fn run(args: &IdentifyArgs, session_path: &Path, with: &[EffectKind]) -> CmdResult {
     let truth = session_truth(args)?;
+    let free = free_names(args, session_path, with)?;
     if args.method == super::Method::Mcmc {
-        return run_mcmc(args, session_path, truth.as_ref());
+        return run_mcmc(args, session_path, truth.as_ref(), free.as_deref(), with);
     }
-    let session = load_session(session_path, &args.model, args.free.as_deref())?;
+    let session = load_session(session_path, &args.model, free.as_deref())?;
     let set = session.problem_set()?;
     let out_dir = args
         .out
@@ -57,6 +65,7 @@ pub(super) fn run(args: &IdentifyArgs, session_path: &Path) -> CmdResult {
     let (params, effects) = set
         .params_from_vector(&fit.x)
         .map_err(|e| Failure::internal(e.to_string()))?;
+    let adequacy = trials_adequacy(&session, &params, &effects, set.free());
     let mut trials = Vec::with_capacity(session.trials.len());
     let mut predictions = Vec::with_capacity(session.trials.len());
     let start = set.base_vector();
@@ -115,6 +124,8 @@ pub(super) fn run(args: &IdentifyArgs, session_path: &Path) -> CmdResult {
     if !effects.enabled().is_empty() {
         doc["effects"] = effects.to_json_value();
     }
+    doc["with"] = json!(with.iter().map(|k| k.name()).collect::<Vec<_>>());
+    let adequacy_lines = add_adequacy(&mut doc, &session, &adequacy);
     let truth_lines = add_session_keys(&mut doc, &session, truth.as_ref());
     let text = serde_json::to_string_pretty(&doc).map_err(Failure::internal)? + "\n";
     let path = out.write("identify.json", text.as_bytes())?;
@@ -173,7 +184,7 @@ pub(super) fn run(args: &IdentifyArgs, session_path: &Path) -> CmdResult {
                 if at_bound { "  at bound" } else { "" }
             ));
         }
-        for l in &truth_lines {
+        for l in truth_lines.iter().chain(&adequacy_lines) {
             say(l);
         }
         say(&format!(
@@ -193,7 +204,7 @@ fn write_figures(
     predictions: &[(Vec<f64>, Vec<f64>)],
     session_path: &Path,
     doc: &Value,
-    truth: Option<&muscle_model::ModelParams>,
+    truth: Option<&Truth>,
     mcmc: Option<&identify_mcmc::McmcIdentification>,
 ) -> CmdResult<Vec<std::path::PathBuf>> {
     let method = if mcmc.is_some() { "mcmc" } else { "sa" };
@@ -264,15 +275,8 @@ fn write_figures(
         )?;
     }
     if let Some(m) = mcmc {
-        let none = muscle_model::Effects::none();
-        let truth_values = truth.map(|t| {
-            session.trials[0]
-                .problem
-                .free()
-                .iter()
-                .map(|id| id.get(t, &none))
-                .collect()
-        });
+        let truth_values =
+            truth.map(|t| super::with::truth_values(session.trials[0].problem.free(), t));
         super::mcmc::posterior_figures(&mut set, truth_values, m)?;
     }
     set.finish()
@@ -401,14 +405,113 @@ fn session_osim_copy(
 }
 
 /// `--truth` (a parameters JSON or a fixture's `truth.json`), read before anything runs.
-fn session_truth(args: &IdentifyArgs) -> CmdResult<Option<muscle_model::ModelParams>> {
+fn session_truth(args: &IdentifyArgs) -> CmdResult<Option<Truth>> {
     match &args.truth {
         Some(p) => {
             let text = super::super::read_text(p)?;
-            super::read_truth(p, &text).map(Some)
+            super::read_truth_model(p, &text).map(Some)
         }
         None => Ok(None),
     }
+}
+
+/// The free parameters' names when `--with` adds effects: `--free`, or the manifest's `free`,
+/// or the 9 muscle parameters, followed by the effects' parameters; `--free` as given (`None`:
+/// the manifest's) otherwise. A per-trial effect in a session of several trials is refused.
+fn free_names(
+    args: &IdentifyArgs,
+    session_path: &Path,
+    with: &[EffectKind],
+) -> CmdResult<Option<Vec<String>>> {
+    if with.is_empty() {
+        return Ok(args.free.clone());
+    }
+    let manifest = if session_path.is_dir() {
+        ::session::SessionManifest::of_recording(session_path)
+    } else {
+        ::session::read_session_manifest(session_path).map_err(Failure::bad)?
+    };
+    super::with::check_session_scope(with, manifest.trials.len())?;
+    let base: Vec<ParamId> = match args.free.as_ref().or(manifest.free.as_ref()) {
+        Some(names) => names
+            .iter()
+            .map(|n| ParamId::parse(n).map_err(|e| Failure::bad(format!("--free {n}: {e}"))))
+            .collect::<CmdResult<_>>()?,
+        None => ParamId::identified().to_vec(),
+    };
+    Ok(Some(
+        super::with::with_free(base, with)
+            .iter()
+            .map(ParamId::name)
+            .collect(),
+    ))
+}
+
+/// The structure test of every trial at the identified model (`params`, `effects`), with the
+/// free parameters projected out: each trial as the session prepared it (its inputs, its torque
+/// as recorded corrected by its own unloaded run, a CEINMS trial where its moment has samples).
+fn trials_adequacy(
+    session: &LoadedSession,
+    params: &ModelParams,
+    effects: &Effects,
+    free: &[ParamId],
+) -> Vec<Result<diagnose::Adequacy, String>> {
+    session
+        .trials
+        .iter()
+        .zip(&session.manifest.trials)
+        .map(|(t, entry)| {
+            let unloaded = match &entry.unloaded {
+                Some(u) => Some(super::super::read_unloaded_any(u).map_err(|e| e.to_string())?),
+                None => None,
+            };
+            let mut rec =
+                diagnose::DiagnosisRecording::new(t.problem.inputs().clone(), t.raw_torque.clone())
+                    .with_model(*params, *effects);
+            if let Some(c) = &t.ceinms {
+                rec = rec.with_weights(c.weights.clone());
+            }
+            diagnose::adequacy_of_recording(
+                &rec,
+                unloaded.as_ref(),
+                free,
+                &diagnose::DiagnoseSettings::default(),
+            )
+            .map_err(|e| e.to_string())
+        })
+        .collect()
+}
+
+/// Each trial's `adequacy` into its entry of `trials`, and the session's (the trial with the
+/// smallest p) as `adequacy`; the summary's lines.
+fn add_adequacy(
+    doc: &mut Value,
+    session: &LoadedSession,
+    adequacy: &[Result<diagnose::Adequacy, String>],
+) -> Vec<String> {
+    let mut lines = Vec::new();
+    let mut worst: Option<(&str, &diagnose::Adequacy)> = None;
+    for (k, (t, a)) in session.trials.iter().zip(adequacy).enumerate() {
+        doc["trials"][k]["adequacy"] = super::with::adequacy_json(a);
+        lines.extend(super::with::adequacy_lines(a, Some(&t.name)));
+        if let Ok(a) = a {
+            if worst.is_none_or(|(_, w)| a.structure_p < w.structure_p) {
+                worst = Some((&t.name, a));
+            }
+        }
+    }
+    doc["adequacy"] = match worst {
+        Some((name, a)) => {
+            let mut v = super::with::adequacy_json(&Ok(a.clone()));
+            v["trial"] = json!(name);
+            v["warning"] = json!(a.warning().map(|w| format!("trial {name}: {w}")));
+            v
+        }
+        None => super::with::adequacy_json(&Err(
+            "the structure test could not be run on any trial".into(),
+        )),
+    };
+    lines
 }
 
 /// `errors_pct` (% error of every identified parameter against the truth) and
@@ -416,7 +519,7 @@ fn session_truth(args: &IdentifyArgs) -> CmdResult<Option<muscle_model::ModelPar
 fn add_session_keys(
     doc: &mut Value,
     session: &LoadedSession,
-    truth: Option<&muscle_model::ModelParams>,
+    truth: Option<&Truth>,
 ) -> Vec<String> {
     doc["emg_normalisation"] = session.emg.to_json();
     let Some(truth) = truth else {
@@ -440,10 +543,12 @@ fn add_session_keys(
 fn run_mcmc(
     args: &IdentifyArgs,
     session_path: &Path,
-    truth: Option<&muscle_model::ModelParams>,
+    truth: Option<&Truth>,
+    free: Option<&[String]>,
+    with: &[EffectKind],
 ) -> CmdResult {
     use identify_mcmc::SessionTrialLikelihood;
-    let session = load_session(session_path, &args.model, args.free.as_deref())?;
+    let session = load_session(session_path, &args.model, free)?;
     let set = session.problem_set()?;
     let settings = super::mcmc::mcmc_settings(args.seed, args.max_iterations)?;
     let out_dir = args
@@ -526,6 +631,9 @@ fn run_mcmc(
     if !effects.enabled().is_empty() {
         doc["effects"] = effects.to_json_value();
     }
+    doc["with"] = json!(with.iter().map(|k| k.name()).collect::<Vec<_>>());
+    let adequacy = trials_adequacy(&session, &params, &effects, set.free());
+    let adequacy_lines = add_adequacy(&mut doc, &session, &adequacy);
     let truth_lines = add_session_keys(&mut doc, &session, truth);
     let text = serde_json::to_string_pretty(&doc).map_err(Failure::internal)? + "\n";
     let path = out.write("identify.json", text.as_bytes())?;
@@ -548,7 +656,7 @@ fn run_mcmc(
     args.report.print_json(&text);
     if show {
         let say = |s: &str| args.report.say(s);
-        for l in lines.iter().chain(&truth_lines) {
+        for l in lines.iter().chain(&truth_lines).chain(&adequacy_lines) {
             say(l);
         }
         for l in session.emg.summary_lines() {

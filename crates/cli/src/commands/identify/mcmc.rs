@@ -9,14 +9,10 @@ pub(super) fn mcmc_figures(
     prep: &Prepared,
     m: &identify_mcmc::McmcIdentification,
 ) -> CmdResult {
-    let none = muscle_model::Effects::none();
-    let truth: Option<Vec<f64>> = prep.truth.as_ref().map(|t| {
-        prep.problem
-            .free()
-            .iter()
-            .map(|id| id.get(t, &none))
-            .collect()
-    });
+    let truth = prep
+        .truth
+        .as_ref()
+        .map(|t| super::with::truth_values(prep.problem.free(), t));
     posterior_figures(set, truth, m)
 }
 
@@ -270,13 +266,14 @@ pub(super) fn summary_lines(
         m.acceptance_rate,
         m.jump_acceptance_rate
     ));
-    lines.push(
-        "  parameter          mean        sd        90 % interval             R̂      ESS  identifiable"
-            .into(),
-    );
+    let width = m.names.iter().map(|n| n.len()).max().unwrap_or(0).max(16);
+    lines.push(format!(
+        "  {:<width$} {:>10} {:>9}        90 % interval             R̂      ESS  identifiable",
+        "parameter", "mean", "sd"
+    ));
     for p in &m.posterior {
         lines.push(format!(
-            "  {:<16} {:>10.5} {:>9.5}  [{:>10.5}, {:>10.5}]  {:.4} {:>6.0}  {}",
+            "  {:<width$} {:>10.5} {:>9.5}  [{:>10.5}, {:>10.5}]  {:.4} {:>6.0}  {}",
             p.name,
             p.mean,
             p.sd,
@@ -330,7 +327,7 @@ pub(super) fn run_mcmc(
         prep.measured_raw.clone(),
         *prep.problem.base_params(),
         *prep.problem.base_effects(),
-        ParamId::identified().to_vec(),
+        prep.problem.free().to_vec(),
     )
     .map_err(|e| Failure::internal(e.to_string()))?;
     let noise = match &prep.correction {
