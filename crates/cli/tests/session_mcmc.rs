@@ -45,7 +45,8 @@ fn a_session_of_one_trial_writes_the_identify_json_of_the_trial() {
     let s = json(&d.join("by_session/identify.json"));
     let t = json(&d.join("by_trial/identify.json"));
     // Where the data came from is said differently (a manifest against a file and its unloaded
-    // run); wall time differs; everything else is the same.
+    // run; a session's adequacy names its trial); wall time differs; everything else is the
+    // same.
     let differ = [
         "wall_s",
         "trial",
@@ -53,6 +54,7 @@ fn a_session_of_one_trial_writes_the_identify_json_of_the_trial() {
         "dynamometer",
         "trials",
         "checks",
+        "adequacy",
     ];
     for (key, value) in t.as_object().unwrap() {
         if !differ.contains(&key.as_str()) {
@@ -64,6 +66,10 @@ fn a_session_of_one_trial_writes_the_identify_json_of_the_trial() {
     // a session's recording checks are per trial
     assert!(s.get("checks").is_none());
     assert_eq!(s["trials"][0]["checks"], t["checks"]);
+    // the trial's structure test is the one `--trial` runs
+    assert_eq!(s["trials"][0]["adequacy"], t["adequacy"]);
+    assert_eq!(s["adequacy"]["structure_p"], t["adequacy"]["structure_p"]);
+    assert_eq!(s["adequacy"]["trial"], "seed5");
     for key in ["rms_nm", "r2", "rms_raw_nm", "noise_model"] {
         assert_eq!(s["trials"][0][key], t["trials"][0][key], "trials[0].{key}");
     }
