@@ -183,9 +183,48 @@ pub fn test_power(lambda: f64, k: usize, alpha: f64) -> f64 {
     noncentral_chi2_survival(chi2_upper_quantile(alpha, k), k, lambda)
 }
 
+/// The Wilson score interval of a binomial proportion: `k` successes in `n` trials, two-sided
+/// confidence `1 − alpha` (`z` the normal quantile, from [`chi2_upper_quantile`] with one
+/// degree of freedom). `(0, 1)` when `n` = 0.
+///
+/// ```
+/// // 19 of 20 at 95 %: [0.764, 0.991]
+/// let (lo, hi) = diagnose::power::wilson_interval(19, 20, 0.05);
+/// assert!((lo - 0.764).abs() < 1e-3 && (hi - 0.991).abs() < 1e-3);
+/// ```
+pub fn wilson_interval(k: usize, n: usize, alpha: f64) -> (f64, f64) {
+    if n == 0 {
+        return (0.0, 1.0);
+    }
+    let z2 = chi2_upper_quantile(alpha, 1);
+    let (k, n) = (k.min(n) as f64, n as f64);
+    let p = k / n;
+    let denom = 1.0 + z2 / n;
+    let centre = (p + z2 / (2.0 * n)) / denom;
+    let half = (z2 * (p * (1.0 - p) / n + z2 / (4.0 * n * n))).sqrt() / denom;
+    ((centre - half).max(0.0), (centre + half).min(1.0))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn wilson_interval_matches_published_values() {
+        // Newcombe (1998), Stat. Med. 17:857, table I: 81/263 → 0.2553–0.3662,
+        // 15/148 → 0.0624–0.1605, 0/20 → 0–0.1611
+        let close =
+            |a: (f64, f64), b: (f64, f64)| (a.0 - b.0).abs() < 5e-4 && (a.1 - b.1).abs() < 5e-4;
+        assert!(close(wilson_interval(81, 263, 0.05), (0.2553, 0.3662)));
+        assert!(close(wilson_interval(15, 148, 0.05), (0.0624, 0.1605)));
+        assert!(close(wilson_interval(0, 20, 0.05), (0.0, 0.1611)));
+        assert_eq!(wilson_interval(3, 0, 0.05), (0.0, 1.0));
+        let (lo, hi) = wilson_interval(20, 20, 0.05);
+        assert!(
+            (hi - 1.0).abs() < 1e-9 && (lo - 0.8389).abs() < 5e-4,
+            "{lo} {hi}"
+        );
+    }
 
     #[test]
     fn the_spec_noise_has_its_low_frequency_level() {

@@ -1,25 +1,35 @@
-//! Detection rate per hidden effect over many random trials (statistical tier: `cargo test
+//! Detection rate per hidden effect over random trials (statistical tier: `cargo test
 //! --release -p diagnose --test detection_rates -- --ignored --nocapture`).
 //!
 //! `hidden_effects.rs` diagnoses one trial per effect, which shows the whole chain works but
-//! says little about how often it does. Here each scenario is diagnosed on `N` = 20 trials
-//! built like the hidden-effect tests' ([`hidden_trial`]: random true parameters in the
-//! bounds, a random realistic magnitude, the noise of the synthetic trials, unloaded run
-//! supplied; trial `i` of scenario slot `s` has seed `base + 1000·s + i`). A trial counts as
-//! a success when the named causes are exactly the hidden effect (for the no-effect scenario:
-//! verdict adequate, nothing named, no unexplained structure; every odd trial has an `emg_ta`
+//! says little about how often it does. Here each scenario is diagnosed on `N` trials built
+//! like the hidden-effect tests' ([`hidden_trial`]: random true parameters in the bounds, a
+//! random realistic magnitude, the noise of the synthetic trials, unloaded run supplied; trial
+//! `i` of scenario slot `s` has seed `base + 1000·s + i`). A trial counts as a success when
+//! the named causes are exactly the hidden effect (for the no-effect scenario: verdict
+//! adequate, nothing named, no unexplained structure; every odd trial has an `emg_ta`
 //! channel).
+//!
+//! **Trials.** `N` = 6 by default (48 diagnoses, the CI tier: about 6 minutes on 2 cores);
+//! `SURAE_DIAG_TRIALS=20` runs the full study (160 diagnoses, about 19 minutes). Any other
+//! positive integer is accepted; a value that is not one fails the test. The first `N`
+//! trials of a scenario are the same whatever `N`.
 //!
 //! **Pass criterion.** For a claimed rate `p`, the number of successes `X` of `N` independent
 //! trials is Binomial(`N`, `p`). The claim is rejected at level α = 0.01 when the observed
 //! count `k` has `P(X ≤ k) ≤ 0.01`; the test passes from the smallest `k` with
-//! `P(X ≤ k) > 0.01` ([`min_successes`]). For `N` = 20:
+//! `P(X ≤ k) > 0.01` ([`min_successes`], recomputed for the `N` run):
 //!
-//! | claimed rate | P(X ≤ k − 1), P(X ≤ k) | pass from |
-//! |---|---|---|
-//! | 0.95 (no effect) | 0.0026, 0.016 | 16 of 20 |
-//! | 0.90 | 0.0024, 0.011 | 14 of 20 |
-//! | 0.65 (gravity, antagonist) | 0.0060, 0.020 | 8 of 20 |
+//! | claimed rate | `N` = 6: P(X ≤ k − 1), P(X ≤ k) | pass from | `N` = 20: P(X ≤ k − 1), P(X ≤ k) | pass from |
+//! |---|---|---|---|---|
+//! | 0.95 (no effect) | 0.0022, 0.033 | 4 of 6 | 0.0026, 0.016 | 16 of 20 |
+//! | 0.90 | 0.0013, 0.016 | 3 of 6 | 0.0024, 0.011 | 14 of 20 |
+//! | 0.65 (gravity, antagonist) | 0.0018, 0.022 | 1 of 6 | 0.0060, 0.020 | 8 of 20 |
+//!
+//! With 6 trials the test catches a broken scenario, not a small loss: it fails with
+//! probability 0.74 when an effect claimed at 0.90 is found in only 30 % of trials (0.90 at
+//! 20 %), 0.82 when the no-effect scenario is right in only 40 %, and 0.53 when an effect
+//! claimed at 0.65 is found in only 10 %. The 20-trial run is the measurement.
 //!
 //! The claimed rates are those of the confusion study (`cargo run --release -p diagnose
 //! --example confusion`, docs/diagnosis.md), rounded down: 19–20 of 20 for the offset, the
@@ -29,18 +39,23 @@
 //! detection limit).
 //!
 //! **Measured** on the default base 424242, a base not used while developing the diagnosis,
-//! with the command above:
+//! with `SURAE_DIAG_TRIALS=20` and the command above:
 //!
-//! | scenario | correct | misses (seed: named) | mean \|rel. error\| of the headline |
-//! |---|---|---|---|
-//! | no effect | 20/20 | | – |
-//! | `torque_offset` | 20/20 | | 3.4 % |
-//! | `passive_joint_torque` | 20/20 | | 6.8 % |
-//! | `gravity` | 14/20 | 427242, 427250, 427259: nothing; 427245, 427256, 427260: offset | 14.7 % |
-//! | `electromechanical_delay` | 20/20 | | 2.1 % |
-//! | `fatigue` | 20/20 | | 3.3 % |
-//! | `antagonist_coactivation` | 16/20 | 430242, 430243, 430253, 430255: nothing (gains 3.4–5.2 N·m) | 14.4 % |
-//! | `eccentric_enhancement` | 20/20 | | 2.4 % (of `Flen`) |
+//! | scenario | correct of 20 | of the first 6 (default `N`; pass from) | misses (seed: named) | mean \|rel. error\| of the headline |
+//! |---|---|---|---|---|
+//! | no effect | 20/20 | 6/6 (4) | | – |
+//! | `torque_offset` | 20/20 | 6/6 (3) | | 3.4 % |
+//! | `passive_joint_torque` | 20/20 | 6/6 (3) | | 6.8 % |
+//! | `gravity` | 14/20 | 4/6 (1) | 427242, 427250, 427259: nothing; 427245, 427256, 427260: offset | 14.7 % |
+//! | `electromechanical_delay` | 20/20 | 6/6 (3) | | 2.1 % |
+//! | `fatigue` | 20/20 | 6/6 (3) | | 3.3 % |
+//! | `antagonist_coactivation` | 16/20 | 4/6 (1) | 430242, 430243, 430253, 430255: nothing (gains 3.4–5.2 N·m) | 14.4 % |
+//! | `eccentric_enhancement` | 20/20 | 6/6 (3) | | 2.4 % (of `Flen`) |
+//!
+//! The default run's trials are the first 6 of each scenario (seeds `base + 1000·s + i`,
+//! `i < 6`), so its counts are those of the 20-trial run's first six: gravity misses 427242
+//! and 427245, the antagonist 430242 and 430243. Its 48 diagnoses are 48/160 of the 20-trial
+//! run's 19 minutes, about 6 minutes on the 2-core CI machine.
 //!
 //! `SURAE_DIAG_SEEDS=<number>` or `=fresh` moves every trial to another base.
 
@@ -50,8 +65,26 @@ use diagnose::scenarios::{headline, hidden_trial};
 use diagnose::Verdict;
 use muscle_model::EffectKind;
 
-/// Trials per scenario.
-const TRIALS: u64 = 20;
+/// Trials per scenario unless `SURAE_DIAG_TRIALS` says otherwise (the CI tier).
+const DEFAULT_TRIALS: u64 = 6;
+
+/// Trials per scenario: `SURAE_DIAG_TRIALS` (a positive integer) or [`DEFAULT_TRIALS`].
+///
+/// # Panics
+/// When `SURAE_DIAG_TRIALS` is set to anything but a positive integer: a mistyped value must
+/// not run the short tier while the caller believes the full study ran.
+fn trials() -> u64 {
+    match std::env::var("SURAE_DIAG_TRIALS") {
+        Ok(s) => match s.trim().parse::<u64>() {
+            Ok(n) if n > 0 => n,
+            _ => panic!("SURAE_DIAG_TRIALS={s:?} is not a positive integer"),
+        },
+        Err(std::env::VarError::NotPresent) => DEFAULT_TRIALS,
+        Err(std::env::VarError::NotUnicode(s)) => {
+            panic!("SURAE_DIAG_TRIALS={s:?} is not a positive integer")
+        }
+    }
+}
 
 /// Significance level of the one-sided binomial test.
 const ALPHA: f64 = 0.01;
@@ -79,16 +112,17 @@ fn min_successes(n: u64, p: f64, alpha: f64) -> u64 {
         .unwrap_or(n)
 }
 
-/// Diagnoses `TRIALS` trials hiding `kind` (or nothing) in scenario slot `slot` and asserts
+/// Diagnoses [`trials`] trials hiding `kind` (or nothing) in scenario slot `slot` and asserts
 /// that the number of correct diagnoses does not reject `claimed`.
 fn detection_rate(kind: Option<EffectKind>, slot: u64, claimed: f64) {
     let base = common::base_seed(BASE);
+    let n_trials = trials();
     let kinds: Vec<EffectKind> = kind.into_iter().collect();
     let label = kind.map_or("none", |k| k.name());
     let mut hits = 0u64;
     let mut misses = Vec::new();
     let mut rel_errors = Vec::new();
-    for i in 0..TRIALS {
+    for i in 0..n_trials {
         let seed = base + 1000 * slot + i;
         let with_ta =
             kind == Some(EffectKind::AntagonistCoactivation) || (kind.is_none() && i % 2 == 1);
@@ -133,7 +167,7 @@ fn detection_rate(kind: Option<EffectKind>, slot: u64, claimed: f64) {
             misses.push(seed);
         }
     }
-    let need = min_successes(TRIALS, claimed, ALPHA);
+    let need = min_successes(n_trials, claimed, ALPHA);
     let mean_rel = if rel_errors.is_empty() {
         String::new()
     } else {
@@ -141,11 +175,11 @@ fn detection_rate(kind: Option<EffectKind>, slot: u64, claimed: f64) {
         format!(", mean |rel. error| of the headline {:.1} %", 100.0 * m)
     };
     println!(
-        "{label}: {hits}/{TRIALS} correct (claimed rate {claimed}, pass from {need}){mean_rel}; misses {misses:?}"
+        "{label}: {hits}/{n_trials} correct (claimed rate {claimed}, pass from {need}){mean_rel}; misses {misses:?}"
     );
     assert!(
         hits >= need,
-        "{label}: {hits} of {TRIALS} trials correct, below the {need} a claimed rate of {claimed} \
+        "{label}: {hits} of {n_trials} trials correct, below the {need} a claimed rate of {claimed} \
          allows at α = {ALPHA}; misses (seeds) {misses:?}, base {base}"
     );
 }
@@ -158,6 +192,18 @@ fn binomial_bound_matches_the_table() {
     assert_eq!(min_successes(20, 0.95, ALPHA), 16);
     assert_eq!(min_successes(20, 0.9, ALPHA), 14);
     assert_eq!(min_successes(20, 0.65, ALPHA), 8);
+    // the CI tier's N = 6
+    assert!((binomial_cdf(2, 6, 0.9) - 0.001_27).abs() < 1e-6);
+    assert!((binomial_cdf(3, 6, 0.9) - 0.015_85).abs() < 1e-6);
+    assert!((binomial_cdf(4, 6, 0.95) - 0.032_774).abs() < 1e-6);
+    assert_eq!(min_successes(6, 0.95, ALPHA), 4);
+    assert_eq!(min_successes(6, 0.9, ALPHA), 3);
+    assert_eq!(min_successes(6, 0.65, ALPHA), 1);
+    // the power stated in the module docs: P(X < pass-from) under a broken rate
+    assert!((binomial_cdf(2, 6, 0.3) - 0.744).abs() < 0.001);
+    assert!((binomial_cdf(2, 6, 0.2) - 0.901).abs() < 0.001);
+    assert!((binomial_cdf(3, 6, 0.4) - 0.821).abs() < 0.001);
+    assert!((binomial_cdf(0, 6, 0.1) - 0.531).abs() < 0.001);
     assert!((binomial_cdf(20, 20, 0.3) - 1.0).abs() < 1e-12);
     assert_eq!(binomial_cdf(0, 20, 0.5), 0.5_f64.powi(20));
 }

@@ -171,3 +171,104 @@ fn a_trials_detection_limit_is_where_the_rule_finds_the_effect_in_most_trials() 
         assert!((0.6..=0.999).contains(&power), "{}: {power}", kind.name());
     }
 }
+
+/// The relaxed+2 trial of `seed` (the same subject and noise record as
+/// `hidden_trial_sized(kind, …, seed)`) with effect `kind` at exactly `values`.
+fn trial_with(seed: u64, kind: EffectKind, values: [f64; 2]) -> experiment::Synthetic {
+    use rand::SeedableRng;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let params = experiment::random_params(&mut rng, &muscle_model::ModelParams::nominal());
+    let mut effects = muscle_model::Effects::none();
+    effects.set_values(kind, values);
+    let cfg = experiment::SynthConfig::new("relaxed+2".parse().expect("protocol"), seed)
+        .with_params(params)
+        .with_effects(effects);
+    experiment::synthesize(&cfg).expect("synthesis")
+}
+
+#[test]
+fn gravity_and_passive_limits_hold_for_their_worst_shape() {
+    // Gravity's and the passive torque's limits are the largest over their shapes (phase,
+    // stiffness). Hidden at the reported limit in any shape, the rule at best must name them
+    // in most trials (each shape at least as well as the one-shape check above allows), and
+    // the limit must not be far beyond what the hardest shape needs (some shape's power
+    // below 0.999).
+    let settings = DiagnoseSettings::default();
+    let seed = 2026;
+    let t = hidden_trial(&[], false, seed).expect("trial");
+    let d = diagnose::run(
+        &t.synthetic.trial,
+        Some(&t.synthetic.unloaded),
+        &settings,
+        &mut diagnose::no_observer,
+    )
+    .expect("diagnosis");
+    let limit = |kind: EffectKind| {
+        d.candidates
+            .iter()
+            .find(|c| c.effect == kind.name())
+            .and_then(|c| c.detection_limit)
+            .expect("a detection limit")
+    };
+    let lambda = |kind: EffectKind, values: [f64; 2]| {
+        let s = trial_with(seed, kind, values);
+        noncentrality(&s.trial, &s.model_torque, &[], &spec_noise(), &settings).expect("fit")
+    };
+    let power = |kind: EffectKind, values: [f64; 2]| {
+        let info = lambda(kind, values);
+        rule_power(
+            info.lambda,
+            kind.params().len(),
+            info.n_obs,
+            settings.max_delta_bic,
+        )
+    };
+    let g = limit(EffectKind::Gravity);
+    let p = limit(EffectKind::PassiveJointTorque);
+    let reference = diagnose::scenarios::PASSIVE_REFERENCE_RAD;
+    // gravity's λ at a fixed |m| is close to a quadratic form in u = (cos φ, −sin φ): three
+    // phases give it, its smallest eigenvector the worst phase (sharply peaked: a coarse
+    // grid misses it)
+    let l: Vec<f64> = [0.0, 60.0, 120.0]
+        .iter()
+        .map(|phi| lambda(EffectKind::Gravity, [-g, *phi]).lambda)
+        .collect();
+    let s60 = 60f64.to_radians().sin();
+    let m11 = l[0];
+    let m22 = ((l[1] + l[2]) / 2.0 - 0.25 * m11) / (s60 * s60);
+    let m12 = (l[2] - l[1]) / (4.0 * 0.5 * s60);
+    let eig = nalgebra::Matrix2::new(m11, m12, m12, m22).symmetric_eigen();
+    let i = if eig.eigenvalues[0] <= eig.eigenvalues[1] {
+        0
+    } else {
+        1
+    };
+    let v = eig.eigenvectors.column(i);
+    let worst = (-v[1]).atan2(v[0]).to_degrees();
+    let mut shapes: Vec<(EffectKind, f64, f64)> = Vec::new();
+    for phi in [worst, worst + 30.0, worst + 90.0] {
+        let phi = (phi + 180.0).rem_euclid(360.0) - 180.0;
+        shapes.push((
+            EffectKind::Gravity,
+            phi,
+            power(EffectKind::Gravity, [-g, phi]),
+        ));
+    }
+    for k in [3.0, 8.0, 20.0] {
+        let scale = p / ((k * reference).exp() - 1.0);
+        shapes.push((
+            EffectKind::PassiveJointTorque,
+            k,
+            power(EffectKind::PassiveJointTorque, [scale, k]),
+        ));
+    }
+    for (kind, shape, pw) in &shapes {
+        eprintln!("{} shape {shape}: rule power {pw:.3}", kind.name());
+    }
+    eprintln!("limits: gravity {g:.3} N·m, passive {p:.3} N·m");
+    for kind in [EffectKind::Gravity, EffectKind::PassiveJointTorque] {
+        let of: Vec<f64> = shapes.iter().filter(|s| s.0 == kind).map(|s| s.2).collect();
+        assert!(of.iter().all(|pw| *pw >= 0.6), "{}: {of:?}", kind.name());
+        assert!(of.iter().any(|pw| *pw <= 0.999), "{}: {of:?}", kind.name());
+    }
+}
