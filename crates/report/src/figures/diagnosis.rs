@@ -300,3 +300,384 @@ pub fn sensitivity_curves(points: &[SensitivityPoint<'_>]) -> Result<String> {
         Ok(())
     })
 }
+
+/// One flexible term of a diagnosis (the shape of a structure no catalogued effect explains):
+/// its value at points of its state variable with the half-width of its 95 % band.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FlexibleTermView<'a> {
+    /// State variable (e.g. `angle`, `velocity`, `direction`, `time`, `activation`).
+    pub variable: &'a str,
+    /// Unit of `points` (empty: dimensionless).
+    pub unit: &'a str,
+    /// Points of the variable; for `direction` −1 (plantarflexing, q̇ < 0) and +1
+    /// (dorsiflexing, q̇ > 0).
+    pub points: &'a [f64],
+    /// Term at each point (N·m).
+    pub value_nm: &'a [f64],
+    /// Half-width of the 95 % band at each point (N·m; NaN when not computed: no band drawn).
+    pub band_nm: &'a [f64],
+}
+
+/// Label of a `direction` point: the sign of the angular velocity in words.
+fn direction_label(x: f64) -> &'static str {
+    if x < 0.0 {
+        "plantarflexing (q̇<0)"
+    } else {
+        "dorsiflexing (q̇>0)"
+    }
+}
+
+/// The x-axis title of a term's panel.
+fn term_axis(t: &FlexibleTermView<'_>) -> String {
+    match (t.variable, t.unit) {
+        ("direction", _) => "direction of motion (sign of q̇)".to_string(),
+        (v, "") => format!("{v} (normalised)"),
+        (v, u) => format!("{v} ({u})"),
+    }
+}
+
+/// The flexible terms of a diagnosis, one panel per term, stacked: the term (N·m) against its
+/// variable with its 95 % band shaded and a zero line (the terms are centred: their mean over
+/// the trial is zero). A `direction` term is drawn as two points with 95 % error bars,
+/// plantarflexing (q̇ < 0) and dorsiflexing (q̇ > 0).
+pub fn flexible_terms(terms: &[FlexibleTermView<'_>]) -> Result<String> {
+    const FIG: &str = "flexible_terms";
+    if terms.is_empty() {
+        return Err(ReportError::Empty {
+            figure: FIG,
+            series: "flexible terms".into(),
+        });
+    }
+    for t in terms {
+        let n = t.points.len();
+        if n == 0 {
+            return Err(ReportError::Empty {
+                figure: FIG,
+                series: format!("{} points", t.variable),
+            });
+        }
+        for (what, v) in [("value_nm", t.value_nm), ("band_nm", t.band_nm)] {
+            if v.len() != n {
+                return Err(ReportError::LengthMismatch {
+                    figure: FIG,
+                    series: format!("{} {what}", t.variable),
+                    expected: n,
+                    got: v.len(),
+                });
+            }
+        }
+        for (i, &x) in t.points.iter().enumerate() {
+            check_value(FIG, format!("{} points", t.variable), x, i)?;
+        }
+        for (i, &v) in t.value_nm.iter().enumerate() {
+            check_value(FIG, format!("{} value_nm", t.variable), v, i)?;
+        }
+        // a band is NaN when not computed; anything else must be a finite half-width
+        for (i, &b) in t.band_nm.iter().enumerate() {
+            if !b.is_nan() {
+                check_value(FIG, format!("{} band_nm", t.variable), b, i)?;
+            }
+        }
+    }
+    let any_band = terms
+        .iter()
+        .any(|t| t.band_nm.iter().any(|b| b.is_finite()));
+    let panel_h = 380;
+    let height = 130 + panel_h * terms.len() as u32;
+    render(FIG, (1000, height), |root| {
+        let title = if terms.len() == 1 {
+            "The flexible term: what the unexplained structure depends on".to_string()
+        } else {
+            "The flexible terms: what the unexplained structure depends on".to_string()
+        };
+        let body = titled(FIG, root, &title)?;
+        let mut entries = vec![(
+            "flexible term (centred: zero mean over the trial)".to_string(),
+            Mark::Line(
+                SeriesStyle {
+                    colour: VERMILLION,
+                    dashed: false,
+                },
+                2,
+            ),
+        )];
+        if any_band {
+            entries.push(("95 % band".to_string(), Mark::Swatch(VERMILLION, 0.25)));
+        } else {
+            entries.push(("band not computed".to_string(), Mark::None));
+        }
+        entries.push((
+            "zero".to_string(),
+            Mark::Line(
+                SeriesStyle {
+                    colour: GREY,
+                    dashed: true,
+                },
+                2,
+            ),
+        ));
+        let body = legend_strip(FIG, &body, &entries)?;
+        let panels = body.split_evenly((terms.len(), 1));
+        for (t, area) in terms.iter().zip(&panels) {
+            term_panel(FIG, area, t)?;
+        }
+        Ok(())
+    })
+}
+
+/// One term's panel.
+fn term_panel(figure: &'static str, area: &Area<'_>, t: &FlexibleTermView<'_>) -> Result<()> {
+    let e = draw_err(figure);
+    let band = |i: usize| {
+        let b = t.band_nm[i];
+        if b.is_finite() {
+            b
+        } else {
+            0.0
+        }
+    };
+    let y = min_max(
+        t.value_nm
+            .iter()
+            .enumerate()
+            .flat_map(|(i, v)| [v - band(i), v + band(i)])
+            .chain([0.0]),
+    )
+    .unwrap_or((-1.0, 1.0));
+    let y = padded(y, 0.08);
+    let y_desc = format!("{} term (N·m)", t.variable);
+    let fill = VERMILLION.mix(0.25).filled();
+    let line = VERMILLION.stroke_width(2);
+    if t.variable == "direction" {
+        let x = (-1.8, 1.8);
+        let mut chart = ChartBuilder::on(area)
+            .margin_right(24)
+            .margin_top(10)
+            .x_label_area_size(70)
+            .y_label_area_size(90)
+            .build_cartesian_2d(x.0..x.1, y.0..y.1)
+            .map_err(&e)?;
+        let ys = y.1 - y.0;
+        let yf = move |v: &f64| tick_text(*v, ys);
+        let (bold, light) = mesh_colours();
+        chart
+            .configure_mesh()
+            .disable_x_mesh()
+            .bold_line_style(bold)
+            .light_line_style(light)
+            .x_labels(0)
+            .y_label_formatter(&yf)
+            .label_style((FONT, TICK_PX))
+            .axis_desc_style((FONT, DESC_PX))
+            .x_desc(term_axis(t))
+            .y_desc(y_desc)
+            .draw()
+            .map_err(&e)?;
+        chart
+            .draw_series(DashedLineSeries::new(
+                vec![(x.0, 0.0), (x.1, 0.0)],
+                8,
+                5,
+                GREY.stroke_width(2),
+            ))
+            .map_err(&e)?;
+        // the step between the two directions, dashed, then the points with their bars
+        let mut pts: Vec<(f64, f64)> = t
+            .points
+            .iter()
+            .zip(t.value_nm)
+            .map(|(x, v)| (*x, *v))
+            .collect();
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        if pts.len() == 2 {
+            let mid = 0.5 * (pts[0].0 + pts[1].0);
+            chart
+                .draw_series(DashedLineSeries::new(
+                    vec![
+                        (pts[0].0, pts[0].1),
+                        (mid, pts[0].1),
+                        (mid, pts[1].1),
+                        (pts[1].0, pts[1].1),
+                    ],
+                    6,
+                    6,
+                    VERMILLION.mix(0.6).stroke_width(1),
+                ))
+                .map_err(&e)?;
+        }
+        for (i, (&px, &v)) in t.points.iter().zip(t.value_nm).enumerate() {
+            let b = band(i);
+            if b > 0.0 {
+                chart
+                    .draw_series(std::iter::once(Rectangle::new(
+                        [(px - 0.18, v - b), (px + 0.18, v + b)],
+                        fill,
+                    )))
+                    .map_err(&e)?;
+                // the error bar: a whisker with a cap at each end
+                let whiskers = [
+                    vec![(px, v - b), (px, v + b)],
+                    vec![(px - 0.08, v - b), (px + 0.08, v - b)],
+                    vec![(px - 0.08, v + b), (px + 0.08, v + b)],
+                ];
+                chart
+                    .draw_series(whiskers.into_iter().map(|w| PathElement::new(w, line)))
+                    .map_err(&e)?;
+            }
+            chart
+                .draw_series(std::iter::once(Circle::new(
+                    (px, v),
+                    6,
+                    VERMILLION.filled(),
+                )))
+                .map_err(&e)?;
+        }
+        // the two categories under the axis
+        let base = area.get_base_pixel();
+        let font = (FONT, TICK_PX)
+            .into_font()
+            .color(&plotters::style::BLACK)
+            .pos(Pos::new(HPos::Center, VPos::Top));
+        for &px in t.points {
+            let at = chart.backend_coord(&(px, y.0));
+            area.draw(&Text::new(
+                direction_label(px).to_string(),
+                (at.0 - base.0, at.1 - base.1 + 8),
+                font.clone(),
+            ))
+            .map_err(&e)?;
+        }
+        return Ok(());
+    }
+    let x = padded(
+        min_max(t.points.iter().copied()).unwrap_or((0.0, 1.0)),
+        0.02,
+    );
+    let mut chart = linear_chart(figure, area, (x, y), 90, (&term_axis(t), &y_desc))?;
+    let mut order: Vec<usize> = (0..t.points.len()).collect();
+    order.sort_by(|a, b| t.points[*a].total_cmp(&t.points[*b]));
+    if order.iter().any(|&i| band(i) > 0.0) {
+        let mut poly: Vec<(f64, f64)> = order
+            .iter()
+            .map(|&i| (t.points[i], t.value_nm[i] + band(i)))
+            .collect();
+        poly.extend(
+            order
+                .iter()
+                .rev()
+                .map(|&i| (t.points[i], t.value_nm[i] - band(i))),
+        );
+        chart
+            .draw_series(std::iter::once(Polygon::new(poly, fill)))
+            .map_err(&e)?;
+    }
+    chart
+        .draw_series(DashedLineSeries::new(
+            vec![(x.0, 0.0), (x.1, 0.0)],
+            8,
+            5,
+            GREY.stroke_width(2),
+        ))
+        .map_err(&e)?;
+    let curve: Vec<(f64, f64)> = order
+        .iter()
+        .map(|&i| (t.points[i], t.value_nm[i]))
+        .collect();
+    draw_line(
+        figure,
+        &mut chart,
+        curve.clone(),
+        SeriesStyle {
+            colour: VERMILLION,
+            dashed: false,
+        },
+        2,
+    )?;
+    chart
+        .draw_series(
+            curve
+                .iter()
+                .map(|p| Circle::new(*p, 4, VERMILLION.filled())),
+        )
+        .map_err(&e)?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::check_svg;
+
+    #[test]
+    fn flexible_terms_two_panels_well_formed() {
+        let points: Vec<f64> = (0..8).map(|k| -20.0 + 5.0 * k as f64).collect();
+        let value: Vec<f64> = points.iter().map(|q| 0.05 * q).collect();
+        let band = vec![0.3; 8];
+        let dir_points = [-1.0, 1.0];
+        let dir_value = [0.8, -0.8];
+        let dir_band = [0.15, 0.2];
+        let terms = [
+            FlexibleTermView {
+                variable: "direction",
+                unit: "",
+                points: &dir_points,
+                value_nm: &dir_value,
+                band_nm: &dir_band,
+            },
+            FlexibleTermView {
+                variable: "angle",
+                unit: "°",
+                points: &points,
+                value_nm: &value,
+                band_nm: &band,
+            },
+        ];
+        let svg = flexible_terms(&terms).unwrap();
+        assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+        let s = check_svg(&svg).expect("well-formed SVG");
+        for label in [
+            "plantarflexing (q̇<0)",
+            "dorsiflexing (q̇>0)",
+            "angle (°)",
+            "angle term (N·m)",
+            "direction term (N·m)",
+            "95 % band",
+        ] {
+            assert!(s.has_text(label), "missing {label:?} in {:?}", s.texts);
+        }
+        assert!(s.count("polygon") >= 1, "{:?}", s.elements);
+        assert!(s.count("circle") >= 10, "{:?}", s.elements);
+        for size in svg.split("font-size=\"").skip(1) {
+            let v: f64 = size[..size.find('"').unwrap()].parse().unwrap();
+            assert!(v >= 14.0 - 1e-9, "font size {v}");
+        }
+        assert_eq!(flexible_terms(&terms).unwrap(), svg, "deterministic");
+
+        // no band computed: drawn without it; bad input is an error, not a panic
+        let nan = [f64::NAN; 8];
+        let no_band = FlexibleTermView {
+            band_nm: &nan,
+            ..terms[1]
+        };
+        let svg = flexible_terms(&[no_band]).unwrap();
+        assert!(check_svg(&svg).unwrap().has_text("band not computed"));
+        assert!(flexible_terms(&[]).is_err());
+        let short = FlexibleTermView {
+            value_nm: &value[..3],
+            ..terms[1]
+        };
+        assert!(matches!(
+            flexible_terms(&[short]),
+            Err(ReportError::LengthMismatch { .. })
+        ));
+        let inf = [f64::INFINITY, 0.0];
+        let bad = FlexibleTermView {
+            value_nm: &inf,
+            ..terms[0]
+        };
+        assert!(matches!(
+            flexible_terms(&[bad]),
+            Err(ReportError::NonFinite { .. })
+        ));
+    }
+}

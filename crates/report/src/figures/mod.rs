@@ -13,7 +13,10 @@ mod mcmc;
 mod time;
 
 pub use design::{design_sds, DesignSeries};
-pub use diagnosis::{candidate_ranking, sensitivity_curves, Candidate, SensitivityPoint};
+pub use diagnosis::{
+    candidate_ranking, flexible_terms, sensitivity_curves, Candidate, FlexibleTermView,
+    SensitivityPoint,
+};
 pub use mcmc::{corner, histograms, rhat_history, traces};
 pub use time::{fit_comparison, residual_vs_angle, residual_vs_time, torque_fit};
 
