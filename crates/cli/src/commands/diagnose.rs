@@ -13,7 +13,9 @@ use std::path::{Path, PathBuf};
 
 mod session_run;
 
-/// Files `surae diagnose` writes.
+/// Files `surae diagnose` writes. A figure not drawn on this run (the residual against the
+/// angle without a joint angle, the flexible terms without unexplained structure) is removed
+/// from the folder, so that none from an earlier run is left beside this run's report.
 const PLANNED: &[&str] = &[
     "diagnosis.json",
     "torque_fit.svg",
@@ -21,6 +23,7 @@ const PLANNED: &[&str] = &[
     "residual_vs_time.svg",
     "fit_comparison.svg",
     "candidates.svg",
+    "flexible_terms.svg",
     "report.html",
 ];
 
@@ -149,6 +152,7 @@ pub fn run(args: DiagnoseArgs) -> CmdResult {
         Some(&checks),
     )?;
     let path = out.write("diagnosis.json", text.as_bytes())?;
+    let closing = Closing::of_trial(&d, &trial_args(&args));
     let files = write_figures(
         &out,
         &loaded.name,
@@ -156,6 +160,7 @@ pub fn run(args: DiagnoseArgs) -> CmdResult {
         &inputs,
         &d,
         0..inputs.len(),
+        &closing,
     )?;
 
     args.report.print_json(&text);
@@ -177,8 +182,143 @@ pub fn run(args: DiagnoseArgs) -> CmdResult {
             files.len(),
             out_dir.display()
         ));
+        say(&closing.terminal_line());
     }
     Ok(())
+}
+
+/// The end of a diagnosis report and of its terminal summary: the command line that identifies
+/// the muscle parameters with the causes named.
+pub(super) struct Closing {
+    /// The command (`surae identify --method mcmc … [--with …]`).
+    command: String,
+    /// Causes it identifies with (empty: the baseline model).
+    with: Vec<String>,
+    /// A note under the command (e.g. per-trial causes a session cannot identify jointly).
+    note: Option<String>,
+}
+
+impl Closing {
+    /// For a trial diagnosed on its own, named by `args` (as [`trial_args`] gives them).
+    fn of_trial(d: &Diagnosis, args: &str) -> Self {
+        let command = d
+            .identify_command(args)
+            .unwrap_or_else(|| identify_base(args));
+        Closing {
+            command,
+            with: d.causes.clone(),
+            note: None,
+        }
+    }
+
+    /// For a session named by `args`, with the `causes` of its joint diagnosis. A per-trial
+    /// cause (scope `trial`) is left out of `--with` in a session of several trials, where
+    /// `identify --session` refuses it, and named in a note.
+    pub(super) fn of_session(causes: &[diagnose::SessionCause], args: &str, trials: usize) -> Self {
+        let (with, per_trial): (Vec<&diagnose::SessionCause>, Vec<&diagnose::SessionCause>) =
+            causes
+                .iter()
+                .partition(|c| trials < 2 || c.scope == diagnose::EffectScope::Subject);
+        let with: Vec<String> = with.iter().map(|c| c.effect.clone()).collect();
+        let mut command = identify_base(args);
+        if !with.is_empty() {
+            command.push_str(" --with ");
+            command.push_str(&with.join(","));
+        }
+        let note = (!per_trial.is_empty()).then(|| {
+            let names: Vec<&str> = per_trial.iter().map(|c| c.effect.as_str()).collect();
+            format!(
+                "{} {} a property of each trial's setup: `identify --session` does not identify \
+                 {} with the muscles in a session of several trials; identify a trial on its \
+                 own (`--trial … --with {}`) to estimate {}.",
+                names.join(" and "),
+                if names.len() == 1 { "is" } else { "are" },
+                if names.len() == 1 { "it" } else { "them" },
+                names.join(","),
+                if names.len() == 1 { "it" } else { "them" },
+            )
+        });
+        Closing {
+            command,
+            with,
+            note,
+        }
+    }
+
+    /// The report's closing section.
+    fn add_to(&self, page: &mut report::Report) {
+        page.heading("Identify");
+        if self.with.is_empty() {
+            page.paragraph(format!(
+                "No cause named: `{}` identifies the baseline model.",
+                self.command
+            ));
+        } else {
+            page.paragraph("Identify the muscle parameters with the named causes:");
+            page.preformatted(self.command.clone());
+        }
+        if let Some(n) = &self.note {
+            page.paragraph(n.clone());
+        }
+    }
+
+    /// The last line of the terminal summary.
+    pub(super) fn terminal_line(&self) -> String {
+        if self.with.is_empty() {
+            format!(
+                "identify     no cause named: `{}` identifies the baseline model",
+                self.command
+            )
+        } else {
+            format!("identify     {}", self.command)
+        }
+    }
+}
+
+/// `surae identify --method mcmc` with the arguments `args` that name the trial(s).
+fn identify_base(args: &str) -> String {
+    let mut cmd = String::from("surae identify --method mcmc");
+    if !args.trim().is_empty() {
+        cmd.push(' ');
+        cmd.push_str(args.trim());
+    }
+    cmd
+}
+
+/// A path as a shell word: as it is when it holds only plain characters, else single-quoted.
+fn shell_word(p: &Path) -> String {
+    let s = p.display().to_string();
+    let plain = !s.is_empty()
+        && s.chars()
+            .all(|c| c.is_ascii_alphanumeric() || "_-./:=+,@%".contains(c));
+    if plain {
+        s
+    } else {
+        format!("'{}'", s.replace('\'', "'\\''"))
+    }
+}
+
+/// The arguments of `surae diagnose` that name the trial and how it is read, as the user gave
+/// them, for `surae identify`: `--trial`, `--unloaded`, `--session` (with `--params`),
+/// `--emg-is-envelope` and `--knee-angle-deg` (nothing for the bundled trial).
+pub(super) fn trial_args(args: &DiagnoseArgs) -> String {
+    let mut a: Vec<String> = Vec::new();
+    let mut flag = |name: &str, p: Option<&PathBuf>| {
+        if let Some(p) = p {
+            a.push(format!("{name} {}", shell_word(p)));
+        }
+    };
+    flag("--session", args.session.as_ref());
+    flag("--trial", args.trial.as_ref());
+    flag("--unloaded", args.unloaded.as_ref());
+    flag("--params", args.params.as_ref());
+    if args.emg_is_envelope {
+        a.push("--emg-is-envelope".into());
+    }
+    if let Some(k) = args.knee.knee_angle_deg {
+        a.push(format!("--knee-angle-deg {k}"));
+    }
+    a.join(" ")
 }
 
 /// `diagnosis.json`: the diagnosis with the trial's name, its unloaded run's (or `null`), the
@@ -212,7 +352,9 @@ fn diagnosis_json(
 
 /// The figures and `report.html` of a diagnosis, drawn over the samples `span` (the compared
 /// samples of a recording whose torque starts after its EMG). The residual against the angle
-/// is left out for a recording without a joint angle.
+/// is left out for a recording without a joint angle; the flexible terms are drawn when the
+/// diagnosis has them. The report ends with `closing`. A figure of [`PLANNED`] this run did
+/// not draw is removed from `out`.
 fn write_figures(
     out: &OutDir,
     name: &str,
@@ -220,6 +362,7 @@ fn write_figures(
     inputs: &muscle_model::TrialInputs,
     d: &Diagnosis,
     span: Range<usize>,
+    closing: &Closing,
 ) -> CmdResult<Vec<PathBuf>> {
     let s = &d.residual_analysis.series;
     let time = &s.time_s[span.clone()];
@@ -397,7 +540,161 @@ fn write_figures(
         "Candidate effects ranked by evidence (named causes highlighted)",
         report::figures::candidate_ranking(&candidates, Some(d.baseline.heldout_rms_nm)),
     )?;
-    set.finish()
+    if let Some(u) = &d.unexplained {
+        beyond_the_catalogue(&mut set, d, u)?;
+    }
+    closing.add_to(set.page());
+    let written = set.finish()?;
+    remove_stale(out, &written)?;
+    Ok(written)
+}
+
+/// Removes the figures of [`PLANNED`] that are in `out` but were not written on this run
+/// (left by an earlier run). `OutDir::prepare` refused a run with an input under one of
+/// these names, so no input is removed.
+fn remove_stale(out: &OutDir, written: &[PathBuf]) -> CmdResult {
+    for name in PLANNED.iter().filter(|n| n.ends_with(".svg")) {
+        let p = out.path(name);
+        if !written.contains(&p) && p.is_file() {
+            std::fs::remove_file(&p).map_err(|e| {
+                Failure::bad(format!(
+                    "{}: cannot remove the figure of an earlier run: {e}",
+                    p.display()
+                ))
+            })?;
+        }
+    }
+    Ok(())
+}
+
+/// The report's section on structure no catalogued effect explains: what it depends on (the
+/// ranking of the state variables by held-out deviance gain), the causes a flexible term
+/// replaced, a catalogued shape that explains it after all, and the flexible terms' shapes.
+fn beyond_the_catalogue(
+    set: &mut FigureSet<'_>,
+    d: &Diagnosis,
+    u: &diagnose::Unexplained,
+) -> CmdResult {
+    let page = set.page();
+    page.heading("Beyond the catalogue");
+    let gain_of = |v: diagnose::StateVariable| {
+        u.ranking
+            .iter()
+            .find(|r| r.variable == v)
+            .map(|r| r.heldout_deviance_gain)
+    };
+    let named: Vec<String> = u
+        .depends_on
+        .iter()
+        .map(|v| match gain_of(*v) {
+            Some(g) => format!("{} (held-out deviance gain {g:.1})", v.name()),
+            None => v.name().to_string(),
+        })
+        .collect();
+    match (&u.extension, named.is_empty()) {
+        (Some(e), false) => {
+            page.paragraph(format!(
+                "The structure left in the residual depends on {}: a flexible term in {} \
+                 lowers the held-out RMS from {:.3} to {:.3} N·m (−{:.1} %, held-out deviance \
+                 −{:.1}, ΔBIC {:.1}).",
+                named.join(", then "),
+                if u.depends_on.len() == 1 {
+                    "it"
+                } else {
+                    "each"
+                },
+                d.extended.heldout_rms_nm,
+                e.heldout_rms_nm,
+                e.heldout_rms_reduction_pct,
+                e.heldout_deviance_gain,
+                e.delta_bic
+            ));
+        }
+        _ => {
+            let best = u.ranking.first().map_or(String::new(), |r| {
+                format!(
+                    " The best, {}, gains {:.1} in held-out deviance: too little to tell.",
+                    r.variable.name(),
+                    r.heldout_deviance_gain
+                )
+            });
+            page.paragraph(format!(
+                "No state variable (angle, velocity, direction, acceleration, time, activation, \
+                 activation_ta) explains the structure left in the residual.{best}"
+            ));
+        }
+    }
+    if !u.ranking.is_empty() {
+        let rows: Vec<Vec<String>> = u
+            .ranking
+            .iter()
+            .map(|r| {
+                vec![
+                    r.variable.name().to_string(),
+                    format!("{:.1}", r.heldout_deviance_gain),
+                    format!("{:.3}", r.heldout_rms_nm),
+                    format!("{:.1}", r.delta_bic),
+                    r.parameters.to_string(),
+                ]
+            })
+            .collect();
+        page.table(
+            "A flexible term in each state variable added to the final model, best held-out \
+             gain first: the fall of the held-out deviance, the held-out RMS with the term, \
+             its ΔBIC and its coefficients",
+            &[
+                "variable",
+                "held-out deviance gain",
+                "held-out RMS (N·m)",
+                "ΔBIC",
+                "parameters",
+            ],
+            &rows,
+        )
+        .map_err(|e| Failure::internal(e.to_string()))?;
+    }
+    for r in &u.replaced {
+        page.paragraph(format!(
+            "{} was not named: a flexible term in {} explains its share better (ΔBIC {:+.1}).",
+            r.effect,
+            r.variable.name(),
+            -r.delta_bic
+        ));
+    }
+    if let Some(k) = &u.catalogued_shape {
+        page.paragraph(format!(
+            "The structure has the shape of {k} after all: that effect's term, added to the \
+             final model, explains it as well as the flexible term in the best variable."
+        ));
+    }
+    let Some(e) = &u.extension else {
+        return Ok(());
+    };
+    if !e.terms.is_empty() {
+        let views: Vec<report::figures::FlexibleTermView<'_>> = e
+            .terms
+            .iter()
+            .map(|t| report::figures::FlexibleTermView {
+                variable: t.variable.name(),
+                unit: &t.unit,
+                points: &t.points,
+                value_nm: &t.value_nm,
+                band_nm: &t.band_nm,
+            })
+            .collect();
+        let vars: Vec<&str> = e.terms.iter().map(|t| t.variable.name()).collect();
+        set.add(
+            "flexible_terms",
+            &format!(
+                "The flexible term{} in {}: the torque the structure adds (N·m, centred on its \
+                 mean over the trial) against the variable, with its 95 % band",
+                if vars.len() == 1 { "" } else { "s" },
+                vars.join(" and ")
+            ),
+            report::figures::flexible_terms(&views),
+        )?;
+    }
+    Ok(())
 }
 
 /// One row per parameter of `m` (muscle parameters, then effect parameters as
@@ -446,4 +743,55 @@ fn parameter_rows(m: &diagnose::ModelReport) -> Vec<Vec<String>> {
         }
     }
     rows
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use diagnose::{EffectScope, SessionCause};
+
+    fn cause(effect: &str, scope: EffectScope) -> SessionCause {
+        SessionCause {
+            effect: effect.into(),
+            scope,
+            values: None,
+            per_trial: None,
+        }
+    }
+
+    #[test]
+    fn session_command_leaves_per_trial_causes_to_the_trials() {
+        let causes = [
+            cause("electromechanical_delay", EffectScope::Subject),
+            cause("torque_offset", EffectScope::Trial),
+        ];
+        let c = Closing::of_session(&causes, "--session s.json", 3);
+        assert_eq!(
+            c.command,
+            "surae identify --method mcmc --session s.json --with electromechanical_delay"
+        );
+        assert!(c.note.as_deref().unwrap().starts_with("torque_offset is"));
+        assert_eq!(c.terminal_line(), format!("identify     {}", c.command));
+        // a session of one trial identifies every cause
+        let c = Closing::of_session(&causes, "--trial d", 1);
+        assert!(c
+            .command
+            .ends_with("--trial d --with electromechanical_delay,torque_offset"));
+        assert!(c.note.is_none());
+        // only per-trial causes in a session of several: the baseline command and the note
+        let c = Closing::of_session(&causes[1..], "--session s.json", 2);
+        assert_eq!(c.command, "surae identify --method mcmc --session s.json");
+        assert!(c.with.is_empty() && c.note.is_some());
+        let mut page = report::Report::new("t");
+        c.add_to(&mut page);
+        let html = page.to_html();
+        assert!(html.contains("<h2>Identify</h2>") && html.contains("identifies the baseline"));
+    }
+
+    #[test]
+    fn paths_as_shell_words() {
+        assert_eq!(shell_word(Path::new("data/t-1.csv")), "data/t-1.csv");
+        assert_eq!(shell_word(Path::new("my trial.csv")), "'my trial.csv'");
+        assert_eq!(shell_word(Path::new("it's.csv")), "'it'\\''s.csv'");
+    }
 }

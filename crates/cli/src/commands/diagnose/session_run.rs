@@ -16,7 +16,7 @@
 
 use super::super::session::{file_stem, load_session, LoadedSession, SessionTrial};
 use super::super::ModelArgs;
-use super::{diagnosis_json, write_figures, DiagnoseArgs, PLANNED};
+use super::{diagnosis_json, trial_args, write_figures, Closing, DiagnoseArgs, PLANNED};
 use crate::error::{CmdResult, Failure};
 use crate::output::OutDir;
 use crate::progress::ProgressDisplay;
@@ -75,6 +75,10 @@ pub(super) fn run(args: &DiagnoseArgs, session_path: &Path) -> CmdResult {
     }
     let joint = diagnose_jointly(&session, &done, show)?;
 
+    // every trial's report ends with the command that identifies the session with the causes
+    // of its joint diagnosis
+    let closing = Closing::of_session(&joint.causes, &trial_args(args), session.trials.len());
+
     // every trial diagnosed: now the files
     let mut rows = Vec::with_capacity(done.len());
     for (t, r) in session.trials.iter().zip(&done) {
@@ -88,7 +92,15 @@ pub(super) fn run(args: &DiagnoseArgs, session_path: &Path) -> CmdResult {
             t.checks.as_ref(),
         )?;
         dir.write("diagnosis.json", text.as_bytes())?;
-        write_figures(&dir, &t.name, &r.measured, &r.inputs, &r.d, r.span.clone())?;
+        write_figures(
+            &dir,
+            &t.name,
+            &r.measured,
+            &r.inputs,
+            &r.d,
+            r.span.clone(),
+            &closing,
+        )?;
         rows.push(session_row(t, r)?);
     }
     let mut doc = json!({
@@ -135,6 +147,7 @@ pub(super) fn run(args: &DiagnoseArgs, session_path: &Path) -> CmdResult {
             path.display(),
             out_dir.display()
         ));
+        say(&closing.terminal_line());
     }
     Ok(())
 }
