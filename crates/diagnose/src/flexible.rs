@@ -129,8 +129,9 @@ impl Serialize for StateVariable {
 }
 
 /// The basis of one variable's flexible term: its columns, each centred on its mean over the
-/// compared samples (a constant is the catalogued offset's, not the variable's), and the
-/// points at which its shape is reported with the basis row at each.
+/// compared samples except in time (a constant is a function of time only: the catalogued
+/// offset lives there), and the points at which its shape is reported with the basis row at
+/// each.
 #[derive(Clone, Debug)]
 pub(crate) struct FlexBasis {
     pub variable: StateVariable,
@@ -144,6 +145,34 @@ pub(crate) struct FlexBasis {
 
 /// Fraction of the largest speed below which the joint counts as still for `direction`.
 const STILL_FRACTION: f64 = 0.05;
+
+/// Spacing of the time knots (s).
+const TIME_KNOT_S: f64 = 2.0;
+
+/// Block length (s) and folds of the cross-validation of a term in time.
+const TIME_BLOCKS: (f64, usize) = (0.5, 5);
+
+/// The folds of a term in time: 0.5 s blocks in 5 folds (a term in time is predicted in a
+/// block from its neighbours; a whole cycle held out can only be extrapolated into).
+pub(crate) fn time_folds(ctx: &Context) -> Folds {
+    let n = ctx.y.len();
+    let folds = crate::CvFolds::Blocks {
+        block_s: TIME_BLOCKS.0,
+        folds: TIME_BLOCKS.1,
+    };
+    folds
+        .held_out_masks(n, ctx.inputs.fs(), &ctx.seg.cycle)
+        .into_iter()
+        .map(|mut held| {
+            for (i, h) in held.iter_mut().enumerate() {
+                *h = *h && ctx.is_observed(i);
+            }
+            let train: Vec<bool> = (0..n).map(|i| !held[i] && ctx.is_observed(i)).collect();
+            let plan = ctx.noise.plan(n, Some(&train));
+            (held, plan)
+        })
+        .collect()
+}
 
 /// Knots of the hat bases (the TA's range is narrower: four).
 fn knot_count(v: StateVariable) -> usize {
@@ -189,14 +218,24 @@ fn observed_range(ctx: &Context, x: &[f64]) -> Option<(f64, f64)> {
 enum Functions {
     /// Hat functions on uniform knots, constant beyond the ends.
     Hats(Vec<f64>),
-    /// Indicators of `v > still` and `v < −still` (a level for each direction of motion).
+    /// `sign(v)` outside `±still`, 0 inside: Coulomb friction's shape, one level for both
+    /// directions (as parsimonious as viscous damping's `b·q̇`, which it is compared with).
     Sign { still: f64 },
-    /// A straight line over `[lo, hi]` (−1 … 1).
-    Line { lo: f64, hi: f64 },
 }
 
 impl Functions {
+    fn len(&self) -> usize {
+        match self {
+            Functions::Hats(knots) => knots.len(),
+            Functions::Sign { .. } => 1,
+        }
+    }
+
     fn eval(&self, v: f64) -> Vec<f64> {
+        if !v.is_finite() {
+            // a sample without the variable gets no term
+            return vec![0.0; self.len()];
+        }
         match self {
             Functions::Hats(knots) => {
                 let k = knots.len();
@@ -210,11 +249,13 @@ impl Functions {
                 row[j + 1] = f;
                 row
             }
-            Functions::Sign { still } => vec![
-                if v > *still { 1.0 } else { 0.0 },
-                if v < -*still { 1.0 } else { 0.0 },
-            ],
-            Functions::Line { lo, hi } => vec![2.0 * (v - lo) / (hi - lo) - 1.0],
+            Functions::Sign { still } => vec![if v > *still {
+                1.0
+            } else if v < -*still {
+                -1.0
+            } else {
+                0.0
+            }],
         }
     }
 }
@@ -231,10 +272,14 @@ pub(crate) fn basis(ctx: &Context, v: StateVariable) -> Option<FlexBasis> {
             let still = STILL_FRACTION * lo.abs().max(hi.abs());
             (Functions::Sign { still }, vec![-1.0, 1.0])
         }
-        StateVariable::Time => (
-            Functions::Line { lo, hi },
-            (0..5).map(|j| lo + (hi - lo) * j as f64 / 4.0).collect(),
-        ),
+        StateVariable::Time => {
+            // a knot every 2 s or so: local enough for a step, smooth over a 0.5 s block
+            let k = (((hi - lo) / TIME_KNOT_S).round() as usize + 1).clamp(3, 12);
+            let knots: Vec<f64> = (0..k)
+                .map(|j| lo + (hi - lo) * j as f64 / (k - 1) as f64)
+                .collect();
+            (Functions::Hats(knots.clone()), knots)
+        }
         _ => {
             let k = knot_count(v);
             let knots: Vec<f64> = (0..k)
@@ -258,8 +303,14 @@ pub(crate) fn basis(ctx: &Context, v: StateVariable) -> Option<FlexBasis> {
             cnt += 1;
         }
     }
+    // centred, except in time: a constant is a function of time (the catalogued offset lives
+    // there), and of no other variable
     for j in 0..m {
-        mean[j] /= cnt.max(1) as f64;
+        mean[j] = if v == StateVariable::Time {
+            0.0
+        } else {
+            mean[j] / cnt.max(1) as f64
+        };
         cols[j].iter_mut().for_each(|c| *c -= mean[j]);
     }
     let rows = points
@@ -295,13 +346,18 @@ struct Projector {
 }
 
 impl Projector {
-    fn new(plan: &muscle_model::WhitenPlan, cols: &[&Vec<f64>]) -> Projector {
-        let n = cols.first().map_or(0, |c| c.len());
+    fn new(plan: &muscle_model::WhitenPlan, cols: &[&Vec<f64>], n: usize) -> Projector {
         let mut wb = DMatrix::zeros(n, cols.len());
         let mut w = vec![0.0; n];
         for (j, c) in cols.iter().enumerate() {
             plan.whiten(c, &mut w);
             wb.set_column(j, &DVector::from_column_slice(&w));
+        }
+        if cols.is_empty() {
+            return Projector {
+                u: DMatrix::zeros(n, 0),
+                solve: DMatrix::zeros(0, 0),
+            };
         }
         let svd = wb.svd(true, true);
         let (u, vt) = (svd.u.expect("u"), svd.v_t.expect("v_t"));
@@ -390,20 +446,25 @@ const COARSER_SHARE: f64 = 0.8;
 /// its optimum: the terms are linear and profiled out).
 const FLEX_ITERATIONS: usize = 12;
 
+/// Cross-validation folds: held-out mask and the whitening plan of the training samples.
+pub(crate) type Folds = Vec<(Vec<bool>, muscle_model::WhitenPlan)>;
+
 /// Fits the catalogued effects `kinds` (from `x0`) plus flexible terms in `bases`, with the
-/// cross-validation; `band`: also the coefficients' covariance (module docs).
+/// cross-validation over `folds` when given; `band`: also the coefficients' covariance
+/// (module docs).
 pub(crate) fn fit_flexible(
     ctx: &Context,
     kinds: &[EffectKind],
     x0: &[f64],
     bases: &[FlexBasis],
+    folds: Option<&Folds>,
     band: bool,
 ) -> Result<FlexFit, DiagnoseError> {
     let problem = ctx.problem(kinds)?;
     let bounds = problem.bounds().to_vec();
     let cols: Vec<&Vec<f64>> = bases.iter().flat_map(|b| b.cols.iter()).collect();
     let n = ctx.y.len();
-    let proj = Projector::new(&ctx.plan, &cols);
+    let proj = Projector::new(&ctx.plan, &cols, n);
     let f = ctx.residual_fn(&problem, &ctx.plan);
     let g = |x: &[f64]| f(x).map(|w| proj.residual(&w));
     let name = || {
@@ -460,7 +521,10 @@ pub(crate) fn fit_flexible(
     } else {
         None
     };
-    let (heldout_rms, heldout_dev, ev) = cross_validate(ctx, &problem, &out.x, &cols);
+    let (heldout_rms, heldout_dev, ev) = match folds {
+        Some(folds) => cross_validate(ctx, folds, &problem, &out.x, &cols),
+        None => (f64::NAN, f64::NAN, 0),
+    };
     evaluations += ev;
     let model = Fit {
         kinds: kinds.to_vec(),
@@ -485,21 +549,21 @@ pub(crate) fn fit_flexible(
     })
 }
 
-/// Cross-validation of a model with flexible terms (the folds of [`Context`]): pooled held-out
-/// RMS, held-out deviance and the simulations.
-fn cross_validate(
+/// Cross-validation of a model with flexible terms (none: the catalogued model alone) over
+/// `folds`: pooled held-out RMS, held-out deviance and the simulations.
+pub(crate) fn cross_validate(
     ctx: &Context,
+    folds: &Folds,
     problem: &muscle_model::Problem,
     x: &[f64],
     cols: &[&Vec<f64>],
 ) -> (f64, f64, usize) {
     let bounds = problem.bounds();
     let n = ctx.y.len();
-    let res: Vec<(f64, f64, usize, usize)> = ctx
-        .folds
+    let res: Vec<(f64, f64, usize, usize)> = folds
         .par_iter()
         .map(|(held, plan)| {
-            let proj = Projector::new(plan, cols);
+            let proj = Projector::new(plan, cols, n);
             let f = ctx.residual_fn(problem, plan);
             let g = |x: &[f64]| f(x).map(|w| proj.residual(&w));
             let (xf, ev) = minimise_fold(problem.free(), &g, x, bounds, &ctx.cv_lm)
@@ -741,11 +805,11 @@ fn review(
             .collect();
         let fits: Vec<Result<FlexFit, DiagnoseError>> = alternatives
             .par_iter()
-            .map(|b| fit_flexible(ctx, &kinds, &x, b, false))
+            .map(|b| fit_flexible(ctx, &kinds, &x, b, None, false))
             .collect();
         let mut best: Option<(StateVariable, f64)> = None;
-        for f in fits {
-            let f = f?;
+        // an alternative that cannot be fitted does not replace anything
+        for f in fits.into_iter().flatten() {
             evaluations += f.model.evaluations;
             let d = reference_bic - f.bic(nobs);
             if best.is_none_or(|(_, b)| d > b) {
@@ -802,13 +866,32 @@ pub(crate) fn characterise(
         .iter()
         .filter_map(|v| basis(ctx, *v))
         .collect();
+    // the final model's held-out errors under each fold scheme: a term in time is compared on
+    // the time blocks, every other term on the trial's own folds
+    let blocks = time_folds(ctx);
+    let problem = ctx.problem(&fin.kinds)?;
+    let (block_rms, block_dev, ev) = cross_validate(ctx, &blocks, &problem, &fin.x, &[]);
+    evaluations += ev;
+    let uses_time = |b: &[FlexBasis]| b.iter().any(|x| x.variable == StateVariable::Time);
+    let folds_of = |b: &[FlexBasis]| if uses_time(b) { &blocks } else { &ctx.folds };
+    let reference = |b: &[FlexBasis]| {
+        if uses_time(b) {
+            (block_rms, block_dev)
+        } else {
+            (fin.heldout_rms, fin.heldout_dev)
+        }
+    };
     let fits: Vec<Result<FlexFit, DiagnoseError>> = bases
         .par_iter()
-        .map(|b| fit_flexible(ctx, &fin.kinds, &fin.x, std::slice::from_ref(b), false))
+        .map(|b| {
+            let one = std::slice::from_ref(b);
+            fit_flexible(ctx, &fin.kinds, &fin.x, one, Some(folds_of(one)), false)
+        })
         .collect();
-    let mut fits: Vec<FlexFit> = fits.into_iter().collect::<Result<_, _>>()?;
+    // a variable whose term cannot be fitted (the model fails to simulate) is left out
+    let mut fits: Vec<FlexFit> = fits.into_iter().flatten().collect();
     evaluations += fits.iter().map(|f| f.model.evaluations).sum::<usize>();
-    let gain = |f: &FlexFit| fin.heldout_dev - f.model.heldout_dev;
+    let gain = |f: &FlexFit| reference(&f.bases).1 - f.model.heldout_dev;
     fits.sort_by(|a, b| gain(b).total_cmp(&gain(a)));
     let ranking: Vec<VariableGain> = fits
         .iter()
@@ -839,10 +922,37 @@ pub(crate) fn characterise(
         chosen = Some(first.bases.clone());
         if let Some(second) = eligible.get(1) {
             let pair = vec![first.bases[0].clone(), second.bases[0].clone()];
-            let both = fit_flexible(ctx, &fin.kinds, &first.model.x, &pair, false)?;
-            evaluations += both.model.evaluations;
-            if first.model.heldout_dev - both.model.heldout_dev > min_gain {
-                chosen = Some(pair);
+            let both = fit_flexible(
+                ctx,
+                &fin.kinds,
+                &first.model.x,
+                &pair,
+                Some(folds_of(&pair)),
+                false,
+            );
+            // the pair's gain over the first alone, on the same folds
+            let first_dev = if uses_time(&pair) && !uses_time(&first.bases) {
+                fit_flexible(
+                    ctx,
+                    &fin.kinds,
+                    &first.model.x,
+                    &first.bases,
+                    Some(&blocks),
+                    false,
+                )
+                .map(|again| {
+                    evaluations += again.model.evaluations;
+                    again.model.heldout_dev
+                })
+                .unwrap_or(f64::NAN)
+            } else {
+                first.model.heldout_dev
+            };
+            if let Ok(both) = both {
+                evaluations += both.model.evaluations;
+                if first_dev - both.model.heldout_dev > min_gain {
+                    chosen = Some(pair);
+                }
             }
         }
     }
@@ -851,30 +961,46 @@ pub(crate) fn characterise(
     let extension = match &chosen {
         None => None,
         Some(chosen) => {
-            let ff = fit_flexible(ctx, &fin.kinds, &fin.x, chosen, true)?;
+            let ff = fit_flexible(
+                ctx,
+                &fin.kinds,
+                &fin.x,
+                chosen,
+                Some(folds_of(chosen)),
+                true,
+            )?;
             evaluations += ff.model.evaluations;
             // a named cause the extension makes unnecessary is not named either
-            let (u, ev) = review(ctx, &ff.model, ff.bic(nobs), chosen, margin_bic, nobs)?;
-            evaluations += ev;
-            unneeded = u;
-            // a catalogued effect of the best variable that explains it as well, after all
+            if let Ok((u, ev)) = review(ctx, &ff.model, ff.bic(nobs), chosen, margin_bic, nobs) {
+                evaluations += ev;
+                unneeded = u;
+            }
+            // a catalogued effect of the best variable that explains it as well after all: by
+            // the naming rule, its BIC beats a flexible term in each of its own variables by
+            // the margin (an effect already replaced lost that comparison)
             let top = chosen[0].variable;
-            let single = fits
-                .iter()
-                .find(|f| f.bases[0].variable == top)
-                .expect("the chosen variable was fitted");
+            let single_bic = |v: StateVariable| {
+                fits.iter()
+                    .find(|f| f.bases[0].variable == v)
+                    .map(|f| f.bic(nobs))
+            };
             let mut best: Option<(EffectKind, f64)> = None;
-            for &k in catalogued
-                .iter()
-                .filter(|k| !fin.kinds.contains(k) && StateVariable::of_effect(**k).contains(&top))
-            {
+            for &k in catalogued.iter().filter(|k| {
+                !fin.kinds.contains(k)
+                    && !replaced.iter().any(|r| r.effect == k.name())
+                    && StateVariable::of_effect(**k).contains(&top)
+            }) {
                 let mut kinds = fin.kinds.clone();
                 kinds.push(k);
                 let mut x0 = fin.x.clone();
                 x0.extend(k.null_values().iter().take(k.params().len()));
                 if let Ok(cf) = ctx.fit(&kinds, &x0, false) {
                     evaluations += cf.evaluations;
-                    let d = single.bic(nobs) - cf.bic(nobs);
+                    let d = StateVariable::of_effect(k)
+                        .iter()
+                        .filter_map(|v| single_bic(*v))
+                        .fold(f64::INFINITY, f64::min)
+                        - cf.bic(nobs);
                     if d >= margin_bic && best.is_none_or(|(_, b)| d > b) {
                         best = Some((k, d));
                     }
@@ -885,7 +1011,8 @@ pub(crate) fn characterise(
             Some(FlexibleExtension {
                 variables: ff.variables(),
                 heldout_rms_nm: ff.model.heldout_rms,
-                heldout_rms_reduction_pct: 100.0 * (1.0 - ff.model.heldout_rms / fin.heldout_rms),
+                heldout_rms_reduction_pct: 100.0
+                    * (1.0 - ff.model.heldout_rms / reference(&ff.bases).0),
                 heldout_deviance_gain: gain(&ff),
                 rms_nm: ff.model.rms,
                 delta_bic: ff.bic(nobs) - fin.bic(nobs),
@@ -932,14 +1059,10 @@ mod tests {
     }
 
     #[test]
-    fn sign_and_legendre_rows() {
+    fn sign_rows() {
         let s = Functions::Sign { still: 1.5 };
-        assert_eq!(s.eval(30.0), vec![1.0, 0.0]);
-        assert_eq!(s.eval(-2.0), vec![0.0, 1.0]);
-        assert_eq!(s.eval(1.0), vec![0.0, 0.0]);
-        let l = Functions::Line { lo: 2.0, hi: 6.0 };
-        assert_eq!(l.eval(2.0), vec![-1.0]);
-        assert_eq!(l.eval(4.0), vec![0.0]);
-        assert_eq!(l.eval(6.0), vec![1.0]);
+        assert_eq!(s.eval(30.0), vec![1.0]);
+        assert_eq!(s.eval(-2.0), vec![-1.0]);
+        assert_eq!(s.eval(1.0), vec![0.0]);
     }
 }

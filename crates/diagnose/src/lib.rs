@@ -308,12 +308,10 @@ fn diagnose_target(
             "reviewing the named causes against flexible terms".into(),
             evaluations,
         )?;
-        let (r, ev) = flexible::review_causes(
-            &ctx,
-            &selection.model,
-            settings.flexible_margin_bic,
-            nobs,
-        )?;
+        // a review that cannot be fitted replaces nothing
+        let (r, ev) =
+            flexible::review_causes(&ctx, &selection.model, settings.flexible_margin_bic, nobs)
+                .unwrap_or_default();
         evaluations += ev;
         evaluations += drop_causes(&ctx, &mut selection, &r)?;
         replaced = r;
@@ -344,6 +342,7 @@ fn diagnose_target(
             "ranking flexible terms in the state variables".into(),
             evaluations,
         )?;
+        // an extension that cannot be fitted leaves the structure unexplained and unranked
         let c = flexible::characterise(
             &ctx,
             &selection.model,
@@ -352,7 +351,18 @@ fn diagnose_target(
             settings.min_flexible_gain,
             settings.flexible_margin_bic,
             nobs,
-        )?;
+        )
+        .unwrap_or_else(|_| flexible::Characterisation {
+            unexplained: Unexplained {
+                depends_on: Vec::new(),
+                ranking: Vec::new(),
+                extension: None,
+                catalogued_shape: None,
+                replaced: replaced.clone(),
+            },
+            unneeded: Vec::new(),
+            evaluations: 0,
+        });
         evaluations += c.evaluations;
         if c.unneeded.is_empty() {
             unexplained = Some(c.unexplained);
@@ -375,11 +385,17 @@ fn diagnose_target(
         "detection limits of the effects not named".into(),
         evaluations,
     )?;
-    let limits = score::detection_limits(&ctx, &selection.model, &eligible, settings.max_delta_bic);
-    for (kind, limit, ev) in limits {
-        evaluations += ev;
-        if let Some(rep) = selection.reports.get_mut(&kind) {
-            rep.detection_limit = Some(limit);
+    let limits = score::detection_limits_with_shapes(
+        &ctx,
+        &selection.model,
+        &eligible,
+        settings.max_delta_bic,
+    );
+    for l in limits {
+        evaluations += l.evaluations;
+        if let Some(rep) = selection.reports.get_mut(&l.kind) {
+            rep.detection_limit = Some(l.limit);
+            rep.detection_limit_shape = l.shape;
         }
     }
 

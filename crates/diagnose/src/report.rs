@@ -131,20 +131,30 @@ pub struct CandidateReport {
     /// model and final model; see docs/diagnosis.md, method item 10), so a smaller effect
     /// may be present and missed. The decision's other rules and imperfect fits make the
     /// real limit somewhat larger (docs/diagnosis.md, "Detection limit of a trial"). In the
-    /// units of [`detection_limit_unit`]: `|offset|` N·m, passive torque at +15° (stiffness
-    /// 8/rad) N·m, `|moment|` (φ = 0) N·m, delay ms, fatigue rate /s, antagonist gain N·m,
-    /// `Flen − 1.4`, `|b|` N·m·s/rad, `I` kg·m².
+    /// units of [`detection_limit_unit`]: `|offset|` N·m, passive torque at +15° at its worst
+    /// stiffness N·m, `|moment|` at its worst phase N·m, delay ms, fatigue rate /s,
+    /// antagonist gain N·m, `Flen − 1.4`, `|b|` N·m·s/rad, `I` kg·m².
     #[serde(skip_serializing_if = "Option::is_none")]
     pub detection_limit: Option<f64>,
+    /// The shape at which `detection_limit` is reached (the worst): gravity's phase `φ` (°, in
+    /// [−90°, 90°), the moment of either sign) or the passive torque's stiffness (1/rad);
+    /// absent for the one-parameter effects.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub detection_limit_shape: Option<f64>,
 }
 
 impl CandidateReport {
-    /// [`CandidateReport::detection_limit`] with three significant digits and its unit
-    /// (e.g. `7.30 N·m`); `None` for an effect in the final model.
+    /// [`CandidateReport::detection_limit`] with three significant digits, its unit and, for
+    /// gravity and the passive torque, the worst shape (e.g. `7.30 N·m at φ −12°`); `None` for an effect in the final model.
     pub fn detection_limit_text(&self) -> Option<String> {
         let kind = EffectKind::from_name(&self.effect)?;
         let x = self.detection_limit?;
-        Some(format!("{} {}", sig3(x), detection_limit_unit(kind)))
+        let shape = match (kind, self.detection_limit_shape) {
+            (EffectKind::Gravity, Some(phi)) => format!(" at φ {phi:.0}°"),
+            (EffectKind::PassiveJointTorque, Some(k)) => format!(" at k {k:.1}/rad"),
+            _ => String::new(),
+        };
+        Some(format!("{} {}{shape}", sig3(x), detection_limit_unit(kind)))
     }
 }
 

@@ -247,9 +247,9 @@ mod tests {
 /// | effect | added to the recording | drawn size (uniform) | lives in |
 /// |---|---|---|---|
 /// | `coulomb_friction` | `τ += c·tanh(q̇/1°/s)` (bearing friction) | `c` ∈ [2, 4] N·m | direction |
-/// | `torque_drift` | `τ += d·(t − t₀)/T` (torque cell drift over the trial) | `|d|` ∈ [2, 5] N·m, random sign | time |
-/// | `emg_crosstalk` | `emg_sol += f·emg_ta` (raw, before filtering), TA drive 0.3 throughout | `f` ∈ [0.5, 1.0] | activation |
-/// | `strap_slip` | `τ += s` from a time in the middle 40 % of the trial on (the foot settles in its strap) | `|s|` ∈ [2, 4] N·m, random sign | time |
+/// | `torque_drift` | `τ += d·(t − t₀)/T` (torque cell drift over the trial) | `|d|` ∈ [3, 6] N·m, random sign | time |
+/// | `emg_crosstalk` | `emg_sol += f·emg_ta` (raw, before filtering), TA drive 0.3 (0.5 in eccentric sweeps) | `f` ∈ [0.3, 0.6] | activation |
+/// | `strap_slip` | `τ += s` from a time in the middle 40 % of the trial on (the foot settles in its strap) | `|s|` ∈ [3, 5] N·m, random sign | time |
 ///
 /// Crosstalk raises the soleus envelope most where the triceps is quiet, so its torque is a
 /// function of the triceps activation; the TA's own torque is left out (that is the catalogued
@@ -324,7 +324,7 @@ pub fn uncatalogued_trial(
         cfg.emg.include_ta = true;
         cfg.emg.ta_rest_level = 0.3;
         cfg.emg.ta_concentric_level = 0.3;
-        cfg.emg.ta_eccentric_level = 0.3;
+        cfg.emg.ta_eccentric_level = 0.5;
     }
     let mut synthetic = synthesize(&cfg)?;
     let mut draw = ChaCha8Rng::seed_from_u64(seed ^ 0x0c47_a10e);
@@ -342,14 +342,14 @@ pub fn uncatalogued_trial(
             (c, format!("Coulomb friction {c:.2} N·m"))
         }
         Uncatalogued::TorqueDrift => {
-            let d = sign(&mut draw) * (2.0 + 3.0 * draw.random::<f64>());
+            let d = sign(&mut draw) * (3.0 + 3.0 * draw.random::<f64>());
             for (y, t) in trial.torque_nm.iter_mut().zip(&trial.time_s) {
                 *y += d * (t - t0) / span;
             }
             (d, format!("torque drift {d:+.2} N·m over the trial"))
         }
         Uncatalogued::EmgCrosstalk => {
-            let f = 0.5 + 0.5 * draw.random::<f64>();
+            let f = 0.3 + 0.3 * draw.random::<f64>();
             let ta = trial.emg_ta.clone().unwrap_or_default();
             for (s, a) in trial.emg_sol.iter_mut().zip(&ta) {
                 *s += f * a;
@@ -357,7 +357,7 @@ pub fn uncatalogued_trial(
             (f, format!("TA crosstalk {f:.2} × emg_ta into emg_sol"))
         }
         Uncatalogued::StrapSlip => {
-            let s = sign(&mut draw) * (2.0 + 2.0 * draw.random::<f64>());
+            let s = sign(&mut draw) * (3.0 + 2.0 * draw.random::<f64>());
             let at = t0 + span * (0.3 + 0.4 * draw.random::<f64>());
             for (y, t) in trial.torque_nm.iter_mut().zip(&trial.time_s) {
                 if *t >= at {

@@ -316,22 +316,6 @@ pub(crate) struct DetectionLimit {
 
 /// The smallest size of each eligible effect not in `fit` that the ΔBIC rule would name in
 /// 95 % of trials like this one, in the effect's headline units (see
-/// [`crate::report::CandidateReport::detection_limit`]), with the simulations spent:
-/// [`detection_limits_with_shapes`] without the shapes.
-pub(crate) fn detection_limits(
-    ctx: &Context,
-    fit: &Fit,
-    eligible: &[EffectKind],
-    max_delta_bic: f64,
-) -> Vec<(EffectKind, f64, usize)> {
-    detection_limits_with_shapes(ctx, fit, eligible, max_delta_bic)
-        .into_iter()
-        .map(|d| (d.kind, d.limit, d.evaluations))
-        .collect()
-}
-
-/// The smallest size of each eligible effect not in `fit` that the ΔBIC rule would name in
-/// 95 % of trials like this one, in the effect's headline units (see
 /// [`crate::report::CandidateReport::detection_limit`]); for gravity and the passive torque
 /// the largest such size over their shapes, and the shape that needs it.
 ///

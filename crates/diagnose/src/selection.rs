@@ -81,6 +81,7 @@ pub(crate) fn select(
                     confounded: conf,
                     fitted: None,
                     detection_limit: None,
+                    detection_limit_shape: None,
                 },
             );
         }

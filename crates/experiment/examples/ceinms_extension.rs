@@ -194,8 +194,8 @@ impl Fitted {
         let mut cols: Vec<Vec<f64>> = Vec::new();
         let mut y = Vec::new();
         for (t, resid) in train {
-            for i in 0..t.tau.len() {
-                let r = f.row(t.s[i], t.a[i]);
+            for (i, (s, a)) in t.s.iter().zip(&t.a).enumerate().take(t.tau.len()) {
+                let r = f.row(*s, *a);
                 if cols.is_empty() {
                     cols = vec![Vec::new(); r.len()];
                 }
