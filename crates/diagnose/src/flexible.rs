@@ -8,33 +8,39 @@
 //! ```
 //!
 //! with piecewise-linear hat functions `h_j` on knots spread uniformly over the observed range
-//! of `v` (so the term's value at knot `j` is `β_j`), or, for `direction`, the single column
-//! `sign(q̇)` (0 while the joint is still). The vocabulary: `angle` (°), `velocity` (°/s),
-//! `direction`, `acceleration` (°/s²), `time` (s), `activation` (the mean normalised triceps
-//! surae envelope) and `activation_ta` (the normalised tibialis anterior envelope).
+//! of `v` (five; four for the TA; about every 2 s in time), or, for `direction`, the single
+//! column `sign(q̇)` (0 while the joint is still). Columns are centred on their mean over the
+//! trial except in time (a constant is a function of time only). The vocabulary: `angle` (°),
+//! `velocity` (°/s), `direction`, `acceleration` (°/s²), `time` (s), `activation` (the mean
+//! normalised triceps surae envelope) and `activation_ta` (the normalised tibialis anterior
+//! envelope).
 //!
 //! **Fit.** The term is linear in `β`, so it is fitted by variable projection: for muscle
 //! (and effect) parameters `x` the whitened residual `w(x) = W(y − τ̂(x))` is projected off the
 //! whitened basis `WB` (`β̂(x)` by least squares, rank-revealing), and the bounded
 //! Levenberg–Marquardt of the catalogued effects refits `x` on `‖(I − UUᵀ)w(x)‖²`, `U` the
-//! left singular vectors of `WB`. The noise model, the whitening and the cross-validation
-//! folds are those of the catalogued effects; in each fold the basis is whitened over the
-//! training samples only and the held-out samples are predicted by `τ̂(x_f) + Bβ̂_f`.
+//! left singular vectors of `WB`. The noise model and the whitening are those of the
+//! catalogued effects, and so are the cross-validation folds, except for a term in time,
+//! cross-validated on 0.5 s blocks in 5 folds (`time_folds`) and compared with the final
+//! model on the same blocks. In each fold the basis is whitened over the training samples
+//! only and the held-out samples are predicted by `τ̂(x_f) + Bβ̂_f`.
 //!
 //! **Ranking.** When the residual keeps structure, every variable's term is added to the
 //! final model and ranked by its held-out deviance gain `G_v = D(model) − D(model + term)`;
-//! `depends_on` holds the best variable when `G_v` exceeds
-//! [`DiagnoseSettings::min_flexible_gain`](crate::DiagnoseSettings::min_flexible_gain), and
-//! the second best when adding it to the first gains that much again.
+//! `depends_on` holds the best variable whose `G_v` exceeds
+//! [`DiagnoseSettings::min_flexible_gain`](crate::DiagnoseSettings::min_flexible_gain)
+//! (`direction` before `velocity` when it reaches 80 % of the velocity term's gain), and the
+//! next when adding it to the first gains that much again.
 //!
 //! **No false story.** A named catalogued effect `e` stays named only when the model with it
 //! beats, by [`DiagnoseSettings::flexible_margin_bic`](crate::DiagnoseSettings::flexible_margin_bic)
 //! in BIC, the model without it but with a flexible term in each variable its shape lives in
-//! ([`StateVariable::of_effect`]); otherwise the flexible term is reported instead.
+//! ([`StateVariable::of_effect`]); otherwise the flexible term is reported instead. Once the
+//! extension is known the review runs again with the extension's terms added to both sides.
 //!
 //! **Band.** The term's uncertainty is from the Gauss–Newton covariance of the full problem
 //! `r(x, β) = w(x) − WBβ`: `Cov = s²(JᵀJ)⁺`, `J = [J_w, −WB]`, `s² = max(1, ‖r‖²/(n − k))`;
-//! the band is ±1.96 standard errors of each knot value.
+//! the band is ±1.96 standard errors of the term at each reported point.
 
 use muscle_model::{EffectKind, Muscle, ParamId};
 use nalgebra::{DMatrix, DVector};
