@@ -311,7 +311,7 @@ impl Context {
     /// held-out deviance fell by 12–45 (docs/diagnosis.md).
     fn cross_validate(&self, problem: &Problem, x: &[f64]) -> (f64, f64, usize) {
         let bounds = problem.bounds();
-        let res: Vec<(f64, f64, usize, usize)> = self
+        let res: Vec<((f64, f64, usize), usize)> = self
             .folds
             .par_iter()
             .map(|(held, plan)| {
@@ -322,25 +322,37 @@ impl Context {
                     .predict(&xf)
                     .unwrap_or_else(|_| vec![0.0; self.y.len()]);
                 let e: Vec<f64> = self.y.iter().zip(&pred).map(|(a, b)| a - b).collect();
-                let mut w = vec![0.0; e.len()];
-                self.plan.whiten(&e, &mut w);
-                let (mut ss, mut dev, mut cnt) = (0.0, 0.0, 0);
-                for i in 0..e.len() {
-                    if held[i] {
-                        ss += e[i] * e[i];
-                        dev += w[i] * w[i];
-                        cnt += 1;
-                    }
-                }
-                (ss, dev, cnt, ev)
+                (self.heldout_sums(held, &e), ev)
             })
             .collect();
-        let ss: f64 = res.iter().map(|r| r.0).sum();
-        let dev: f64 = res.iter().map(|r| r.1).sum();
-        let cnt: usize = res.iter().map(|r| r.2).sum();
-        let ev: usize = res.iter().map(|r| r.3).sum();
-        ((ss / cnt.max(1) as f64).sqrt(), dev, ev)
+        pool_heldout(&res)
     }
+
+    /// One fold's held-out sums of the residual `e`: `Σ e²`, the deviance `Σ ν²/S` (`e`
+    /// whitened by the trial's plan over the whole trial) and the count, over the held-out
+    /// samples.
+    pub(crate) fn heldout_sums(&self, held: &[bool], e: &[f64]) -> (f64, f64, usize) {
+        let mut w = vec![0.0; e.len()];
+        self.plan.whiten(e, &mut w);
+        let (mut ss, mut dev, mut cnt) = (0.0, 0.0, 0);
+        for i in 0..e.len() {
+            if held[i] {
+                ss += e[i] * e[i];
+                dev += w[i] * w[i];
+                cnt += 1;
+            }
+        }
+        (ss, dev, cnt)
+    }
+}
+
+/// The folds' held-out sums and simulations pooled: held-out RMS, deviance, simulations.
+pub(crate) fn pool_heldout(res: &[((f64, f64, usize), usize)]) -> (f64, f64, usize) {
+    let ss: f64 = res.iter().map(|r| r.0 .0).sum();
+    let dev: f64 = res.iter().map(|r| r.0 .1).sum();
+    let cnt: usize = res.iter().map(|r| r.0 .2).sum();
+    let ev: usize = res.iter().map(|r| r.1).sum();
+    ((ss / cnt.max(1) as f64).sqrt(), dev, ev)
 }
 
 /// [`minimise`] of a model's whitened residual `f` over its parameters `free`, with a gravity

@@ -47,7 +47,7 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::fit::{minimise_fold, minimise_model, Context, Fit};
+use crate::fit::{minimise_fold, minimise_model, pool_heldout, Context, Fit};
 use crate::DiagnoseError;
 
 /// A state variable of the flexible terms' vocabulary.
@@ -566,7 +566,7 @@ pub(crate) fn cross_validate(
 ) -> (f64, f64, usize) {
     let bounds = problem.bounds();
     let n = ctx.y.len();
-    let res: Vec<(f64, f64, usize, usize)> = folds
+    let res: Vec<((f64, f64, usize), usize)> = folds
         .par_iter()
         .map(|(held, plan)| {
             let proj = Projector::new(plan, cols, n);
@@ -580,24 +580,10 @@ pub(crate) fn cross_validate(
             let term = combine(cols, &beta, n);
             let pred = problem.predict(&xf).unwrap_or_else(|_| vec![0.0; n]);
             let e: Vec<f64> = (0..n).map(|i| ctx.y[i] - pred[i] - term[i]).collect();
-            let mut w = vec![0.0; n];
-            ctx.plan.whiten(&e, &mut w);
-            let (mut ss, mut dev, mut cnt) = (0.0, 0.0, 0);
-            for i in 0..n {
-                if held[i] {
-                    ss += e[i] * e[i];
-                    dev += w[i] * w[i];
-                    cnt += 1;
-                }
-            }
-            (ss, dev, cnt, ev)
+            (ctx.heldout_sums(held, &e), ev)
         })
         .collect();
-    let ss: f64 = res.iter().map(|r| r.0).sum();
-    let dev: f64 = res.iter().map(|r| r.1).sum();
-    let cnt: usize = res.iter().map(|r| r.2).sum();
-    let ev: usize = res.iter().map(|r| r.3).sum();
-    ((ss / cnt.max(1) as f64).sqrt(), dev, ev)
+    pool_heldout(&res)
 }
 
 /// `fit`'s effects and parameter vector without the effects `drop`.

@@ -27,7 +27,9 @@ use diagnose::Verdict;
 /// The default base seed.
 const BASE: u64 = 20_251_127;
 
-fn check(kind: Uncatalogued) {
+/// The diagnosis of effect `kind`'s trial (slot `s` of `Uncatalogued::ALL`: seed
+/// `base + 1000·s`), and a context line with the seed and the summary for failures.
+fn diagnosed(kind: Uncatalogued) -> (diagnose::Diagnosis, String) {
     let slot = Uncatalogued::ALL
         .iter()
         .position(|k| *k == kind)
@@ -43,6 +45,11 @@ fn check(kind: Uncatalogued) {
         d.summary_lines().join("\n")
     );
     println!("{ctx}");
+    (d, ctx)
+}
+
+fn check(kind: Uncatalogued) {
+    let (d, ctx) = diagnosed(kind);
     assert!(
         d.causes.is_empty(),
         "a catalogued effect is named: {:?}; {ctx}",
@@ -93,21 +100,7 @@ fn torque_drift_lives_in_time() {
 
 /// The weaker promise: the trial is not called adequate.
 fn noticed(kind: Uncatalogued) {
-    let slot = Uncatalogued::ALL
-        .iter()
-        .position(|k| *k == kind)
-        .expect("in ALL") as u64;
-    let seed = common::base_seed(BASE) + 1000 * slot;
-    let t = uncatalogued_trial(kind, seed)
-        .unwrap_or_else(|e| panic!("seed {seed}: synthesis failed: {e}"));
-    let s = &t.hidden.synthetic;
-    let d = common::diagnose_with_defaults(&s.trial, &s.unloaded, seed);
-    let ctx = format!(
-        "seed {seed}, {}; summary:\n{}",
-        t.description,
-        d.summary_lines().join("\n")
-    );
-    println!("{ctx}");
+    let (d, ctx) = diagnosed(kind);
     assert_eq!(d.verdict, Verdict::Deficient, "{ctx}");
 }
 
