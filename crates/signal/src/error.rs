@@ -75,6 +75,22 @@ pub enum SignalError {
         /// Number of samples in the envelope.
         len: usize,
     },
+    /// A block statistic needs at least `min_blocks` whole blocks.
+    #[error("{len} samples make fewer than {min_blocks} blocks of {block_len}")]
+    TooFewBlocks {
+        /// Number of samples given.
+        len: usize,
+        /// The block length asked for.
+        block_len: usize,
+        /// How many whole blocks are needed.
+        min_blocks: usize,
+    },
+    /// A signal that must carry power is zero everywhere.
+    #[error("{what} is zero everywhere")]
+    ZeroSignal {
+        /// Which signal.
+        what: &'static str,
+    },
     /// Two buffers that must have matching sizes do not.
     #[error("length mismatch for {what}: expected {expected}, got {got}")]
     LengthMismatch {

@@ -88,11 +88,13 @@
 //! ```
 
 mod complex;
+pub mod crosstalk;
 pub mod design;
 pub mod envelope;
 pub mod error;
 pub mod filter;
 
+pub use crosstalk::{crosstalk, CrosstalkEstimate};
 pub use design::{butter, Band, Sos};
 pub use envelope::{
     envelope, normalise, normalised_envelope, rectify, EnvelopeFilter, EnvelopeSettings,
