@@ -5,8 +5,9 @@
 //! earlier run left in the folder that this run does not draw is removed.
 //!
 //! The trial hiding a 40 ms electromechanical delay is synthesised here (relaxed+2 protocol,
-//! seed 11); the uncatalogued one is `diagnose::scenarios::uncatalogued_trial` (Coulomb
-//! friction, seed 7 100 000). Set `DIAGNOSE_REPORT_KEEP=DIR` to keep the friction trial's
+//! seed 11); the uncatalogued ones are `diagnose::scenarios::uncatalogued_trial` (Coulomb
+//! friction and TA crosstalk, seed 7 100 000): the crosstalk trial's report has the "EMG
+//! crosstalk" section, and `surae identify` corrects the same channel by the same share. Set `DIAGNOSE_REPORT_KEEP=DIR` to keep the friction trial's
 //! files and report in `DIR` (e.g. for `cargo xtask render-check DIR/out/report.html`).
 
 mod common;
@@ -114,17 +115,13 @@ fn hidden_delay_ends_with_the_command_that_identifies_it() {
     assert!(last.ends_with(command), "{last}");
 }
 
-#[test]
-fn uncatalogued_friction_gets_the_flexible_terms() {
-    let keep = std::env::var_os("DIAGNOSE_REPORT_KEEP").map(std::path::PathBuf::from);
-    let tmp = tempfile::tempdir().unwrap();
-    let dir = keep.as_deref().unwrap_or(tmp.path());
-    std::fs::create_dir_all(dir).unwrap();
-    let t = diagnose::scenarios::uncatalogued_trial(
-        diagnose::scenarios::Uncatalogued::CoulombFriction,
-        7_100_000,
-    )
-    .unwrap();
+/// Writes the trial hiding `kind` (seed 7 100 000) and its unloaded run into `dir`, and runs
+/// `surae diagnose` on them into `dir/out`.
+fn diagnose_uncatalogued(
+    kind: diagnose::scenarios::Uncatalogued,
+    dir: &Path,
+) -> (diagnose::scenarios::UncataloguedTrial, std::process::Output) {
+    let t = diagnose::scenarios::uncatalogued_trial(kind, 7_100_000).unwrap();
     write_trial(dir, &t.hidden.synthetic);
     let o = surae(
         &[
@@ -139,6 +136,16 @@ fn uncatalogued_friction_gets_the_flexible_terms() {
         dir,
     );
     ok(&o);
+    (t, o)
+}
+
+#[test]
+fn uncatalogued_friction_gets_the_flexible_terms() {
+    let keep = std::env::var_os("DIAGNOSE_REPORT_KEEP").map(std::path::PathBuf::from);
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = keep.as_deref().unwrap_or(tmp.path());
+    std::fs::create_dir_all(dir).unwrap();
+    let (_, o) = diagnose_uncatalogued(diagnose::scenarios::Uncatalogued::CoulombFriction, dir);
     let out = dir.join("out");
     let d = json(&out.join("diagnosis.json"));
     let u = &d["unexplained"];
@@ -164,4 +171,102 @@ fn uncatalogued_friction_gets_the_flexible_terms() {
     let end = last_section(&html);
     assert!(end.contains("surae identify --method mcmc --trial trial.csv"));
     assert!(last_line(&o).contains("surae identify --method mcmc --trial trial.csv"));
+}
+
+#[test]
+fn emg_crosstalk_is_reported_and_corrected() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let (t, o) = diagnose_uncatalogued(diagnose::scenarios::Uncatalogued::EmgCrosstalk, dir);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with("crosstalk"))
+        .unwrap_or_else(|| panic!("no crosstalk line:\n{stdout}"));
+    assert!(line.contains("emg_sol carried"), "{line}");
+    assert!(line.contains("removed before fitting"), "{line}");
+    let d = json(&dir.join("out/diagnosis.json"));
+    let checks = d["emg_crosstalk"].as_array().expect("emg_crosstalk[]");
+    assert_eq!(checks.len(), 3);
+    assert_eq!(checks[0]["channel"], "emg_sol");
+    assert_eq!(checks[0]["corrected"], true);
+    // the CSV's 4-decimal EMG keeps the share within 5 standard errors of the truth
+    let f = checks[0]["fraction"].as_f64().unwrap();
+    let se = checks[0]["fraction_se"].as_f64().unwrap();
+    assert!((f - t.size).abs() < 5.0 * se, "{f} ± {se} for {}", t.size);
+    let c = &d["emg_correction"];
+    assert!(
+        c["heldout_rms_nm"].as_f64().unwrap() < c["heldout_rms_uncorrected_nm"].as_f64().unwrap(),
+        "{c}"
+    );
+    assert_eq!(d["verdict"], "deficient");
+    assert_eq!(d["unexplained"]["depends_on"][0], "activation");
+    assert_eq!(
+        d["causes"].as_array().map(Vec::len),
+        Some(0),
+        "{}",
+        d["causes"]
+    );
+    let html = std::fs::read_to_string(dir.join("out/report.html")).unwrap();
+    assert!(html.contains("<h2>EMG crosstalk</h2>"));
+    assert!(html.contains("emg_sol carried"));
+    assert!(
+        !html.contains("No state variable"),
+        "the crosstalk section explains it"
+    );
+    // identify corrects the same channel by the same share, and its model then fits
+    let o = surae(
+        &[
+            "identify",
+            "--method",
+            "sa",
+            "--trial",
+            "trial.csv",
+            "--unloaded",
+            "unloaded.csv",
+            "--out",
+            "identified",
+        ],
+        dir,
+    );
+    ok(&o);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        stdout
+            .lines()
+            .any(|l| l.starts_with("crosstalk") && l.contains("emg_sol carried")),
+        "{stdout}"
+    );
+    let id = json(&dir.join("identified/identify.json"));
+    assert_eq!(id["emg_crosstalk"], d["emg_crosstalk"]);
+    assert!(id["adequacy"]["warning"].is_null(), "{}", id["adequacy"]);
+}
+
+#[test]
+fn antagonist_fixture_has_no_crosstalk() {
+    let tmp = tempfile::tempdir().unwrap();
+    let fx = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/antagonist_coactivation");
+    let o = surae(
+        &[
+            "diagnose",
+            "--trial",
+            fx.join("trial.csv").to_str().unwrap(),
+            "--unloaded",
+            fx.join("unloaded.csv").to_str().unwrap(),
+            "--out",
+            "out",
+        ],
+        tmp.path(),
+    );
+    ok(&o);
+    let d = json(&tmp.path().join("out/diagnosis.json"));
+    let checks = d["emg_crosstalk"].as_array().expect("emg_crosstalk[]");
+    assert_eq!(checks.len(), 3);
+    assert!(checks.iter().all(|c| c["corrected"] == false), "{checks:?}");
+    assert!(d.get("emg_correction").is_none());
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        stdout.contains("crosstalk    none from emg_ta in the raw EMG"),
+        "{stdout}"
+    );
 }

@@ -67,8 +67,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     println!("{}", serde_json::to_string(&e.terms)?);
                 }
             }
+            let emg = d.emg_correction.as_ref().map_or(String::new(), |c| {
+                format!(
+                    " emg {} z {:.0} f̂ {:.3} {:.2}→{:.2} N·m ({:+.0})",
+                    c.channels.join("+"),
+                    d.emg_crosstalk.first().map_or(f64::NAN, |x| x.z),
+                    d.emg_crosstalk.first().map_or(f64::NAN, |x| x.fraction),
+                    c.heldout_rms_uncorrected_nm,
+                    c.heldout_rms_nm,
+                    c.heldout_deviance_gain
+                )
+            });
             println!(
-                "{seed} {:<18} {:<44} causes {:?} structure p {:.1e} depends_on [{dep}] gain {gain:.1} % replaced {replaced:?} | {ranking} | {:.1} s",
+                "{seed} {:<18} {:<44} causes {:?}{emg} structure p {:.1e} depends_on [{dep}] gain {gain:.1} % replaced {replaced:?} | {ranking} | {:.1} s",
                 kind.name(),
                 t.description,
                 d.causes,

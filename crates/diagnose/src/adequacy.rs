@@ -87,6 +87,7 @@ pub fn adequacy(
         observed: None,
         params: *params,
         effects: *effects,
+        emg: Default::default(),
     };
     test_at(target, unloaded, inputs, seg, free, settings)
 }
@@ -111,6 +112,7 @@ pub fn adequacy_of_recording(
         observed,
         params: recording.params,
         effects: recording.effects,
+        emg: Default::default(),
     };
     test_at(target, unloaded, inputs, seg, free, settings)
 }

@@ -94,6 +94,8 @@ pub(crate) fn diagnosis(
         evaluations,
         wall_s: 0.0,
         not_testable: Vec::new(),
+        emg_crosstalk: Vec::new(),
+        emg_correction: None,
     }
 }
 

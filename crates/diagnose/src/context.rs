@@ -69,6 +69,8 @@ pub(crate) struct Target<'a> {
     pub observed: Option<Vec<bool>>,
     pub params: ModelParams,
     pub effects: Effects,
+    /// The raw-EMG crosstalk tests and the uncorrected inputs (a trial CSV with `emg_ta`).
+    pub emg: crate::crosstalk::EmgInputs,
 }
 
 /// The fitting context of the trial: the torque with the dynamometer's systematic part
@@ -92,6 +94,7 @@ pub(crate) fn trial_context(
         observed,
         params,
         effects,
+        ..
     } = target;
     let n = inputs.len();
     let fs = inputs.fs();

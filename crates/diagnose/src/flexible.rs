@@ -9,8 +9,10 @@
 //!
 //! with piecewise-linear hat functions `h_j` on knots spread uniformly over the observed range
 //! of `v` (five; four for the TA; about every 2 s in time), or, for `direction`, the single
-//! column `sign(q̇)` (0 while the joint is still). Columns are centred on their mean over the
-//! trial except in time (a constant is a function of time only). The vocabulary: `angle` (°),
+//! column `sign(q̇)` (0 while the joint is still). Time is also tried with a step `1{t ≥ τ}`
+//! added at the residual's most likely change point (`with_step`); the better of the two
+//! (held-out gain in the ranking, BIC in the review) stands for time. Columns are centred on
+//! their mean over the trial except in time (a constant is a function of time only). The vocabulary: `angle` (°),
 //! `velocity` (°/s), `direction`, `acceleration` (°/s²), `time` (s), `activation` (the mean
 //! normalised triceps surae envelope) and `activation_ta` (the normalised tibialis anterior
 //! envelope).
@@ -268,8 +270,8 @@ impl Functions {
 
 /// The flexible basis of `v` on this recording (module docs), `None` when it has no such
 /// variable: hats for angle, velocity, acceleration and the activations, `sign(q̇)` for
-/// direction, and for time a straight line (a cycle held out is predicted from the others
-/// only through a trend: anything more local in time does not generalise across cycles).
+/// direction, and hats about every 2 s for time (cross-validated on 0.5 s blocks, so a hat
+/// is predicted from its neighbours; [`with_step`] adds a step).
 pub(crate) fn basis(ctx: &Context, v: StateVariable) -> Option<FlexBasis> {
     let s = series(ctx, v)?;
     let (lo, hi) = observed_range(ctx, &s)?;
@@ -342,6 +344,94 @@ pub(crate) fn basis(ctx: &Context, v: StateVariable) -> Option<FlexBasis> {
         rows,
         cols,
     })
+}
+
+/// Shortest time (s) between a change point in time and either end of the trial.
+const STEP_MARGIN_S: f64 = 0.5;
+
+/// The time basis `b` with a step `1{t ≥ τ}` added at the most likely change point of
+/// `residual` (`y − τ̂` of the model the term will extend, N·m): the residual is projected
+/// off the time hats over the compared samples, and `τ` maximises its standardised cumulative
+/// sum `|S_k − (k/m)S_m| / √(k(m−k)/m)` over the samples at least 0.5 s from either end.
+/// A hat every 2 s only ramps through a jump (a strap that slips, a re-zeroed amplifier); the
+/// step costs one coefficient, and the cross-validation and the BIC judge it like any other.
+/// Its shape is reported at the knots and on both sides of `τ`. Any other basis is returned
+/// unchanged.
+pub(crate) fn with_step(ctx: &Context, b: FlexBasis, residual: &[f64]) -> FlexBasis {
+    if b.variable != StateVariable::Time {
+        return b;
+    }
+    let t = ctx.inputs.times();
+    let idx: Vec<usize> = (0..t.len()).filter(|&i| ctx.is_observed(i)).collect();
+    let m = idx.len();
+    if m < 4 || residual.len() != t.len() {
+        return b;
+    }
+    // residual off the hats (ordinary least squares over the compared samples)
+    let k = b.cols.len();
+    let h = DMatrix::from_fn(m, k, |r, c| b.cols[c][idx[r]]);
+    let y = DVector::from_iterator(m, idx.iter().map(|&i| residual[i]));
+    let Ok(coef) = h.clone().svd(true, true).solve(&y, 1e-12) else {
+        return b;
+    };
+    let r = y - h * coef;
+    let (t0, t1) = (t[idx[0]], t[idx[m - 1]]);
+    let mut best: Option<(f64, f64)> = None;
+    let total = r.sum();
+    let mut cum = 0.0;
+    for j in 1..m {
+        cum += r[j - 1];
+        let at = t[idx[j]];
+        if at - t0 < STEP_MARGIN_S || t1 - at < STEP_MARGIN_S {
+            continue;
+        }
+        let (jf, mf) = (j as f64, m as f64);
+        let stat = (cum - jf / mf * total).abs() / (jf * (mf - jf) / mf).sqrt();
+        if best.is_none_or(|(_, s)| stat > s) {
+            best = Some((at, stat));
+        }
+    }
+    let Some((tau, _)) = best else {
+        return b;
+    };
+    let mut out = b;
+    out.cols.push(
+        t.iter()
+            .map(|&x| if x >= tau { 1.0 } else { 0.0 })
+            .collect(),
+    );
+    // the knots with the step's column, and both sides of the step
+    let hats = Functions::Hats(out.points.clone());
+    let mut shape: Vec<(f64, Vec<f64>)> = out
+        .points
+        .iter()
+        .zip(&out.rows)
+        .map(|(p, row)| {
+            let mut row = row.clone();
+            row.push(if *p >= tau { 1.0 } else { 0.0 });
+            (*p, row)
+        })
+        .collect();
+    for side in [0.0, 1.0] {
+        let mut row = hats.eval(tau);
+        row.push(side);
+        shape.push((tau, row));
+    }
+    // stable: the knot rows before the two sides at τ, the side before the step first
+    shape.sort_by(|a, b| a.0.total_cmp(&b.0));
+    out.points = shape.iter().map(|(p, _)| *p).collect();
+    out.rows = shape.into_iter().map(|(_, r)| r).collect();
+    out
+}
+
+/// `b`, and for time also `b` with its step ([`with_step`]): both are fitted, and the better
+/// one (held-out gain in the ranking, BIC in the review) stands for time.
+fn with_and_without_step(ctx: &Context, b: FlexBasis, residual: &[f64]) -> Vec<FlexBasis> {
+    if b.variable == StateVariable::Time && !residual.is_empty() {
+        vec![b.clone(), with_step(ctx, b, residual)]
+    } else {
+        vec![b]
+    }
 }
 
 /// Least squares on a whitened basis: `β = V Σ⁻¹ Uᵀ w` over the singular values above
@@ -783,10 +873,25 @@ fn review(
     let mut evaluations = 0;
     for &kind in &model.kinds {
         let (kinds, x) = without_effects(model, &[kind]);
+        // a step in time is placed where the model without the effect leaves one
+        let resid: Vec<f64> = if StateVariable::of_effect(kind).contains(&StateVariable::Time) {
+            let pred = ctx.problem(&kinds)?.predict(&x)?;
+            ctx.y.iter().zip(&pred).map(|(a, b)| a - b).collect()
+        } else {
+            Vec::new()
+        };
         // each of its own variables' terms, beside the extension's (when not among them)
         let alternatives: Vec<Vec<FlexBasis>> = StateVariable::of_effect(kind)
             .iter()
             .filter_map(|v| basis(ctx, *v))
+            .flat_map(|b| {
+                // the extension's own term stands for its variable
+                if extra.iter().any(|e| e.variable == b.variable) {
+                    vec![b]
+                } else {
+                    with_and_without_step(ctx, b, &resid)
+                }
+            })
             .map(|b| {
                 let mut set = extra.to_vec();
                 if !set.iter().any(|e| e.variable == b.variable) {
@@ -854,9 +959,11 @@ pub(crate) fn characterise(
     nobs: usize,
 ) -> Result<Characterisation, DiagnoseError> {
     let mut evaluations = 0;
+    let resid: Vec<f64> = ctx.y.iter().zip(&fin.pred).map(|(a, b)| a - b).collect();
     let bases: Vec<FlexBasis> = StateVariable::ALL
         .iter()
         .filter_map(|v| basis(ctx, *v))
+        .flat_map(|b| with_and_without_step(ctx, b, &resid))
         .collect();
     // the final model's held-out errors under each fold scheme: a term in time is compared on
     // the time blocks, every other term on the trial's own folds
@@ -885,6 +992,14 @@ pub(crate) fn characterise(
     evaluations += fits.iter().map(|f| f.model.evaluations).sum::<usize>();
     let gain = |f: &FlexFit| reference(&f.bases).1 - f.model.heldout_dev;
     fits.sort_by(|a, b| gain(b).total_cmp(&gain(a)));
+    // time with and without its step: the better of the two stands for time
+    let mut seen = Vec::new();
+    fits.retain(|f| {
+        let v = f.bases[0].variable;
+        let first = !seen.contains(&v);
+        seen.push(v);
+        first
+    });
     let ranking: Vec<VariableGain> = fits
         .iter()
         .map(|f| VariableGain {

@@ -4,6 +4,11 @@
 //!
 //! # Method
 //!
+//! 0. **EMG crosstalk** (`crosstalk`): with a raw `emg_ta` channel, each triceps channel's
+//!    share of the TA's raw signal is tested (weighted least squares over 100 ms blocks,
+//!    [`signal::crosstalk()`]) and, when `p < 10⁻⁵`, removed from the raw signal before the
+//!    envelopes are made; the final model is refitted on the uncorrected envelopes to measure
+//!    what the correction is worth ([`EmgCorrection`]).
 //! 1. **Noise** ([`noise`]): on the unloaded run, fit the dynamometer's systematic part
 //!    `c + Σ_e e^{−(t−e)/τ}(B sin 2πf(t−e) + C cos 2πf(t−e))` (offset + event transients) and
 //!    an AR(1)+white random part; subtract the systematic part (at the trial's own events)
@@ -45,7 +50,9 @@
 //! 6. **Unexplained structure** ([`analysis`]): two generic step-function models (of the
 //!    motion: cycle × sweep direction × angle bin, hold halves; of time: 1 s blocks) tested
 //!    against the final residual by score tests, `LM ~ χ²(df)` under a correct model;
-//!    structure is unexplained when the Bonferroni p-value is below 10⁻³.
+//!    structure is unexplained when the Bonferroni p-value is below 10⁻³. The causes named
+//!    are reviewed against flexible terms in their own variables, and structure left is traced
+//!    to the state variable it depends on ([`flexible`]).
 //! 7. **Uncertainty** (`profile`): 68 % profile-likelihood intervals of every parameter of
 //!    the final model, `{θ : (min_{others} ‖r‖² − ‖r̂‖²)/s² ≤ 1}` with the others refitted,
 //!    cut at the bounds; the uncertainty reported is the half-width. The Gauss–Newton
@@ -85,6 +92,7 @@ pub mod analysis;
 mod assemble;
 mod baseline;
 mod context;
+mod crosstalk;
 mod error;
 mod fit;
 pub mod flexible;
@@ -111,6 +119,9 @@ use muscle_model::{Effects, ModelParams};
 
 pub use adequacy::{adequacy, adequacy_of_recording, Adequacy};
 pub use analysis::{AcfPoint, Bin, ResidualAnalysis, Series};
+pub use crosstalk::{
+    crosstalk_summary_line, emg_crosstalk, remove_crosstalk, CrosstalkCheck, EmgCorrection,
+};
 pub use error::DiagnoseError;
 pub use flexible::{
     FlexibleExtension, FlexibleTerm, Replacement, StateVariable, Unexplained, VariableGain,
@@ -172,12 +183,24 @@ pub fn run_with_model(
     let t0 = Instant::now();
     // Settings and inputs: refuse what the decision rule cannot use before any simulation.
     settings.validate()?;
-    let (inputs, seg) = context::prepare(trial, settings)?;
+    // The TA's crosstalk in the raw triceps EMG is removed before anything is fitted; the
+    // uncorrected envelopes are kept to say what the correction was worth.
+    let checks = emg_crosstalk(trial, settings)?;
+    let corrected = remove_crosstalk(trial, &checks);
+    let (inputs, seg) = context::prepare(corrected.as_ref().unwrap_or(trial), settings)?;
+    let uncorrected = match &corrected {
+        Some(_) => Some(context::prepare(trial, settings)?.0),
+        None => None,
+    };
     let target = context::Target {
         torque_nm: &trial.torque_nm,
         observed: None,
         params: *params,
         effects: *effects,
+        emg: crosstalk::EmgInputs {
+            checks,
+            uncorrected,
+        },
     };
     diagnose_target(target, unloaded, inputs, seg, settings, observer, t0)
 }
@@ -218,6 +241,7 @@ pub(crate) fn run_member(
         observed,
         params: recording.params,
         effects: recording.effects,
+        emg: crosstalk::EmgInputs::default(),
     };
     diagnose_target(target, unloaded, inputs, seg, settings, observer, t0)
 }
@@ -256,7 +280,7 @@ fn drop_causes(
 
 /// The stages of a diagnosis (module docs) on prepared inputs.
 fn diagnose_target(
-    target: context::Target<'_>,
+    mut target: context::Target<'_>,
     unloaded: Option<&Unloaded>,
     inputs: muscle_model::TrialInputs,
     seg: Segmentation,
@@ -264,6 +288,7 @@ fn diagnose_target(
     observer: &mut dyn FnMut(&DiagnosisProgress) -> ControlFlow<()>,
     t0: Instant,
 ) -> Result<Diagnosis, DiagnoseError> {
+    let emg = std::mem::take(&mut target.emg);
     // Noise: the dynamometer's systematic part leaves the torque, its random part whitens
     // the residual of every fit.
     notify(
@@ -378,6 +403,21 @@ fn diagnose_target(
         );
     }
 
+    // What the crosstalk correction was worth: the final model on the uncorrected envelopes.
+    let mut emg_correction = None;
+    if let Some(raw) = emg.uncorrected {
+        notify(
+            observer,
+            DiagnosisStage::Analysis,
+            "the final model on the EMG without the crosstalk correction".into(),
+            evaluations,
+        )?;
+        let (c, ev) =
+            crosstalk::correction_worth(&ctx, &selection.model, raw, &emg.checks, settings)?;
+        evaluations += ev;
+        emg_correction = Some(c);
+    }
+
     // The smallest detectable size of every effect not named.
     notify(
         observer,
@@ -429,6 +469,24 @@ fn diagnose_target(
             reason: NO_JOINT_ANGLE.to_string(),
         })
         .collect();
+    // A correction worth as much as a flexible term makes the recording's model deficient,
+    // and what it leaves lives in the triceps activation the model was given.
+    if let Some(c) = &emg_correction {
+        if c.heldout_deviance_gain > settings.min_flexible_gain {
+            diagnosis.verdict = Verdict::Deficient;
+            let u = diagnosis.unexplained.get_or_insert_with(|| Unexplained {
+                depends_on: Vec::new(),
+                ranking: Vec::new(),
+                extension: None,
+                catalogued_shape: None,
+                replaced: Vec::new(),
+            });
+            u.depends_on.retain(|v| *v != StateVariable::Activation);
+            u.depends_on.insert(0, StateVariable::Activation);
+        }
+    }
+    diagnosis.emg_crosstalk = emg.checks;
+    diagnosis.emg_correction = emg_correction;
     diagnosis.wall_s = t0.elapsed().as_secs_f64();
     Ok(diagnosis)
 }

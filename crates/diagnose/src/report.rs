@@ -239,6 +239,14 @@ pub struct Diagnosis {
     /// Candidate effects this recording cannot test (an empty list is not written).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub not_testable: Vec<NotTestable>,
+    /// The raw-EMG test of each triceps channel for the TA's crosstalk (empty without a TA
+    /// channel or raw EMG).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub emg_crosstalk: Vec<crate::CrosstalkCheck>,
+    /// What removing the TA's share from the corrected channels was worth (only when a
+    /// channel was corrected; every fit above used the corrected envelopes).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub emg_correction: Option<crate::EmgCorrection>,
 }
 
 /// Why a candidate effect is not tested on a recording.
@@ -437,6 +445,10 @@ impl Diagnosis {
             ra.structure_df,
             ra.extended_time_structure_lm,
             ra.time_structure_df
+        ));
+        l.extend(crate::crosstalk_summary_line(
+            &self.emg_crosstalk,
+            self.emg_correction.as_ref(),
         ));
         if let Some(u) = &self.unexplained {
             l.extend(u.summary_lines());

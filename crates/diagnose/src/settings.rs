@@ -73,6 +73,14 @@ pub struct DiagnoseSettings {
     pub flexible_margin_bic: f64,
     /// Held-out deviance gain above which a variable's flexible term enters `depends_on`.
     pub min_flexible_gain: f64,
+    /// Whether the raw triceps EMG is tested for the TA's crosstalk and corrected when it
+    /// carries it (docs/diagnosis.md, "EMG crosstalk"; needs `emg_ta` and raw EMG).
+    pub crosstalk_check: bool,
+    /// Evidence (`−log10 p` per channel) above which a triceps channel is taken to carry the
+    /// TA's signal and is corrected: 5 = one clean channel in 10⁵ corrected needlessly (the
+    /// correction changes the recording; a share that matters to the torque has `|z|` in the
+    /// tens).
+    pub crosstalk_threshold: f64,
 }
 
 /// Cross-validation folds of the held-out error.
@@ -193,6 +201,8 @@ impl Default for DiagnoseSettings {
             flexible_terms: true,
             flexible_margin_bic: 2.0,
             min_flexible_gain: 10.0,
+            crosstalk_check: true,
+            crosstalk_threshold: 5.0,
         }
     }
 }
@@ -231,6 +241,9 @@ impl DiagnoseSettings {
                 "flexible_margin_bic",
                 "flexible_margin_bic and min_flexible_gain must be finite",
             );
+        }
+        if !(self.crosstalk_threshold.is_finite() && self.crosstalk_threshold > 0.0) {
+            return bad("crosstalk_threshold", "must be finite and > 0");
         }
         if !(self.confound_cos > 0.0 && self.confound_cos <= 1.0) {
             return bad("confound_cos", "must be in (0, 1]");

@@ -540,6 +540,7 @@ fn write_figures(
         "Candidate effects ranked by evidence (named causes highlighted)",
         report::figures::candidate_ranking(&candidates, Some(d.baseline.heldout_rms_nm)),
     )?;
+    emg_crosstalk(set.page(), d);
     if let Some(u) = &d.unexplained {
         beyond_the_catalogue(&mut set, d, u)?;
     }
@@ -565,6 +566,56 @@ fn remove_stale(out: &OutDir, written: &[PathBuf]) -> CmdResult {
         }
     }
     Ok(())
+}
+
+/// The report's section on the raw-EMG crosstalk test (nothing without a TA channel).
+fn emg_crosstalk(page: &mut report::Report, d: &Diagnosis) {
+    if d.emg_crosstalk.is_empty() {
+        return;
+    }
+    let fixed: Vec<String> = d
+        .emg_crosstalk
+        .iter()
+        .filter(|c| c.corrected)
+        .map(|c| {
+            format!(
+                "{} carried {:.3} ± {:.3} of the TA's raw signal (z = {:.1})",
+                c.channel, c.fraction, c.fraction_se, c.z
+            )
+        })
+        .collect();
+    if fixed.is_empty() {
+        let z = d
+            .emg_crosstalk
+            .iter()
+            .map(|c| c.z.abs())
+            .fold(0.0, f64::max);
+        let p = 10f64.powf(-diagnose::DiagnoseSettings::default().crosstalk_threshold);
+        page.paragraph(format!(
+            "The raw EMG shows no crosstalk from the tibialis anterior into the triceps \
+             channels (largest |z| {z:.1}; a channel is corrected when p < {p:.0e})."
+        ));
+        return;
+    }
+    page.heading("EMG crosstalk");
+    let worth = d.emg_correction.as_ref().map_or(String::new(), |c| {
+        format!(
+            " Fitted on the uncorrected envelopes, the final model's held-out RMS is {:.3} N·m; \
+             on the corrected ones {:.3} N·m (−{:.1} %, held-out deviance −{:.1}).",
+            c.heldout_rms_uncorrected_nm,
+            c.heldout_rms_nm,
+            c.heldout_rms_reduction_pct,
+            c.heldout_deviance_gain
+        )
+    });
+    page.paragraph(format!(
+        "In the raw EMG, {}. Two muscles' carriers are independent, so this share is \
+         crosstalk, not co-contraction; it was subtracted from the raw signal before the \
+         envelopes were made, and every fit in this report used the corrected envelopes.{worth} \
+         `surae identify` reads the EMG as recorded: write the corrected channel into the \
+         trial before identifying.",
+        fixed.join("; ")
+    ));
 }
 
 /// The report's section on structure no catalogued effect explains: what it depends on (the
@@ -610,6 +661,8 @@ fn beyond_the_catalogue(
                 e.delta_bic
             ));
         }
+        // a crosstalk correction alone: its own section said what the structure depends on
+        _ if u.ranking.is_empty() && d.emg_correction.is_some() => {}
         _ => {
             let best = u.ranking.first().map_or(String::new(), |r| {
                 format!(

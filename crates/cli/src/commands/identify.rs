@@ -171,6 +171,9 @@ pub struct Prepared {
     pub options: experiment::InputOptions,
     /// The effects `--with` added to the identified parameters.
     pub with: Vec<EffectKind>,
+    /// The raw-EMG crosstalk tests of the triceps channels against `emg_ta` (empty without
+    /// one); a corrected channel is already corrected in `loaded.trial`.
+    pub crosstalk: Vec<diagnose::CrosstalkCheck>,
 }
 
 /// Loads the trial, unloaded run and truth and builds the problem: the 9 muscle parameters and
@@ -184,7 +187,7 @@ pub fn prepare(
     with: &[EffectKind],
 ) -> CmdResult<Prepared> {
     let (params, effects, mut inputs_read) = load_model_config(model)?;
-    let loaded = load_trial(trial)?;
+    let mut loaded = load_trial(trial)?;
     let unloaded = load_unloaded(unloaded, trial.is_some())?;
     if let Some((u, name)) = &unloaded {
         super::check_unloaded(&loaded.trial, &loaded.name, u, name)?;
@@ -213,6 +216,12 @@ pub fn prepare(
     let opts = model
         .knee
         .input_options(model.emg_is_envelope || loaded.emg_is_envelope);
+    // the TA's crosstalk is removed from the raw triceps EMG as `surae diagnose` removes it
+    let crosstalk = diagnose::emg_crosstalk(&loaded.trial, &with::settings(opts))
+        .map_err(|e| Failure::bad(format!("{}: {e}", loaded.name)))?;
+    if let Some(t) = diagnose::remove_crosstalk(&loaded.trial, &crosstalk) {
+        loaded.trial = t;
+    }
     let unloaded_name = unloaded.as_ref().map(|(_, n)| n.clone());
     let prep = identify_sa::prepare_trial(&loaded.trial, unloaded.as_ref().map(|(u, _)| u), &opts)
         .map_err(|e| match &unloaded_name {
@@ -258,6 +267,7 @@ pub fn prepare(
         inputs: inputs_read,
         unloaded: unloaded.map(|(u, _)| u),
         options: opts,
+        crosstalk,
         with: with.to_vec(),
     })
 }
@@ -375,6 +385,9 @@ pub fn run(args: IdentifyArgs) -> CmdResult {
         obj.insert("effects".into(), point_effects.to_json_value());
     }
     obj.insert("adequacy".into(), with::adequacy_json(&adequacy));
+    if !prep.crosstalk.is_empty() {
+        obj.insert("emg_crosstalk".into(), json!(prep.crosstalk));
+    }
     obj.insert("trial".into(), json!(prep.loaded.name));
     obj.insert("seed".into(), json!(args.seed));
     obj.insert("noise".into(), prep.noise.clone());
@@ -441,6 +454,9 @@ pub fn run(args: IdentifyArgs) -> CmdResult {
                     ));
                 }
             }
+        }
+        if let Some(l) = diagnose::crosstalk_summary_line(&prep.crosstalk, None) {
+            say(&l);
         }
         for l in &adequacy_lines {
             say(l);

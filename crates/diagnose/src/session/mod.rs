@@ -138,6 +138,7 @@ fn prepare(
         observed,
         params: rec.params,
         effects: rec.effects,
+        emg: Default::default(),
     };
     let (ctx, ev) = context::trial_context(target, m.unloaded, inputs, seg, settings)?;
     let eligible = eligible_candidates(&ctx, settings);
