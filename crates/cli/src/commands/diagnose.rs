@@ -612,8 +612,7 @@ fn emg_crosstalk(page: &mut report::Report, d: &Diagnosis) {
         "In the raw EMG, {}. Two muscles' carriers are independent, so this share is \
          crosstalk, not co-contraction; it was subtracted from the raw signal before the \
          envelopes were made, and every fit in this report used the corrected envelopes.{worth} \
-         `surae identify` reads the EMG as recorded: write the corrected channel into the \
-         trial before identifying.",
+         `surae identify --trial` applies the same correction before identifying.",
         fixed.join("; ")
     ));
 }
