@@ -215,6 +215,8 @@ where
 /// session: a session manifest path (docs/formats.md) in place of trial: its trials
 ///     identified together (method "sa"), with the manifest's parameters.
 /// free: with session, the parameters identified (e.g. ["sol.lst_m", "activation.shape_a"]).
+/// with_effects: catalogued effects whose parameters are identified with the muscles' (e.g.
+///     ["electromechanical_delay"], as `surae identify --with`; uniform priors on their ranges).
 /// chains: "sa" only, the number of annealing chains (starts; default 4).
 /// out: folder keeping identify.json, the figures and report.html (default: a temporary
 ///     folder, removed afterwards).
@@ -227,7 +229,7 @@ where
 #[pyo3(signature = (
     trial=None, unloaded=None, method="sa", seed=42, *, truth=None, max_iterations=None,
     params=None, effects=None, emg_is_envelope=false, knee_angle_deg=None, session=None,
-    free=None, chains=None, out=None, progress=None
+    free=None, with_effects=None, chains=None, out=None, progress=None
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn identify<'py>(
@@ -244,6 +246,7 @@ pub fn identify<'py>(
     knee_angle_deg: Option<f64>,
     session: Option<&Bound<'py, PyAny>>,
     free: Option<Vec<String>>,
+    with_effects: Option<Vec<String>>,
     chains: Option<u32>,
     out: Option<&Bound<'py, PyAny>>,
     progress: Option<&Bound<'py, PyAny>>,
@@ -273,7 +276,7 @@ pub fn identify<'py>(
         trial,
         session,
         free,
-        with_effects: None,
+        with_effects,
         chains,
         unloaded,
         seed,

@@ -98,6 +98,7 @@ def identify(
     knee_angle_deg: Optional[float] = None,
     session: Optional[_PathLike] = None,
     free: Optional[Sequence[str]] = None,
+    with_effects: Optional[Sequence[str]] = None,
     chains: Optional[int] = None,
     out: Optional[_PathLike] = None,
     progress: _ProgressArg = None,
@@ -125,6 +126,10 @@ def identify(
         trial folders) identified together by ``"sa"``, with the manifest's parameters.
     free: with ``session``, the parameters identified, e.g. ``["sol.lst_m",
         "activation.shape_a"]`` (default: LST, F0 and alpha0 of sol, gm and gl).
+    with_effects: catalogued effects whose parameters are identified with the muscles', e.g.
+        ``["electromechanical_delay"]`` (``surae identify --with``; uniform priors on their
+        ranges). They appear in ``params`` (``"electromechanical_delay.delay_ms"``) and, for
+        MCMC, in ``posterior``.
     chains: ``"sa"`` only, the number of annealing chains (starts); default 4.
     out: folder for ``identify.json``, the figures and ``report.html`` (and the chain files of
         MCMC); by default a temporary folder, removed afterwards.

@@ -50,6 +50,26 @@ def test_identify_from_dicts_equals_the_cli_on_files(cli, repo, tmp_path):
         assert got[key] == ref[key], key
 
 
+def test_identify_with_effects_equals_the_cli(cli, repo, tmp_path):
+    fx = repo / "fixtures" / "electromechanical_delay"
+    r = cli(
+        "identify", "--method", "sa", "--trial", fx / "trial.csv",
+        "--unloaded", fx / "unloaded.csv", "--with", "electromechanical_delay",
+        "--quiet", "--out", tmp_path,
+    )
+    assert r.returncode == 0, r.stderr
+    ref = read_json(tmp_path / "identify.json")
+    got = surae.identify(
+        str(fx / "trial.csv"), str(fx / "unloaded.csv"), "sa",
+        with_effects=["electromechanical_delay"],
+    )
+    assert got["with"] == ["electromechanical_delay"]
+    # the hidden delay is 40 ms
+    assert abs(got["params"]["electromechanical_delay.delay_ms"] - 40.0) < 5.0
+    for key in ["params", "rms_nm", "evaluations", "adequacy", "effects"]:
+        assert got[key] == ref[key], key
+
+
 def test_identify_writes_out_when_asked(tmp_path):
     got = surae.identify(seed=7, out=tmp_path / "fit")
     assert read_json(tmp_path / "fit" / "identify.json") == got

@@ -91,3 +91,11 @@ def test_array_inputs():
         surae.simulate(np.zeros(100), env, -1.0)
     with pytest.raises(surae.InputError, match="progress: expected"):
         surae.diagnose(progress="yes")
+
+
+def test_unknown_with_effect_message_equals_the_cli(cli, tmp_path):
+    expected = cli_message(cli("identify", "--method", "sa", "--with", "friction", "--out", tmp_path / "o"))
+    with pytest.raises(surae.InputError) as e:
+        surae.identify(with_effects=["friction"])
+    assert str(e.value) == expected
+    assert "friction" in expected and "electromechanical_delay" in expected
