@@ -164,21 +164,7 @@ pub(crate) fn correction_worth(
     checks: &[CrosstalkCheck],
     settings: &DiagnoseSettings,
 ) -> Result<(EmgCorrection, usize), DiagnoseError> {
-    let raw = Context {
-        inputs: uncorrected,
-        y: ctx.y.clone(),
-        noise: ctx.noise,
-        seg: ctx.seg.clone(),
-        plan: ctx.plan.clone(),
-        folds: ctx.folds.clone(),
-        lm: ctx.lm,
-        cv_lm: ctx.cv_lm,
-        extended_extra_starts: ctx.extended_extra_starts,
-        start_seed: ctx.start_seed,
-        params: ctx.params,
-        effects: ctx.effects,
-        observed: ctx.observed.clone(),
-    };
+    let raw = ctx.with_inputs(uncorrected);
     let fit = if model.kinds.is_empty() {
         baseline::fit_baseline(&raw, settings)?
     } else {

@@ -106,6 +106,27 @@ impl Context {
         )?)
     }
 
+    /// The same target, noise model, folds and settings with other model inputs on the same
+    /// grid (the EMG before a correction, crate::crosstalk), so that fits on the two are
+    /// compared sample for sample.
+    pub fn with_inputs(&self, inputs: TrialInputs) -> Context {
+        Context {
+            inputs,
+            y: self.y.clone(),
+            noise: self.noise,
+            seg: self.seg.clone(),
+            plan: self.plan.clone(),
+            folds: self.folds.clone(),
+            lm: self.lm,
+            cv_lm: self.cv_lm,
+            extended_extra_starts: self.extended_extra_starts,
+            start_seed: self.start_seed,
+            params: self.params,
+            effects: self.effects,
+            observed: self.observed.clone(),
+        }
+    }
+
     /// The base values of the 9 identified muscle parameters (the baseline's first start).
     pub fn base_muscles(&self) -> [f64; 9] {
         ParamId::identified().map(|p| p.get(&self.params, &self.effects))
