@@ -7,7 +7,8 @@
 //! The trial hiding a 40 ms electromechanical delay is synthesised here (relaxed+2 protocol,
 //! seed 11); the uncatalogued ones are `diagnose::scenarios::uncatalogued_trial` (Coulomb
 //! friction and TA crosstalk, seed 7 100 000): the crosstalk trial's report has the "EMG
-//! crosstalk" section, and `surae identify` corrects the same channel by the same share. Set `DIAGNOSE_REPORT_KEEP=DIR` to keep the friction trial's
+//! crosstalk" section, and `surae identify` corrects the same channel by the same share, with
+//! `--trial` and in a session. Set `DIAGNOSE_REPORT_KEEP=DIR` to keep the friction trial's
 //! files and report in `DIR` (e.g. for `cargo xtask render-check DIR/out/report.html`).
 
 mod common;
@@ -240,6 +241,35 @@ fn emg_crosstalk_is_reported_and_corrected() {
     let id = json(&dir.join("identified/identify.json"));
     assert_eq!(id["emg_crosstalk"], d["emg_crosstalk"]);
     assert!(id["adequacy"]["warning"].is_null(), "{}", id["adequacy"]);
+    // a session of this one trial is corrected as the trial is, so it identifies the same
+    std::fs::write(
+        dir.join("session.json"),
+        r#"{"trials": [{"name": "xt", "trial": "trial.csv", "unloaded": "unloaded.csv"}]}"#,
+    )
+    .unwrap();
+    let o = surae(
+        &[
+            "identify",
+            "--method",
+            "sa",
+            "--session",
+            "session.json",
+            "--out",
+            "by_session",
+        ],
+        dir,
+    );
+    ok(&o);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        stdout
+            .lines()
+            .any(|l| l.starts_with("xt: crosstalk") && l.contains("emg_sol carried")),
+        "{stdout}"
+    );
+    let s = json(&dir.join("by_session/identify.json"));
+    assert_eq!(s["trials"][0]["emg_crosstalk"], d["emg_crosstalk"]);
+    assert_eq!(s["params"], id["params"]);
 }
 
 #[test]

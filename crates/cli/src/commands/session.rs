@@ -36,6 +36,10 @@ pub struct SessionTrial {
     /// The recording checks of a trial file or map (docs/formats.md); none for a CEINMS
     /// folder, whose moment comes from inverse dynamics.
     pub checks: Option<recording::checks::TrialChecks>,
+    /// The raw-EMG crosstalk tests of the triceps channels against `emg_ta` (empty without
+    /// one, for envelopes and for a CEINMS folder); a corrected channel is already corrected
+    /// in `problem`, as `surae identify --trial` and `surae diagnose` correct it.
+    pub crosstalk: Vec<diagnose::CrosstalkCheck>,
 }
 
 impl SessionTrial {
@@ -85,6 +89,18 @@ pub struct LoadedSession {
 }
 
 impl LoadedSession {
+    /// The summary's crosstalk line of every trial that has an `emg_ta` channel, as
+    /// `surae identify --trial` prints it, led by the trial's name.
+    pub fn crosstalk_lines(&self) -> Vec<String> {
+        self.trials
+            .iter()
+            .filter_map(|t| {
+                diagnose::crosstalk_summary_line(&t.crosstalk, None)
+                    .map(|l| format!("{}: {l}", t.name))
+            })
+            .collect()
+    }
+
     /// What the joint MCMC samples: each trial's problem on its torque as recorded (the
     /// sampler subtracts the systematic part itself) and its noise side: the unloaded run's
     /// correction and AR(1)+white noise, or, without one, AR(1)+white fitted to the trial's own
@@ -233,6 +249,8 @@ pub fn load_session(
                 experiment::Trial,
                 Option<experiment::Unloaded>,
                 Vec<recording::MappedGeometry>,
+                recording::checks::TrialChecks,
+                Vec<diagnose::CrosstalkCheck>,
             )>,
         ),
         Ceinms(Box<CeinmsModelTrial>),
@@ -272,7 +290,34 @@ pub fn load_session(
                 )));
             }
             TrialSource::Csv(_) | TrialSource::Recording(_) => {
-                let (trial, geometry) = read_session_trial(p, model)?;
+                let (mut trial, geometry) = read_session_trial(p, model)?;
+                // the recording as recorded is what its checks judge
+                let checks = super::inspect::trial_checks(&super::LoadedTrial {
+                    trial: trial.clone(),
+                    name: p.display().to_string(),
+                    path: Some(p.to_path_buf()),
+                    data_files: Vec::new(),
+                    emg_is_envelope: model.emg_is_envelope,
+                });
+                // the TA's crosstalk leaves the raw triceps EMG before the session's EMG
+                // references are taken from it, as it leaves a single trial's
+                let settings = diagnose::DiagnoseSettings {
+                    input_options: experiment::InputOptions {
+                        emg_is_envelope: model.emg_is_envelope,
+                        ..experiment::InputOptions::default()
+                    },
+                    ..diagnose::DiagnoseSettings::default()
+                };
+                let crosstalk = diagnose::emg_crosstalk(&trial, &settings).map_err(|e| {
+                    Failure::bad(format!(
+                        "{}: trial {}: {e}",
+                        manifest.path.display(),
+                        t.name
+                    ))
+                })?;
+                if let Some(c) = diagnose::remove_crosstalk(&trial, &crosstalk) {
+                    trial = c;
+                }
                 let unloaded = match &t.unloaded {
                     Some(u) => {
                         read.push(u.clone());
@@ -287,7 +332,9 @@ pub fn load_session(
                     }
                     None => None,
                 };
-                loaded.push(Loaded::Csv(Box::new((trial, unloaded, geometry))));
+                loaded.push(Loaded::Csv(Box::new((
+                    trial, unloaded, geometry, checks, crosstalk,
+                ))));
             }
         }
     }
@@ -367,14 +414,7 @@ pub fn load_session(
         let bad = |e: &dyn std::fmt::Display| Failure::bad(format!("{source}: {e}"));
         let trial = match l {
             Loaded::Csv(csv) => {
-                let (trial, unloaded, mapped_geometry) = *csv;
-                let checks = super::inspect::trial_checks(&super::LoadedTrial {
-                    trial: trial.clone(),
-                    name: source.clone(),
-                    path: Some(entry.source.path().to_path_buf()),
-                    data_files: Vec::new(),
-                    emg_is_envelope: model.emg_is_envelope,
-                });
+                let (trial, unloaded, mapped_geometry, checks, crosstalk) = *csv;
                 let opts = experiment::InputOptions {
                     emg_is_envelope: model.emg_is_envelope,
                     knee_angle_deg: entry.knee_angle_deg,
@@ -417,6 +457,7 @@ pub fn load_session(
                     correction: prep.correction,
                     ceinms: None,
                     checks: Some(checks),
+                    crosstalk,
                 }
             }
             Loaded::Ceinms(c) => {
@@ -438,6 +479,7 @@ pub fn load_session(
                     correction: None,
                     ceinms: Some(*c),
                     checks: None,
+                    crosstalk: Vec::new(),
                 }
             }
         };

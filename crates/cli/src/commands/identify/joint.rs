@@ -88,6 +88,9 @@ pub(super) fn run(args: &IdentifyArgs, session_path: &Path, with: &[EffectKind])
             "dynamometer": t.dynamometer(),
             "checks": t.checks,
         }));
+        if !t.crosstalk.is_empty() {
+            trials.last_mut().expect("pushed")["emg_crosstalk"] = json!(t.crosstalk);
+        }
         predictions.push((pred, base));
     }
     let values: Map<String, Value> = fit
@@ -150,7 +153,12 @@ pub(super) fn run(args: &IdentifyArgs, session_path: &Path, with: &[EffectKind])
             fit.evaluations,
             fit.wall_s
         ));
-        for l in session.emg.summary_lines() {
+        for l in session
+            .emg
+            .summary_lines()
+            .into_iter()
+            .chain(session.crosstalk_lines())
+        {
             say(&l);
         }
         say(&format!(
@@ -599,6 +607,9 @@ fn run_mcmc(
         entry["source"] = json!(t.source);
         entry["dynamometer"] = t.dynamometer();
         entry["checks"] = json!(t.checks);
+        if !t.crosstalk.is_empty() {
+            entry["emg_crosstalk"] = json!(t.crosstalk);
+        }
         let base = t.problem.predict(&start).map_err(failed)?;
         predictions.push((pred, base));
         entries.push(entry);
@@ -659,7 +670,12 @@ fn run_mcmc(
         for l in lines.iter().chain(&truth_lines).chain(&adequacy_lines) {
             say(l);
         }
-        for l in session.emg.summary_lines() {
+        for l in session
+            .emg
+            .summary_lines()
+            .into_iter()
+            .chain(session.crosstalk_lines())
+        {
             say(&l);
         }
         say(&format!(
