@@ -224,6 +224,17 @@ fn identified_over(
     Ok((params, effects))
 }
 
+/// A session's trial file as read: the recording (its TA crosstalk removed), its unloaded
+/// run, the geometry its recording map carries, its recording checks (of the file as
+/// recorded) and its crosstalk tests.
+struct LoadedCsv {
+    trial: experiment::Trial,
+    unloaded: Option<experiment::Unloaded>,
+    geometry: Vec<recording::MappedGeometry>,
+    checks: recording::checks::TrialChecks,
+    crosstalk: Vec<diagnose::CrosstalkCheck>,
+}
+
 /// Reads a session and prepares its trials. `model` may override the session's parameters
 /// (`--params`), effects (`--effects`) and EMG handling; `free` overrides its free parameters.
 pub fn load_session(
@@ -244,15 +255,7 @@ pub fn load_session(
     };
     // the recordings first: a CEINMS subject's fixed muscles are those of its trials
     enum Loaded {
-        Csv(
-            Box<(
-                experiment::Trial,
-                Option<experiment::Unloaded>,
-                Vec<recording::MappedGeometry>,
-                recording::checks::TrialChecks,
-                Vec<diagnose::CrosstalkCheck>,
-            )>,
-        ),
+        Csv(Box<LoadedCsv>),
         Ceinms(Box<CeinmsModelTrial>),
     }
     let mut loaded = Vec::with_capacity(manifest.trials.len());
@@ -332,9 +335,13 @@ pub fn load_session(
                     }
                     None => None,
                 };
-                loaded.push(Loaded::Csv(Box::new((
-                    trial, unloaded, geometry, checks, crosstalk,
-                ))));
+                loaded.push(Loaded::Csv(Box::new(LoadedCsv {
+                    trial,
+                    unloaded,
+                    geometry,
+                    checks,
+                    crosstalk,
+                })));
             }
         }
     }
@@ -344,7 +351,7 @@ pub fn load_session(
         .iter()
         .zip(&loaded)
         .filter_map(|(entry, l)| match l {
-            Loaded::Csv(csv) => Some((entry.name.as_str(), &csv.0)),
+            Loaded::Csv(csv) => Some((entry.name.as_str(), &csv.trial)),
             Loaded::Ceinms(_) => None,
         })
         .collect();
@@ -414,7 +421,13 @@ pub fn load_session(
         let bad = |e: &dyn std::fmt::Display| Failure::bad(format!("{source}: {e}"));
         let trial = match l {
             Loaded::Csv(csv) => {
-                let (trial, unloaded, mapped_geometry, checks, crosstalk) = *csv;
+                let LoadedCsv {
+                    trial,
+                    unloaded,
+                    geometry: mapped_geometry,
+                    checks,
+                    crosstalk,
+                } = *csv;
                 let opts = experiment::InputOptions {
                     emg_is_envelope: model.emg_is_envelope,
                     knee_angle_deg: entry.knee_angle_deg,
