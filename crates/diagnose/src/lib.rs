@@ -430,6 +430,9 @@ fn diagnose_target(
         &selection.model,
         &eligible,
         settings.max_delta_bic,
+        settings
+            .flexible_terms
+            .then_some(settings.flexible_margin_bic),
     );
     for l in limits {
         evaluations += l.evaluations;

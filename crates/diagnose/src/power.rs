@@ -177,6 +177,66 @@ pub fn rule_power(lambda: f64, k: usize, n_obs: usize, max_delta_bic: f64) -> f6
     noncentral_chi2_survival(k as f64 * (n_obs as f64).ln() - max_delta_bic, k, lambda)
 }
 
+/// The most often a one-parameter effect with noncentrality `lambda` is named by the ΔBIC
+/// rule *and* kept by a review that asks it to beat a one-coefficient rival by `margin` in
+/// BIC (docs/diagnosis.md, "No false story": fatigue against a ramp in time).
+///
+/// To first order, with `â` and `b̂` the unit directions the effect and the rival leave
+/// once the model's parameters have absorbed what they can, and `cos = â·b̂`, the two
+/// statistics are `X = â·(s + ε) ~ N(√λ, 1)` and `Y = b̂·(s + ε) = cos·X + √(1 − cos²)·Z`:
+/// the rule names the effect when `X² > ln n − β`, and the review keeps it when
+/// `X² − Y² ≥ margin` (same number of parameters, so the BIC difference is the
+/// log-likelihood's). Integrated over `X` (trapezoids of 0.005 over ±10 around `√λ`):
+///
+/// ```text
+/// P = ∫ φ(x − √λ) 1{x² > max(ln n − β, margin)} [Φ((r − cos·x)/σ) − Φ((−r − cos·x)/σ)] dx,
+/// r = √(x² − margin), σ = √(1 − cos²)
+/// ```
+///
+/// With `cos` = 0 it is [`rule_power`] (for `k` = 1, up to the review's own noise); it falls
+/// to 0 as the rival's direction nears the effect's.
+///
+/// ```
+/// use diagnose::power::{rule_power, rule_power_against};
+/// let (lambda, n) = (40.0, 17_000);
+/// let alone = rule_power(lambda, 1, n, -10.0);
+/// assert!((rule_power_against(lambda, 0.0, n, -10.0, 2.0) - alone).abs() < 1e-3);
+/// assert!(rule_power_against(lambda, 0.9, n, -10.0, 2.0) < alone - 0.1);
+/// ```
+pub fn rule_power_against(
+    lambda: f64,
+    cos: f64,
+    n_obs: usize,
+    max_delta_bic: f64,
+    margin: f64,
+) -> f64 {
+    use numerics::special::normal_cdf;
+    let mu = lambda.max(0.0).sqrt();
+    let c = cos.clamp(-1.0, 1.0);
+    let sigma = (1.0 - c * c).max(0.0).sqrt();
+    let floor = ((n_obs as f64).ln() - max_delta_bic).max(margin);
+    let kept = |x: f64| -> f64 {
+        if x * x <= floor {
+            return 0.0;
+        }
+        let r = (x * x - margin).max(0.0).sqrt();
+        if sigma < 1e-12 {
+            return f64::from((c * x).abs() <= r);
+        }
+        normal_cdf((r - c * x) / sigma) - normal_cdf((-r - c * x) / sigma)
+    };
+    let h = 0.005;
+    let steps = (20.0 / h) as usize;
+    let density = |x: f64| (-0.5 * (x - mu) * (x - mu)).exp() / (2.0 * std::f64::consts::PI).sqrt();
+    let mut sum = 0.0;
+    for i in 0..=steps {
+        let x = mu - 10.0 + h * i as f64;
+        let w = if i == 0 || i == steps { 0.5 } else { 1.0 };
+        sum += w * density(x) * kept(x);
+    }
+    (sum * h).clamp(0.0, 1.0)
+}
+
 /// The most often any test with false-alarm rate `alpha` can detect an effect of `k`
 /// parameters with noncentrality `lambda`: `P(χ²_k(λ) > χ²_{k,1−α})`.
 pub fn test_power(lambda: f64, k: usize, alpha: f64) -> f64 {
@@ -208,6 +268,25 @@ pub fn wilson_interval(k: usize, n: usize, alpha: f64) -> (f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_rival_costs_power_as_its_direction_nears_the_effects() {
+        let n = 17_000;
+        let mut last = f64::INFINITY;
+        for c in [0.0, 0.3, 0.6, 0.8, 0.9, 0.95, 0.99] {
+            let p = rule_power_against(40.0, c, n, -10.0, 2.0);
+            assert!(p <= last + 1e-12, "cos {c}: {p} after {last}");
+            last = p;
+        }
+        assert!(last < 0.6, "{last}");
+        // the same direction: the review can never prefer the effect by 2
+        assert_eq!(rule_power_against(400.0, 1.0, n, -10.0, 2.0), 0.0);
+        // and a larger effect is kept more often
+        assert!(
+            rule_power_against(80.0, 0.9, n, -10.0, 2.0)
+                > rule_power_against(40.0, 0.9, n, -10.0, 2.0)
+        );
+    }
 
     #[test]
     fn wilson_interval_matches_published_values() {

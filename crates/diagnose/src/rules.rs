@@ -1,11 +1,10 @@
 //! The rules that judge a model against another: whether an extension generalises (held-out
-//! deviance and RMS), clears its null when it is collinear with the model, is a near tie of
+//! deviance), clears its null when it is collinear with the model, is a near tie of
 //! a named cause, or is a simpler model the data cannot tell from a more complex one.
 //!
 //! With `B` the BIC, `h` the held-out RMS and `m = max(p·h, a)` the held-out margin
 //! (`p` = [`DiagnoseSettings::min_heldout_gain_pct`], `a` = [`DiagnoseSettings::min_heldout_gain_nm`]):
-//! an extension is accepted when its held-out deviance falls, `h` does not rise and
-//! `B_ext − B < ΔBIC margin`; two models are tied when `|ΔB|` is within the margin and `Δh < m`.
+//! an extension is accepted when its held-out deviance falls and `B_ext − B < ΔBIC margin`; two models are tied when `|ΔB|` is within the margin and `Δh < m`.
 
 use std::collections::BTreeMap;
 
@@ -20,7 +19,7 @@ pub(crate) struct Refit<'a> {
     pub kind: EffectKind,
     pub fit: &'a Fit,
     pub delta_bic: f64,
-    pub gain_nm: f64,
+    /// Relative fall of the held-out RMS (%), reported, not judged.
     pub gain_pct: f64,
     /// Fall of the held-out deviance (χ² units).
     pub dev_gain: f64,
@@ -28,21 +27,26 @@ pub(crate) struct Refit<'a> {
 
 /// A candidate's fit judged against the current model.
 pub(crate) fn judge<'a>(fit: &'a Fit, current: &Fit, nobs: usize) -> Refit<'a> {
-    let gain_nm = current.heldout_rms - fit.heldout_rms;
     Refit {
         kind: *fit.kinds.last().expect("an extended fit adds an effect"),
         fit,
         delta_bic: fit.bic(nobs) - current.bic(nobs),
-        gain_nm,
-        gain_pct: 100.0 * gain_nm / current.heldout_rms,
+        gain_pct: 100.0 * (current.heldout_rms - fit.heldout_rms) / current.heldout_rms,
         dev_gain: current.heldout_dev - fit.heldout_dev,
     }
 }
 
 /// Whether a refit generalises: it lowers the held-out deviance by at least
-/// [`DiagnoseSettings::min_heldout_dev_gain`] and does not raise the held-out RMS.
+/// [`DiagnoseSettings::min_heldout_dev_gain`].
+///
+/// The held-out RMS has no veto. It weighs every sample alike, so the noise's slow AR(1)
+/// part sets it, and a term confined to the 50 ms acceleration ramps (inertia) moves it by
+/// ±2 % either way whatever its size: with the veto, inertia hidden at 1.2 times its
+/// detection limit was missed at ΔBIC −35 and a held-out deviance fall of 26. The RMS is
+/// still reported, so a named cause may show a held-out RMS a little higher than the
+/// baseline's next to a clear fall of the deviance (docs/studies/decision-rules.md).
 pub(crate) fn generalises(r: &Refit, settings: &DiagnoseSettings) -> bool {
-    r.dev_gain >= settings.min_heldout_dev_gain && r.gain_nm >= 0.0
+    r.dev_gain >= settings.min_heldout_dev_gain
 }
 
 /// `alt` (the model with `alternative` instead of `cause`) as a near tie of `cause` in `named`
@@ -149,7 +153,7 @@ mod tests {
     const NOBS: usize = 6827;
 
     #[test]
-    fn a_refit_generalises_when_the_heldout_deviance_falls_and_the_rms_does_not_rise() {
+    fn a_refit_generalises_when_the_heldout_deviance_falls_whatever_the_rms() {
         let s = DiagnoseSettings::default();
         let mut base = fit(EffectKind::Inertia, 9, 0.0, 1.40);
         base.heldout_dev = 15_000.0;
@@ -159,9 +163,10 @@ mod tests {
         assert!(generalises(&judge(&ext, &base, NOBS), &s));
         ext.heldout_dev = 15_000.5;
         assert!(!generalises(&judge(&ext, &base, NOBS), &s));
+        // a held-out RMS a little higher (the slow part of the noise) does not veto it
         ext.heldout_dev = 14_980.0;
-        ext.heldout_rms = 1.401;
-        assert!(!generalises(&judge(&ext, &base, NOBS), &s));
+        ext.heldout_rms = 1.42;
+        assert!(generalises(&judge(&ext, &base, NOBS), &s));
         ext.heldout_rms = 1.39;
         let strict = DiagnoseSettings {
             min_heldout_dev_gain: 25.0,

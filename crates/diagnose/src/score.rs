@@ -283,6 +283,30 @@ pub(crate) fn lambda_95(k: usize, n_obs: usize, max_delta_bic: f64) -> f64 {
     lambda_at(0.95, k, n_obs, max_delta_bic)
 }
 
+/// The noncentrality at which a one-parameter effect is named and kept against a rival
+/// whose direction makes cosine `cos` with its own ([`crate::power::rule_power_against`] =
+/// 0.95; bisection; infinite when no size reaches it).
+fn lambda_against(cos: f64, n_obs: usize, max_delta_bic: f64, margin: f64) -> f64 {
+    use crate::power::rule_power_against;
+    let power = |l: f64| rule_power_against(l, cos, n_obs, max_delta_bic, margin);
+    let (mut lo, mut hi) = (0.0f64, 1.0f64);
+    while power(hi) < 0.95 {
+        hi *= 2.0;
+        if hi > 1e9 {
+            return f64::INFINITY;
+        }
+    }
+    while hi - lo > 1e-6 * hi {
+        let mid = 0.5 * (lo + hi);
+        if power(mid) < 0.95 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
 /// The noncentrality at which [`crate::power::rule_power`] is `power` (bisection).
 pub(crate) fn lambda_at(power: f64, k: usize, n_obs: usize, max_delta_bic: f64) -> f64 {
     let (mut lo, mut hi) = (0.0f64, 1.0f64);
@@ -357,6 +381,7 @@ pub(crate) fn detection_limits_with_shapes(
     fit: &Fit,
     eligible: &[EffectKind],
     max_delta_bic: f64,
+    review_margin: Option<f64>,
 ) -> Vec<DetectionLimit> {
     let proj = Projector::new(ctx, fit);
     let n = proj.n;
@@ -374,6 +399,11 @@ pub(crate) fn detection_limits_with_shapes(
         ctx.plan.whiten(col, &mut w);
         proj.perp(&DVector::from_vec(w))
     };
+    // The review's one-coefficient rival in time (a ramp), for the effects that live in
+    // time: a limit is where the rule names the effect and the review keeps it against it.
+    let ramp = review_margin
+        .and_then(|m| crate::flexible::ramp_column(ctx).map(|c| (m, whitened_perp(&c))))
+        .filter(|(_, r)| r.norm() > 0.0);
     for &kind in &todo {
         match kind {
             EffectKind::Gravity => {
@@ -442,10 +472,19 @@ pub(crate) fn detection_limits_with_shapes(
             if !(info > 0.0 && info.is_finite()) {
                 return None;
             }
-            let lambda = match kind.params().len() {
+            let mut lambda = match kind.params().len() {
                 k @ 1..=2 => lambdas[k - 1],
                 k => lambda_95(k, n, max_delta_bic),
             };
+            let in_time = crate::flexible::StateVariable::of_effect(*kind)
+                .contains(&crate::flexible::StateVariable::Time);
+            if let (true, 1, Some((margin, r))) = (in_time, kind.params().len(), &ramp) {
+                let a = whitened_perp(col);
+                let cos = a.dot(r) / (a.norm() * r.norm());
+                if cos.is_finite() {
+                    lambda = lambda.max(lambda_against(cos, n, max_delta_bic, *margin));
+                }
+            }
             let linear = (lambda / info).sqrt() * per_unit;
             let (refitted, evaluations) = absorbed(ctx, fit, *kind, values(linear), false)?;
             let limit = if refitted > 0.0 && refitted.is_finite() {

@@ -181,6 +181,28 @@ fn crosstalk_check_is_quiet_without_crosstalk() {
     assert!((0.55..1.45).contains(&m), "mean z² {m} (base {base})");
 }
 
+/// A drift that fatigue's rate mimics in part (trial 9 301 001, −4.04 N·m over the trial:
+/// the selection names fatigue) is handed to time by the review's ramp: twelve hats alone
+/// cost eleven parameters more than the rate and left it named.
+#[test]
+fn a_drift_fatigue_mimics_is_handed_to_time() {
+    let seed = 9_301_001;
+    let t = uncatalogued_trial(Uncatalogued::TorqueDrift, seed)
+        .unwrap_or_else(|e| panic!("seed {seed}: synthesis failed: {e}"));
+    let s = &t.hidden.synthetic;
+    let d = common::diagnose_with_defaults(&s.trial, &s.unloaded, seed);
+    let ctx = format!("seed {seed}; summary:\n{}", d.summary_lines().join("\n"));
+    assert!(d.causes.is_empty(), "{:?}; {ctx}", d.causes);
+    let u = depends_first(&d, StateVariable::Time, &ctx);
+    assert!(
+        u.replaced
+            .iter()
+            .any(|r| r.effect == "fatigue" && r.variable == StateVariable::Time),
+        "{:?}; {ctx}",
+        u.replaced
+    );
+}
+
 #[test]
 fn strap_slip_lives_in_time() {
     check(Uncatalogued::StrapSlip);
