@@ -215,61 +215,40 @@ fn emg_crosstalk_is_reported_and_corrected() {
         !html.contains("No state variable"),
         "the crosstalk section explains it"
     );
-    // identify corrects the same channel by the same share, and its model then fits
-    let o = surae(
-        &[
-            "identify",
-            "--method",
-            "sa",
-            "--trial",
-            "trial.csv",
-            "--unloaded",
-            "unloaded.csv",
-            "--out",
-            "identified",
-        ],
-        dir,
-    );
-    ok(&o);
-    let stdout = String::from_utf8_lossy(&o.stdout);
-    assert!(
-        stdout
-            .lines()
-            .any(|l| l.starts_with("crosstalk") && l.contains("emg_sol carried")),
-        "{stdout}"
-    );
+    // identify corrects the same channel by the same share, and its model then fits; a
+    // session of this one trial is corrected as the trial is, so it identifies the same
+    let trial = ["--trial", "trial.csv", "--unloaded", "unloaded.csv"];
+    identify_with_crosstalk_line(dir, &trial, "identified", "crosstalk");
     let id = json(&dir.join("identified/identify.json"));
     assert_eq!(id["emg_crosstalk"], d["emg_crosstalk"]);
     assert!(id["adequacy"]["warning"].is_null(), "{}", id["adequacy"]);
-    // a session of this one trial is corrected as the trial is, so it identifies the same
-    std::fs::write(
-        dir.join("session.json"),
-        r#"{"trials": [{"name": "xt", "trial": "trial.csv", "unloaded": "unloaded.csv"}]}"#,
-    )
-    .unwrap();
-    let o = surae(
-        &[
-            "identify",
-            "--method",
-            "sa",
-            "--session",
-            "session.json",
-            "--out",
-            "by_session",
-        ],
+    common::one_trial_session(dir, "xt");
+    identify_with_crosstalk_line(
         dir,
-    );
-    ok(&o);
-    let stdout = String::from_utf8_lossy(&o.stdout);
-    assert!(
-        stdout
-            .lines()
-            .any(|l| l.starts_with("xt: crosstalk") && l.contains("emg_sol carried")),
-        "{stdout}"
+        &["--session", "session.json"],
+        "by_session",
+        "xt: crosstalk",
     );
     let s = json(&dir.join("by_session/identify.json"));
     assert_eq!(s["trials"][0]["emg_crosstalk"], d["emg_crosstalk"]);
     assert_eq!(s["params"], id["params"]);
+}
+
+/// Runs `surae identify --method sa` on `source` into `out` in `dir` and asserts that its
+/// summary has a line starting with `lead` that reports the soleus channel's correction.
+fn identify_with_crosstalk_line(dir: &Path, source: &[&str], out: &str, lead: &str) {
+    let mut args = vec!["identify", "--method", "sa"];
+    args.extend_from_slice(source);
+    args.extend(["--out", out]);
+    let o = surae(&args, dir);
+    ok(&o);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        stdout
+            .lines()
+            .any(|l| l.starts_with(lead) && l.contains("emg_sol carried")),
+        "{stdout}"
+    );
 }
 
 #[test]

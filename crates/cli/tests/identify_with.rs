@@ -192,11 +192,7 @@ fn a_session_identifies_the_delay_with_its_shared_parameters_and_tests_each_tria
         synthesize(&SynthConfig::new("seed".parse().unwrap(), 11).with_effects(delay)).unwrap();
     write_trial(d.join("trial.csv"), &syn.trial).unwrap();
     write_unloaded(d.join("unloaded.csv"), &syn.unloaded).unwrap();
-    std::fs::write(
-        d.join("session.json"),
-        r#"{"trials": [{"name": "delayed", "trial": "trial.csv", "unloaded": "unloaded.csv"}]}"#,
-    )
-    .unwrap();
+    common::one_trial_session(d, "delayed");
     let o = surae(
         &[
             "identify",

@@ -35,6 +35,15 @@ pub fn ok(o: &Output) {
 }
 
 /// A JSON file.
+/// Writes `session.json` in `dir`: a session of one trial named `name`, `trial.csv` with its
+/// `unloaded.csv`.
+pub fn one_trial_session(dir: &Path, name: &str) {
+    let text = format!(
+        r#"{{"trials": [{{"name": "{name}", "trial": "trial.csv", "unloaded": "unloaded.csv"}}]}}"#
+    );
+    std::fs::write(dir.join("session.json"), text).unwrap();
+}
+
 pub fn json(path: &Path) -> Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
