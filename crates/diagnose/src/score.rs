@@ -285,12 +285,18 @@ pub(crate) fn lambda_95(k: usize, n_obs: usize, max_delta_bic: f64) -> f64 {
 
 /// The noncentrality at which a one-parameter effect is named and kept against a rival
 /// whose direction makes cosine `cos` with its own ([`crate::power::rule_power_against`] =
-/// 0.95; bisection; infinite when no size reaches it).
+/// 0.95; infinite when no size reaches it).
 fn lambda_against(cos: f64, n_obs: usize, max_delta_bic: f64, margin: f64) -> f64 {
-    use crate::power::rule_power_against;
-    let power = |l: f64| rule_power_against(l, cos, n_obs, max_delta_bic, margin);
+    noncentrality_where(0.95, |l| {
+        crate::power::rule_power_against(l, cos, n_obs, max_delta_bic, margin)
+    })
+}
+
+/// The noncentrality at which the increasing function `power` reaches `target`: doubled until
+/// it does, then bisected to a relative 10⁻⁶ (infinite when no noncentrality below 10⁹ does).
+fn noncentrality_where(target: f64, power: impl Fn(f64) -> f64) -> f64 {
     let (mut lo, mut hi) = (0.0f64, 1.0f64);
-    while power(hi) < 0.95 {
+    while power(hi) < target {
         hi *= 2.0;
         if hi > 1e9 {
             return f64::INFINITY;
@@ -298,7 +304,7 @@ fn lambda_against(cos: f64, n_obs: usize, max_delta_bic: f64, margin: f64) -> f6
     }
     while hi - lo > 1e-6 * hi {
         let mid = 0.5 * (lo + hi);
-        if power(mid) < 0.95 {
+        if power(mid) < target {
             lo = mid;
         } else {
             hi = mid;
@@ -309,19 +315,9 @@ fn lambda_against(cos: f64, n_obs: usize, max_delta_bic: f64, margin: f64) -> f6
 
 /// The noncentrality at which [`crate::power::rule_power`] is `power` (bisection).
 pub(crate) fn lambda_at(power: f64, k: usize, n_obs: usize, max_delta_bic: f64) -> f64 {
-    let (mut lo, mut hi) = (0.0f64, 1.0f64);
-    while crate::power::rule_power(hi, k, n_obs, max_delta_bic) < power {
-        hi *= 2.0;
-    }
-    while hi - lo > 1e-6 * hi {
-        let mid = 0.5 * (lo + hi);
-        if crate::power::rule_power(mid, k, n_obs, max_delta_bic) < power {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    0.5 * (lo + hi)
+    noncentrality_where(power, |l| {
+        crate::power::rule_power(l, k, n_obs, max_delta_bic)
+    })
 }
 
 /// One effect's detection limit ([`detection_limits_with_shapes`]).
