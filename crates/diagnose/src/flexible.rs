@@ -404,7 +404,7 @@ pub(crate) fn with_step(ctx: &Context, b: FlexBasis, residual: &[f64]) -> FlexBa
 }
 
 /// The most likely change point (s) of `residual` (N·m, one value per sample) once projected
-/// off `cols` by least squares over the compared samples: the time maximising the
+/// off the time hats `cols` by least squares over the compared samples: the time maximising the
 /// standardised cumulative sum `|S_k − (k/m)S_m| / √(k(m−k)/m)` over the samples at least
 /// 0.5 s from either end (`None` on a recording too short for one).
 fn change_point(ctx: &Context, cols: &[Vec<f64>], residual: &[f64]) -> Option<f64> {
@@ -415,13 +415,9 @@ fn change_point(ctx: &Context, cols: &[Vec<f64>], residual: &[f64]) -> Option<f6
         return None;
     }
     let y = DVector::from_iterator(m, idx.iter().map(|&i| residual[i]));
-    let r = if cols.is_empty() {
-        y
-    } else {
-        let h = DMatrix::from_fn(m, cols.len(), |r, c| cols[c][idx[r]]);
-        let coef = h.clone().svd(true, true).solve(&y, 1e-12).ok()?;
-        y - h * coef
-    };
+    let h = DMatrix::from_fn(m, cols.len(), |r, c| cols[c][idx[r]]);
+    let coef = h.clone().svd(true, true).solve(&y, 1e-12).ok()?;
+    let r = y - h * coef;
     let (t0, t1) = (t[idx[0]], t[idx[m - 1]]);
     let mut best: Option<(f64, f64)> = None;
     let total = r.sum();

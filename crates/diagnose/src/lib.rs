@@ -29,7 +29,8 @@
 //!    the **held-out deviance** `Σ ν_t²/S_t` over them (the fold fit's residual whitened by
 //!    the noise model over the whole trial, the likelihood's own weighting).
 //!    An extension is **accepted** when its held-out deviance is lower than the current
-//!    model's, its held-out RMS is not higher, **and** `ΔBIC = BIC_ext − BIC_base < −10`;
+//!    model's **and** `ΔBIC = BIC_ext − BIC_base < −10` (the held-out RMS is reported, not
+//!    judged: the noise's slow part sets it);
 //!    the best accepted one (lowest ΔBIC) joins the model and the ranking is repeated on the
 //!    new residual (greedy forward selection). Refits start from the current fit, from
 //!    nominal and from Latin-hypercube muscle parameters; before a candidate is accepted the
