@@ -207,3 +207,47 @@ fn a_drift_fatigue_mimics_is_handed_to_time() {
 fn strap_slip_lives_in_time() {
     check(Uncatalogued::StrapSlip);
 }
+
+/// A friction that sets in below the direction term's still band (trial 9 500 000, 2.49 N·m:
+/// the selection names viscous damping) is handed to `direction` by the term with its searched
+/// transition width: with the fixed `sign(q̇)` damping kept its name beside it.
+#[test]
+fn a_friction_damping_mimics_is_handed_to_direction() {
+    let seed = 9_500_000;
+    let t = uncatalogued_trial(Uncatalogued::CoulombFriction, seed)
+        .unwrap_or_else(|e| panic!("seed {seed}: synthesis failed: {e}"));
+    let s = &t.hidden.synthetic;
+    let d = common::diagnose_with_defaults(&s.trial, &s.unloaded, seed);
+    let ctx = format!("seed {seed}; summary:\n{}", d.summary_lines().join("\n"));
+    assert!(d.causes.is_empty(), "{:?}; {ctx}", d.causes);
+    let u = depends_first(&d, StateVariable::Direction, &ctx);
+    assert!(
+        u.replaced
+            .iter()
+            .any(|r| r.effect == "viscous_damping" && r.variable == StateVariable::Direction),
+        "{:?}; {ctx}",
+        u.replaced
+    );
+}
+
+/// A cause that only helps the extension along is not named: on trial 9 503 010 (a strap
+/// that slips by +3.24 N·m at 5.1 s) an electromechanical delay passed the review against a
+/// term in activation beside the extension in time, but not against the extension alone.
+#[test]
+fn a_delay_beside_a_slip_is_not_named() {
+    let seed = 9_503_010;
+    let t = uncatalogued_trial(Uncatalogued::StrapSlip, seed)
+        .unwrap_or_else(|e| panic!("seed {seed}: synthesis failed: {e}"));
+    let s = &t.hidden.synthetic;
+    let d = common::diagnose_with_defaults(&s.trial, &s.unloaded, seed);
+    let ctx = format!("seed {seed}; summary:\n{}", d.summary_lines().join("\n"));
+    assert!(d.causes.is_empty(), "{:?}; {ctx}", d.causes);
+    let u = depends_first(&d, StateVariable::Time, &ctx);
+    assert!(
+        u.replaced
+            .iter()
+            .any(|r| r.effect == "electromechanical_delay" && r.variable == StateVariable::Time),
+        "{:?}; {ctx}",
+        u.replaced
+    );
+}
