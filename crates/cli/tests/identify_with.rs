@@ -238,7 +238,7 @@ fn a_session_identifies_the_delay_with_its_shared_parameters_and_tests_each_tria
 }
 
 /// The statistical acceptance of `--with` under MCMC (about 2–4 minutes on 2 cores, so it runs
-/// in the statistical tier: `cargo test --release --workspace -- --ignored`, which CI runs).
+/// in the statistical tier: `cargo test --release --workspace -- --ignored`, `.ci/statistical`).
 #[test]
 #[ignore = "statistical tier: cargo test --release --workspace -- --ignored"]
 fn mcmc_with_the_delay_covers_the_truth() {
