@@ -103,6 +103,25 @@ fn check(kind: Uncatalogued) {
     }
 }
 
+/// Trial `seed` hiding `kind`: no cause named, `depends_on` starts with `variable`, and the
+/// review handed the catalogued `effect` the selection named to `variable`.
+fn handed_over(kind: Uncatalogued, seed: u64, effect: &str, variable: StateVariable) {
+    let t = uncatalogued_trial(kind, seed)
+        .unwrap_or_else(|e| panic!("seed {seed}: synthesis failed: {e}"));
+    let s = &t.hidden.synthetic;
+    let d = common::diagnose_with_defaults(&s.trial, &s.unloaded, seed);
+    let ctx = format!("seed {seed}; summary:\n{}", d.summary_lines().join("\n"));
+    assert!(d.causes.is_empty(), "{:?}; {ctx}", d.causes);
+    let u = depends_first(&d, variable, &ctx);
+    assert!(
+        u.replaced
+            .iter()
+            .any(|r| r.effect == effect && r.variable == variable),
+        "{:?}; {ctx}",
+        u.replaced
+    );
+}
+
 #[test]
 fn coulomb_friction_lives_in_the_direction() {
     check(Uncatalogued::CoulombFriction);
@@ -186,20 +205,11 @@ fn crosstalk_check_is_quiet_without_crosstalk() {
 /// cost eleven parameters more than the rate and left it named.
 #[test]
 fn a_drift_fatigue_mimics_is_handed_to_time() {
-    let seed = 9_301_001;
-    let t = uncatalogued_trial(Uncatalogued::TorqueDrift, seed)
-        .unwrap_or_else(|e| panic!("seed {seed}: synthesis failed: {e}"));
-    let s = &t.hidden.synthetic;
-    let d = common::diagnose_with_defaults(&s.trial, &s.unloaded, seed);
-    let ctx = format!("seed {seed}; summary:\n{}", d.summary_lines().join("\n"));
-    assert!(d.causes.is_empty(), "{:?}; {ctx}", d.causes);
-    let u = depends_first(&d, StateVariable::Time, &ctx);
-    assert!(
-        u.replaced
-            .iter()
-            .any(|r| r.effect == "fatigue" && r.variable == StateVariable::Time),
-        "{:?}; {ctx}",
-        u.replaced
+    handed_over(
+        Uncatalogued::TorqueDrift,
+        9_301_001,
+        "fatigue",
+        StateVariable::Time,
     );
 }
 
@@ -213,20 +223,11 @@ fn strap_slip_lives_in_time() {
 /// transition width: with the fixed `sign(q̇)` damping kept its name beside it.
 #[test]
 fn a_friction_damping_mimics_is_handed_to_direction() {
-    let seed = 9_500_000;
-    let t = uncatalogued_trial(Uncatalogued::CoulombFriction, seed)
-        .unwrap_or_else(|e| panic!("seed {seed}: synthesis failed: {e}"));
-    let s = &t.hidden.synthetic;
-    let d = common::diagnose_with_defaults(&s.trial, &s.unloaded, seed);
-    let ctx = format!("seed {seed}; summary:\n{}", d.summary_lines().join("\n"));
-    assert!(d.causes.is_empty(), "{:?}; {ctx}", d.causes);
-    let u = depends_first(&d, StateVariable::Direction, &ctx);
-    assert!(
-        u.replaced
-            .iter()
-            .any(|r| r.effect == "viscous_damping" && r.variable == StateVariable::Direction),
-        "{:?}; {ctx}",
-        u.replaced
+    handed_over(
+        Uncatalogued::CoulombFriction,
+        9_500_000,
+        "viscous_damping",
+        StateVariable::Direction,
     );
 }
 
@@ -235,19 +236,10 @@ fn a_friction_damping_mimics_is_handed_to_direction() {
 /// term in activation beside the extension in time, but not against the extension alone.
 #[test]
 fn a_delay_beside_a_slip_is_not_named() {
-    let seed = 9_503_010;
-    let t = uncatalogued_trial(Uncatalogued::StrapSlip, seed)
-        .unwrap_or_else(|e| panic!("seed {seed}: synthesis failed: {e}"));
-    let s = &t.hidden.synthetic;
-    let d = common::diagnose_with_defaults(&s.trial, &s.unloaded, seed);
-    let ctx = format!("seed {seed}; summary:\n{}", d.summary_lines().join("\n"));
-    assert!(d.causes.is_empty(), "{:?}; {ctx}", d.causes);
-    let u = depends_first(&d, StateVariable::Time, &ctx);
-    assert!(
-        u.replaced
-            .iter()
-            .any(|r| r.effect == "electromechanical_delay" && r.variable == StateVariable::Time),
-        "{:?}; {ctx}",
-        u.replaced
+    handed_over(
+        Uncatalogued::StrapSlip,
+        9_503_010,
+        "electromechanical_delay",
+        StateVariable::Time,
     );
 }
