@@ -522,40 +522,30 @@ fn with_width(ctx: &Context, b: FlexBasis, residual: &[f64]) -> FlexBasis {
     let n = s.len();
     let mut wr = vec![0.0; n];
     ctx.plan.whiten(residual, &mut wr);
-    let (mut wc, mut col) = (vec![0.0; n], vec![0.0; n]);
+    let mut wc = vec![0.0; n];
     let (f0, f1, count) = WIDTH_GRID;
-    let mut best: Option<(f64, f64)> = None;
+    let mut best: Option<(FlexBasis, f64)> = None;
     for j in 0..count {
         let width = amax * f0 * (f1 / f0).powf(j as f64 / (count - 1) as f64);
-        let (mut sum, mut cnt) = (0.0, 0usize);
-        for (i, (c, v)) in col.iter_mut().zip(&s).enumerate() {
-            *c = (v / width).tanh();
-            if ctx.is_observed(i) {
-                sum += *c;
-                cnt += 1;
-            }
-        }
-        let mean = sum / cnt.max(1) as f64;
-        col.iter_mut().for_each(|c| *c -= mean);
-        ctx.plan.whiten(&col, &mut wc);
+        let cand = from_functions(
+            ctx,
+            StateVariable::Direction,
+            &s,
+            &Functions::Tanh { width },
+            b.points.clone(),
+            amax,
+        );
+        ctx.plan.whiten(&cand.cols[0], &mut wc);
         let cc: f64 = wc.iter().map(|x| x * x).sum();
         let cr: f64 = wc.iter().zip(&wr).map(|(a, b)| a * b).sum();
         let score = if cc > 0.0 { cr * cr / cc } else { 0.0 };
-        if best.is_none_or(|(_, s)| score > s) {
-            best = Some((width, score));
+        if best.as_ref().is_none_or(|(_, s)| score > *s) {
+            best = Some((cand, score));
         }
     }
-    let Some((width, _)) = best else {
+    let Some((mut out, _)) = best else {
         return b;
     };
-    let mut out = from_functions(
-        ctx,
-        StateVariable::Direction,
-        &s,
-        &Functions::Tanh { width },
-        b.points.clone(),
-        amax,
-    );
     out.searched = b.searched + 1;
     out
 }
