@@ -156,8 +156,8 @@ pub(crate) struct FlexBasis {
     /// Columns, one value per sample.
     pub cols: Vec<Vec<f64>>,
     /// Values found by searching the data rather than fitted as coefficients (a step's
-    /// change point), counted as parameters in the BIC.
-    pub searched: usize,
+    /// change point, a change of direction's width), each counted as a parameter in the BIC.
+    pub searched: Vec<SearchedValue>,
 }
 
 /// Fraction of the largest speed below which the joint counts as still for `direction`.
@@ -375,7 +375,7 @@ fn from_functions(
         points,
         rows,
         cols,
-        searched: 0,
+        searched: Vec::new(),
     }
 }
 
@@ -391,11 +391,16 @@ const STEP_MARGIN_S: f64 = 0.5;
 /// cross-validation and the BIC judge it like any other term.
 /// Its shape is reported at the knots and on both sides of `τ`. Any other basis is returned
 /// unchanged.
-pub(crate) fn with_step(ctx: &Context, b: FlexBasis, residual: &[f64]) -> FlexBasis {
+pub(crate) fn with_step(
+    ctx: &Context,
+    b: FlexBasis,
+    residual: &[f64],
+    jac: Option<&DMatrix<f64>>,
+) -> FlexBasis {
     if b.variable != StateVariable::Time {
         return b;
     }
-    let Some(tau) = change_point(ctx, &b.cols, residual) else {
+    let Some(tau) = change_point(ctx, &b.cols, residual, jac) else {
         return b;
     };
     let t = ctx.inputs.times();
@@ -426,42 +431,99 @@ pub(crate) fn with_step(ctx: &Context, b: FlexBasis, residual: &[f64]) -> FlexBa
     shape.sort_by(|a, b| a.0.total_cmp(&b.0));
     out.points = shape.iter().map(|(p, _)| *p).collect();
     out.rows = shape.into_iter().map(|(_, r)| r).collect();
-    out.searched += 1;
+    out.searched.push(SearchedValue {
+        name: "change_point".into(),
+        value: tau,
+        unit: "s".into(),
+    });
     out
 }
 
-/// The most likely change point (s) of `residual` (N·m, one value per sample) once projected
-/// off the time hats `cols` by least squares over the compared samples: the time maximising the
-/// standardised cumulative sum `|S_k − (k/m)S_m| / √(k(m−k)/m)` over the samples at least
-/// 0.5 s from either end (`None` on a recording too short for one).
-fn change_point(ctx: &Context, cols: &[Vec<f64>], residual: &[f64]) -> Option<f64> {
+/// The most likely change point (s) of `residual` (N·m, one value per sample) beside the time
+/// hats `cols` and the parameters of the model that left it (`jac`, its whitened Jacobian,
+/// one row per sample): the `τ` whose step `1{t ≥ τ}` explains most of the whitened residual
+/// once both are projected off the whitened hats and the Jacobian's columns,
+/// `(cᵀP⊥r)²/(cᵀP⊥c)` — the score test for a step at `τ` under the trial's noise model, with
+/// the muscle parameters free to move as in the refit that follows. `τ` runs over the compared samples at least 0.5 s from
+/// either end, every 10 ms and then sample by sample around the best (`None` on a recording
+/// too short for one).
+///
+/// Unwhitened, the scan is dominated by the noise's slow AR(1) part: a cumulative sum of the
+/// raw residual put a slip of +3.7 N·m at 5.2 s (trial 20 254 127) at 8.2 s, the edge of the
+/// range, where that part's standardised sum is largest. Without the model's parameters in the
+/// projection, the same slip came out at 4.0 s: the fitted muscle forces had absorbed the
+/// step's share that follows the activation.
+fn change_point(
+    ctx: &Context,
+    cols: &[Vec<f64>],
+    residual: &[f64],
+    jac: Option<&DMatrix<f64>>,
+) -> Option<f64> {
     let t = ctx.inputs.times();
-    let idx: Vec<usize> = (0..t.len()).filter(|&i| ctx.is_observed(i)).collect();
-    let m = idx.len();
-    if m < 4 || residual.len() != t.len() {
+    let n = t.len();
+    if residual.len() != n {
         return None;
     }
-    let y = DVector::from_iterator(m, idx.iter().map(|&i| residual[i]));
-    let h = DMatrix::from_fn(m, cols.len(), |r, c| cols[c][idx[r]]);
-    let coef = h.clone().svd(true, true).solve(&y, 1e-12).ok()?;
-    let r = y - h * coef;
-    let (t0, t1) = (t[idx[0]], t[idx[m - 1]]);
-    let mut best: Option<(f64, f64)> = None;
-    let total = r.sum();
-    let mut cum = 0.0;
-    for j in 1..m {
-        cum += r[j - 1];
-        let at = t[idx[j]];
-        if at - t0 < STEP_MARGIN_S || t1 - at < STEP_MARGIN_S {
-            continue;
-        }
-        let (jf, mf) = (j as f64, m as f64);
-        let stat = (cum - jf / mf * total).abs() / (jf * (mf - jf) / mf).sqrt();
-        if best.is_none_or(|(_, s)| stat > s) {
-            best = Some((at, stat));
+    let (t0, t1) = observed_range(ctx, t)?;
+    let whiten = |x: &[f64]| {
+        let mut w = vec![0.0; n];
+        ctx.plan.whiten(x, &mut w);
+        w
+    };
+    let mut h: Vec<Vec<f64>> = cols.iter().map(|c| whiten(c)).collect();
+    if let Some(j) = jac.filter(|j| j.nrows() == n) {
+        h.extend(
+            j.column_iter()
+                .map(|c| c.iter().copied().collect::<Vec<f64>>()),
+        );
+    }
+    let k = h.len();
+    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
+    let gram = DMatrix::from_fn(k, k, |a, b| dot(&h[a], &h[b]));
+    let svd = gram.svd(true, true);
+    // (HᵀH)⁻¹Hᵀv by the pseudo-inverse: hats over unobserved stretches may be degenerate
+    let mut wr = whiten(residual);
+    let coef = svd
+        .solve(
+            &DVector::from_iterator(k, h.iter().map(|c| dot(c, &wr))),
+            1e-12,
+        )
+        .ok()?;
+    for (a, c) in coef.iter().zip(&h) {
+        for (r, x) in wr.iter_mut().zip(c) {
+            *r -= a * x;
         }
     }
-    best.map(|(at, _)| at)
+    // Backwards over the onsets: the whitened step at s is the one at s + 1 plus the whitened
+    // impulse at s, so its products with the residual and the projection's columns, and its
+    // squared norm, are suffix sums over the impulse's support.
+    let ginv = svd.pseudo_inverse(1e-12).ok()?;
+    let mut wc = vec![0.0; n];
+    let (mut a, mut q) = (0.0, 0.0);
+    let mut hc = DVector::<f64>::zeros(k);
+    let mut best: Option<(usize, f64)> = None;
+    for s in (0..n).rev() {
+        let d = ctx.plan.whitened_impulse(s, 1e-12);
+        for (o, &di) in d.iter().enumerate() {
+            let i = s + o;
+            q += di * (2.0 * wc[i] + di);
+            a += di * wr[i];
+            for (hj, c) in hc.iter_mut().zip(&h) {
+                *hj += di * c[i];
+            }
+            wc[i] += di;
+        }
+        if !(ctx.is_observed(s) && t[s] - t0 >= STEP_MARGIN_S && t1 - t[s] >= STEP_MARGIN_S) {
+            continue;
+        }
+        let rest = q - hc.dot(&(&ginv * &hc));
+        let score = if rest > 1e-12 * q { a * a / rest } else { 0.0 };
+        // ≥: of equal scores the earliest onset
+        if best.is_none_or(|(_, b)| score >= b) {
+            best = Some((s, score));
+        }
+    }
+    best.map(|(s, _)| t[s])
 }
 
 /// The ramp `t − t₀` (s) from the first compared sample, one value per sample: the review's
@@ -491,7 +553,7 @@ fn simplest_in_time(ctx: &Context) -> Vec<FlexBasis> {
         points: vec![t0, t1],
         rows: vec![vec![0.0], vec![t1 - t0]],
         cols: vec![ramp],
-        searched: 0,
+        searched: Vec::new(),
     }]
 }
 
@@ -524,7 +586,7 @@ fn with_width(ctx: &Context, b: FlexBasis, residual: &[f64]) -> FlexBasis {
     ctx.plan.whiten(residual, &mut wr);
     let mut wc = vec![0.0; n];
     let (f0, f1, count) = WIDTH_GRID;
-    let mut best: Option<(FlexBasis, f64)> = None;
+    let mut best: Option<(FlexBasis, f64, f64)> = None;
     for j in 0..count {
         let width = amax * f0 * (f1 / f0).powf(j as f64 / (count - 1) as f64);
         let cand = from_functions(
@@ -539,14 +601,19 @@ fn with_width(ctx: &Context, b: FlexBasis, residual: &[f64]) -> FlexBasis {
         let cc: f64 = wc.iter().map(|x| x * x).sum();
         let cr: f64 = wc.iter().zip(&wr).map(|(a, b)| a * b).sum();
         let score = if cc > 0.0 { cr * cr / cc } else { 0.0 };
-        if best.as_ref().is_none_or(|(_, s)| score > *s) {
-            best = Some((cand, score));
+        if best.as_ref().is_none_or(|(_, s, _)| score > *s) {
+            best = Some((cand, score, width));
         }
     }
-    let Some((mut out, _)) = best else {
+    let Some((mut out, _, width)) = best else {
         return b;
     };
-    out.searched = b.searched + 1;
+    out.searched = b.searched;
+    out.searched.push(SearchedValue {
+        name: "transition_width".into(),
+        value: width,
+        unit: StateVariable::Velocity.unit().into(),
+    });
     out
 }
 
@@ -554,12 +621,20 @@ fn with_width(ctx: &Context, b: FlexBasis, residual: &[f64]) -> FlexBasis {
 /// [`with_step`]; direction: with its transition width, [`with_width`]): both are fitted,
 /// and the better one (held-out gain in the ranking, BIC in the review) stands for the
 /// variable.
-fn with_searched_forms(ctx: &Context, b: FlexBasis, residual: &[f64]) -> Vec<FlexBasis> {
+///
+/// `jac` is the whitened Jacobian of the model that left `residual`, whose parameters a step
+/// is searched beside ([`change_point`]).
+fn with_searched_forms(
+    ctx: &Context,
+    b: FlexBasis,
+    residual: &[f64],
+    jac: Option<&DMatrix<f64>>,
+) -> Vec<FlexBasis> {
     if residual.is_empty() {
         return vec![b];
     }
     match b.variable {
-        StateVariable::Time => vec![b.clone(), with_step(ctx, b, residual)],
+        StateVariable::Time => vec![b.clone(), with_step(ctx, b, residual, jac)],
         StateVariable::Direction => vec![b.clone(), with_width(ctx, b, residual)],
         _ => vec![b],
     }
@@ -653,7 +728,7 @@ pub(crate) struct FlexFit {
 
 impl FlexFit {
     pub fn k(&self) -> usize {
-        self.model.k() + self.rank + self.bases.iter().map(|b| b.searched).sum::<usize>()
+        self.model.k() + self.rank + self.bases.iter().map(|b| b.searched.len()).sum::<usize>()
     }
 
     pub fn bic(&self, n: usize) -> f64 {
@@ -858,6 +933,22 @@ pub struct FlexibleTerm {
     pub value_nm: Vec<f64>,
     /// Half-width of the 95 % band at each point (N·m; NaN when not computed).
     pub band_nm: Vec<f64>,
+    /// The term's values searched on the data rather than fitted: a step's `change_point`
+    /// (s) in time, the `transition_width` (°/s) of `tanh(q̇/w)` in direction, the speed at
+    /// which the term reaches 76 % of its level.
+    pub searched: Vec<SearchedValue>,
+}
+
+/// A value of a flexible term's shape searched on the data (a grid or a scan), not fitted as
+/// a coefficient; it counts as one parameter in the BIC.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SearchedValue {
+    /// `change_point` or `transition_width`.
+    pub name: String,
+    /// The value found.
+    pub value: f64,
+    /// Its unit.
+    pub unit: String,
 }
 
 /// The final model extended with the flexible terms of `depends_on`.
@@ -943,6 +1034,17 @@ impl Unexplained {
                 ));
             }
         }
+        for t in self.extension.iter().flat_map(|e| &e.terms) {
+            for v in &t.searched {
+                l.push(format!(
+                    "searched     {}: {} {:.3} {}",
+                    t.variable.name(),
+                    v.name.replace('_', " "),
+                    v.value,
+                    v.unit
+                ));
+            }
+        }
         if let Some(k) = &self.catalogued_shape {
             l.push(format!(
                 "shape        that of {k} after all (its term explains the structure as well)"
@@ -982,6 +1084,7 @@ fn terms_of(ff: &FlexFit) -> Vec<FlexibleTerm> {
             points: b.points.clone(),
             value_nm,
             band_nm,
+            searched: b.searched.clone(),
         });
         j += m;
     }
@@ -1017,6 +1120,11 @@ fn review(
         } else {
             Vec::new()
         };
+        // the model's Jacobian without the effect's columns (taken at the fit with it)
+        let keep: Vec<usize> = (0..model.free.len())
+            .filter(|&i| !matches!(model.free[i], ParamId::Effect(k, _) if k == kind))
+            .collect();
+        let jac = model.jac.select_columns(&keep);
         // each of its own variables' terms, beside the extension's (when not among them)
         let mut alternatives: Vec<Vec<FlexBasis>> = StateVariable::of_effect(kind)
             .iter()
@@ -1027,10 +1135,10 @@ fn review(
                     vec![b]
                 } else if b.variable == StateVariable::Time {
                     let mut v = simplest_in_time(ctx);
-                    v.extend(with_searched_forms(ctx, b, &resid));
+                    v.extend(with_searched_forms(ctx, b, &resid, Some(&jac)));
                     v
                 } else {
-                    with_searched_forms(ctx, b, &resid)
+                    with_searched_forms(ctx, b, &resid, Some(&jac))
                 }
             })
             .map(|b| {
@@ -1110,7 +1218,7 @@ pub(crate) fn characterise(
     let bases: Vec<FlexBasis> = StateVariable::ALL
         .iter()
         .filter_map(|v| basis(ctx, *v))
-        .flat_map(|b| with_searched_forms(ctx, b, &resid))
+        .flat_map(|b| with_searched_forms(ctx, b, &resid, Some(&fin.jac)))
         .collect();
     // the final model's held-out errors under each fold scheme: a term in time is compared on
     // the time blocks, every other term on the trial's own folds

@@ -22,7 +22,8 @@
 //!    `LM = rᵀP⊥S(SᵀP⊥S)⁻¹SᵀP⊥r/s²` from its sensitivity `S` at the null value;
 //!    evidence `LM − p ln n`.
 //! 4. **Refit** the leaders (`selection`, its rules in `rules`) (muscle + effect parameters) and cross-validate cycle-wise
-//!    (each cycle held out in turn: zero weight, states still simulated over the whole trial;
+//!    (each cycle held out in turn with the hold before it, so that every sample is held out
+//!    once: zero weight, states still simulated over the whole trial;
 //!    a trial with fewer than three cycles is cut into 0.5 s blocks in 5 folds instead,
 //!    [`CvFolds`]).
 //!    The held-out error is measured twice: the pooled RMS of the held-out samples, and
@@ -125,7 +126,8 @@ pub use crosstalk::{
 };
 pub use error::DiagnoseError;
 pub use flexible::{
-    FlexibleExtension, FlexibleTerm, Replacement, StateVariable, Unexplained, VariableGain,
+    FlexibleExtension, FlexibleTerm, Replacement, SearchedValue, StateVariable, Unexplained,
+    VariableGain,
 };
 pub use noise::{NoiseModelSource, Transient, TrialNoiseModel};
 pub use profile::ProfileSettings;

@@ -306,6 +306,8 @@ pub struct UncataloguedTrial {
     pub size: f64,
     /// The effect and its size in words.
     pub description: String,
+    /// When the torque steps (s after the trial's first sample): a strap slip's time.
+    pub step_at_s: Option<f64>,
 }
 
 /// Makes a `relaxed+2` trial from `seed` (random true parameters, noise, unloaded run) and
@@ -332,6 +334,7 @@ pub fn uncatalogued_trial(
     let trial = &mut synthetic.trial;
     let t0 = trial.time_s[0];
     let span = trial.time_s[trial.time_s.len() - 1] - t0;
+    let mut step_at_s = None;
     let (size, description) = match kind {
         Uncatalogued::CoulombFriction => {
             let c = 2.0 + 2.0 * draw.random::<f64>();
@@ -364,6 +367,7 @@ pub fn uncatalogued_trial(
                     *y += s;
                 }
             }
+            step_at_s = Some(at - t0);
             (s, format!("strap slip {s:+.2} N·m at {:.1} s", at - t0))
         }
     };
@@ -377,5 +381,6 @@ pub fn uncatalogued_trial(
         kind,
         size,
         description,
+        step_at_s,
     })
 }

@@ -83,21 +83,45 @@ fn auto_folds_are_cycles_from_three_cycles_on_and_blocks_below() {
         assert_eq!(seg.cycles.len(), cycles, "{protocol}");
         let n = tr.len();
         let masks = CvFolds::Auto.held_out_masks(n, tr.sample_rate_hz, &seg.cycle);
+        // every sample is held out exactly once
+        for i in 0..n {
+            assert_eq!(
+                masks.iter().filter(|m| m[i]).count(),
+                1,
+                "{protocol} sample {i}"
+            );
+        }
         if cycles >= diagnose::MIN_CV_CYCLES {
             assert_eq!(
                 masks,
                 CvFolds::Cycles.held_out_masks(n, tr.sample_rate_hz, &seg.cycle)
             );
+            assert_eq!(masks.len(), cycles, "{protocol}");
+            // a cycle is held out with the hold before it; the holds after the last cycle
+            // go with the last
+            for (k, c) in seg.cycles.iter().enumerate() {
+                assert!(
+                    (c.start..c.end).all(|i| masks[k][i]),
+                    "{protocol} cycle {k}"
+                );
+                if c.start > 0 && seg.cycle[c.start - 1].is_none() {
+                    assert!(
+                        masks[k][c.start - 1],
+                        "{protocol}: the hold before cycle {k}"
+                    );
+                }
+            }
+            let first = seg.cycles[0].start;
+            assert!(first > 0 && masks[0][0], "{protocol}: the opening hold");
+            assert!(masks[cycles - 1][n - 1], "{protocol}: the closing hold");
+            let ramp = seg.cycles[1].start - 1;
+            assert!(
+                seg.cycle[ramp].is_none(),
+                "{protocol}: a hold between the relaxed cycle and the first maximal one"
+            );
         } else {
             assert_eq!(masks.len(), 5, "{protocol}");
-            // every sample is held out exactly once, in runs of 0.5 s
-            for i in 0..n {
-                assert_eq!(
-                    masks.iter().filter(|m| m[i]).count(),
-                    1,
-                    "{protocol} sample {i}"
-                );
-            }
+            // in runs of 0.5 s
             let first_switch = (1..n).find(|&i| masks[0][i] != masks[0][i - 1]).unwrap();
             assert_eq!(first_switch, (0.5 * tr.sample_rate_hz).round() as usize);
         }

@@ -383,6 +383,31 @@ impl WhitenPlan {
         }
     }
 
+    /// The whitened unit impulse at sample `at`: samples `at, at+1, …` of the whitening of
+    /// the record that is 1 at `at` and 0 elsewhere (before `at` the whitened record is 0), up
+    /// to where the filter's state has decayed below `tol` or to the plan's end. Whitening is
+    /// linear, so a step's whitened column at every onset follows from these by suffix sums
+    /// at a cost of their length, not the record's.
+    pub fn whitened_impulse(&self, at: usize, tol: f64) -> Vec<f64> {
+        let mut out = Vec::new();
+        let mut xh = 0.0;
+        for t in at..self.len() {
+            let x = if t == at { 1.0 } else { 0.0 };
+            if self.observed[t] {
+                let v = x - xh;
+                out.push(self.inv_sqrt_f[t] * v);
+                xh = self.phi * (xh + self.gain[t] * v);
+            } else {
+                out.push(0.0);
+                xh *= self.phi;
+            }
+            if xh.abs() < tol {
+                break;
+            }
+        }
+        out
+    }
+
     /// Whitens `N` records at once without storing them and returns the inner products of
     /// the whitened records, `G[i][j] = Σ_t w_i(t)·w_j(t)` (`i ≤ j` filled, the rest 0).
     /// `row(t)` gives sample `t` of every record, for `t` in `0..n` (`n` at most
@@ -629,6 +654,49 @@ mod tests {
                     "{i}{j}"
                 );
             }
+        }
+    }
+
+    #[test]
+    fn whitened_impulses_sum_to_the_whitened_step() {
+        let m = Ar1White::new(0.984, 1.2, 0.4).unwrap();
+        let n = 400;
+        let mask: Vec<bool> = (0..n).map(|t| t % 53 != 7).collect();
+        let plan = m.plan(n, Some(&mask));
+        for at in [0, 7, 120, 399] {
+            let d = plan.whitened_impulse(at, 1e-14);
+            assert!(!d.is_empty() && at + d.len() <= n);
+            let mut imp = vec![0.0; n];
+            imp[at] = 1.0;
+            let mut w = vec![0.0; n];
+            plan.whiten(&imp, &mut w);
+            assert!(w[..at].iter().all(|v| *v == 0.0));
+            for (i, v) in w[at..].iter().enumerate() {
+                let got = d.get(i).copied().unwrap_or(0.0);
+                assert!(
+                    (got - v).abs() < 1e-12,
+                    "impulse at {at}, sample {i}: {got} vs {v}"
+                );
+            }
+        }
+        // the step at s is the sum of the impulses at s, s + 1, …
+        let s0 = 150;
+        let step: Vec<f64> = (0..n).map(|t| if t >= s0 { 1.0 } else { 0.0 }).collect();
+        let mut w = vec![0.0; n];
+        plan.whiten(&step, &mut w);
+        let mut sum = vec![0.0; n];
+        for at in s0..n {
+            for (i, v) in plan.whitened_impulse(at, 1e-14).iter().enumerate() {
+                sum[at + i] += v;
+            }
+        }
+        for i in 0..n {
+            assert!(
+                (sum[i] - w[i]).abs() < 1e-10,
+                "sample {i}: {} vs {}",
+                sum[i],
+                w[i]
+            );
         }
     }
 }

@@ -722,6 +722,28 @@ fn beyond_the_catalogue(
     let Some(e) = &u.extension else {
         return Ok(());
     };
+    for t in &e.terms {
+        for v in &t.searched {
+            page.paragraph(match v.name.as_str() {
+                "change_point" => format!(
+                    "The term in time steps at {:.2} {} (searched on the residual).",
+                    v.value, v.unit
+                ),
+                "transition_width" => format!(
+                    "The term in direction changes sign over ±{:.2} {} of joint speed \
+                     (tanh(q̇/w), w searched on the residual).",
+                    v.value, v.unit
+                ),
+                other => format!(
+                    "The term in {} has {} {:.3} {} (searched on the residual).",
+                    t.variable.name(),
+                    other.replace('_', " "),
+                    v.value,
+                    v.unit
+                ),
+            });
+        }
+    }
     if !e.terms.is_empty() {
         let views: Vec<report::figures::FlexibleTermView<'_>> = e
             .terms
