@@ -2,7 +2,8 @@
 //! parameters with the named causes (the baseline's when none is named), printed again as the
 //! last line of the terminal summary; a trial with structure no catalogued effect explains
 //! gets the "Beyond the catalogue" section with the flexible terms' figure, and a figure an
-//! earlier run left in the folder that this run does not draw is removed.
+//! earlier run left in the folder that this run does not draw is removed. The bundled
+//! trial's summary is the one docs/diagnosis.md shows.
 //!
 //! The trial hiding a 40 ms electromechanical delay is synthesised here (relaxed+2 protocol,
 //! seed 11); the uncatalogued ones are `diagnose::scenarios::uncatalogued_trial` (Coulomb
@@ -70,6 +71,42 @@ fn bundled_trial_ends_with_the_baseline_command_and_stale_figures_go() {
         "the flexible terms of an earlier run left in place"
     );
     assert!(out.join("candidates.svg").is_file());
+    summary_is_the_documented_one(&o);
+}
+
+/// The terminal summary docs/diagnosis.md shows for the bundled trial ("Reading the terminal
+/// summary") is what `surae diagnose` prints, line by line, except the run time on the `work`
+/// line and the output folder on the `wrote` line.
+fn summary_is_the_documented_one(o: &std::process::Output) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/diagnosis.md");
+    let doc = std::fs::read_to_string(&path).unwrap();
+    let after = doc
+        .split("On the bundled trial (`surae diagnose`):")
+        .nth(1)
+        .expect("docs/diagnosis.md shows the bundled trial's summary");
+    let block = after
+        .split("```text\n")
+        .nth(1)
+        .and_then(|b| b.split("```").next())
+        .expect("a text block");
+    let printed = String::from_utf8_lossy(&o.stdout);
+    let printed: Vec<&str> = printed.lines().filter(|l| !l.trim().is_empty()).collect();
+    let documented: Vec<&str> = block.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(printed.len(), documented.len(), "{printed:#?}");
+    // `work  11000 simulations, 4.3 s`: the simulations, not the time
+    let untimed = |l: &str| l.split(", ").next().unwrap_or(l).to_string();
+    for (p, d) in printed.iter().zip(&documented) {
+        if d.starts_with("wrote ") {
+            assert!(p.starts_with("wrote "), "{p}");
+        } else if d.starts_with("work ") {
+            assert_eq!(untimed(p), untimed(d));
+        } else {
+            assert_eq!(
+                p, d,
+                "docs/diagnosis.md shows another summary than the program prints"
+            );
+        }
+    }
 }
 
 #[test]

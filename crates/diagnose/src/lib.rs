@@ -22,7 +22,7 @@
 //!    `LM = rᵀP⊥S(SᵀP⊥S)⁻¹SᵀP⊥r/s²` from its sensitivity `S` at the null value;
 //!    evidence `LM − p ln n`.
 //! 4. **Refit** the leaders (`selection`, its rules in `rules`) (muscle + effect parameters) and cross-validate cycle-wise
-//!    (each cycle held out in turn with the hold before it, so that every sample is held out
+//!    (each cycle held out in turn with the hold after it, so that every sample is held out
 //!    once: zero weight, states still simulated over the whole trial;
 //!    a trial with fewer than three cycles is cut into 0.5 s blocks in 5 folds instead,
 //!    [`CvFolds`]).

@@ -87,7 +87,7 @@ pub struct DiagnoseSettings {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum CvFolds {
     /// Every cycle (a concentric sweep and the eccentric sweep after it) is held out in turn,
-    /// each with the holds before it (the last also with the holds after it), so that every
+    /// each with the hold after it (the first also with the hold before it), so that every
     /// sample is held out once.
     Cycles,
     /// The trial is cut into consecutive blocks of `block_s` seconds; block `b` belongs to fold
@@ -152,7 +152,7 @@ impl CvFolds {
         let cycles = cycle.iter().flatten().max().map_or(0, |m| m + 1);
         match self.resolve(cycles) {
             CvFolds::Auto | CvFolds::Cycles => {
-                let fold = cycle_folds(cycle, cycles);
+                let fold = cycle_folds(cycle);
                 (0..cycles)
                     .map(|k| fold.iter().map(|f| *f == k).collect())
                     .collect()
@@ -168,23 +168,28 @@ impl CvFolds {
 }
 
 /// The fold of every sample under [`CvFolds::Cycles`] for `cycles ≥ 1` cycles: its cycle, or,
-/// in a hold, the cycle after it (the contraction the hold's ramp prepares), or, after the last
-/// cycle, the last one (the relaxation that ends it).
+/// in a hold, the cycle before it (before the first cycle, the first).
 ///
 /// The holds are where the drive ramps up and relaxes, so an electromechanical delay leaves
-/// most of its signal there: with the holds never held out, a 6 ms delay (1.2× its limit)
-/// that lowered the whole trial's cost by 82 lowered the held-out cycles' deviance by 18,
-/// which the refits' spread then outweighed.
-fn cycle_folds(cycle: &[Option<usize>], cycles: usize) -> Vec<usize> {
-    let mut fold = vec![0; cycle.len()];
-    let mut next = cycles.saturating_sub(1);
-    for (f, c) in fold.iter_mut().zip(cycle).rev() {
-        if let Some(k) = *c {
-            next = k;
-        }
-        *f = next;
-    }
-    fold
+/// most of its signal there: with the holds never held out, a 6.27 ms delay (1.2× its limit,
+/// subject 20 291 138) that lowered the whole trial's cost by 82 lowered the held-out cycles'
+/// deviance by 18, which the refits' spread outweighed (held-out gain −4.3; with the holds,
+/// +122). A hold goes with the cycle before it so that the hold where the drive first ramps
+/// up, the fresh muscle's reference, stays in the training set of every maximal cycle: held
+/// out with the first maximal cycle instead, it left fatigue at its limit (subject
+/// 20 301 129) with one maximal cycle to be told from the forces by, and a held-out gain of
+/// −50.
+fn cycle_folds(cycle: &[Option<usize>]) -> Vec<usize> {
+    let mut prev = 0;
+    cycle
+        .iter()
+        .map(|c| {
+            if let Some(k) = *c {
+                prev = k;
+            }
+            prev
+        })
+        .collect()
 }
 
 /// Samples per block of [`CvFolds::Blocks`]: `block_s` at `fs`, or, when `n` samples do not

@@ -97,27 +97,26 @@ fn auto_folds_are_cycles_from_three_cycles_on_and_blocks_below() {
                 CvFolds::Cycles.held_out_masks(n, tr.sample_rate_hz, &seg.cycle)
             );
             assert_eq!(masks.len(), cycles, "{protocol}");
-            // a cycle is held out with the hold before it; the holds after the last cycle
-            // go with the last
+            // a cycle is held out with the hold after it, the first also with the hold
+            // before it
             for (k, c) in seg.cycles.iter().enumerate() {
                 assert!(
                     (c.start..c.end).all(|i| masks[k][i]),
                     "{protocol} cycle {k}"
                 );
-                if c.start > 0 && seg.cycle[c.start - 1].is_none() {
-                    assert!(
-                        masks[k][c.start - 1],
-                        "{protocol}: the hold before cycle {k}"
-                    );
+                if c.end < n && seg.cycle[c.end].is_none() {
+                    assert!(masks[k][c.end], "{protocol}: the hold after cycle {k}");
                 }
             }
             let first = seg.cycles[0].start;
             assert!(first > 0 && masks[0][0], "{protocol}: the opening hold");
             assert!(masks[cycles - 1][n - 1], "{protocol}: the closing hold");
+            // the hold where the drive ramps up, between the relaxed cycle and the first
+            // maximal one, goes with the relaxed cycle
             let ramp = seg.cycles[1].start - 1;
             assert!(
-                seg.cycle[ramp].is_none(),
-                "{protocol}: a hold between the relaxed cycle and the first maximal one"
+                seg.cycle[ramp].is_none() && masks[0][ramp],
+                "{protocol}: the ramp-up hold"
             );
         } else {
             assert_eq!(masks.len(), 5, "{protocol}");

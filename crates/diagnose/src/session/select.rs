@@ -148,19 +148,18 @@ pub(crate) fn select(
             let mut passing: Vec<(usize, f64)> = Vec::new();
             for (i, (f, s)) in fits.iter().enumerate() {
                 let d = f.bic(n) - current.bic(n);
-                let (gain, dev_gain) = match (&f.heldout, &current.heldout) {
-                    (Some(a), Some(b)) => (Some(b.rms - a.rms), Some(b.dev - a.dev)),
-                    _ => (None, None),
+                let dev_gain = match (&f.heldout, &current.heldout) {
+                    (Some(a), Some(b)) => Some(b.dev - a.dev),
+                    _ => None,
                 };
                 if let Some(r) = reports.iter_mut().find(|r| r.term == s.term) {
                     r.delta_bic = Some(d);
                     r.heldout_rms = f.heldout.as_ref().map(|h| h.rms);
                     r.heldout_dev_gain = dev_gain;
                 }
-                let generalises = match (gain, dev_gain) {
-                    (Some(g), Some(dg)) => g >= 0.0 && dg >= settings.min_heldout_dev_gain,
-                    _ => true,
-                };
+                // as for one trial (`rules::generalises`): the held-out deviance decides, the
+                // RMS, which the noise's slow part sets, is reported without a veto
+                let generalises = dev_gain.is_none_or(|dg| dg >= settings.min_heldout_dev_gain);
                 let clear = s.cos <= settings.confound_cos || significance(f, n) >= 3.0;
                 if d < settings.max_delta_bic && generalises && clear {
                     passing.push((i, d));
