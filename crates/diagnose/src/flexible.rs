@@ -448,17 +448,16 @@ pub(crate) fn with_step(
 /// one row per sample): the `τ` whose step `1{t ≥ τ}` explains most of the whitened residual
 /// once both are projected off the whitened hats and the Jacobian's columns,
 /// `(cᵀP⊥r)²/(cᵀP⊥c)` — the score test for a step at `τ` under the trial's noise model, with
-/// the muscle parameters free to move as in the refit that follows. `τ` runs over the compared samples at least 0.5 s from
-/// either end, every 10 ms and then sample by sample around the best (`None` on a recording
-/// too short for one).
+/// the model's parameters free to move as in the refit that follows. `τ` runs over every
+/// compared sample at least 0.5 s from either end (`None` on a recording too short for one):
+/// a whitened step is mostly the innovation at its onset, so the score peaks within a sample
+/// or two of a true jump.
 ///
-/// Unwhitened, the scan is dominated by the noise's slow AR(1) part: a cumulative sum of the
-/// raw residual put a slip of +3.7 N·m at 5.2 s (trial 20 254 127) at 8.2 s, the edge of the
-/// range, where that part's standardised sum is largest. Without the model's parameters in the
-/// projection, the same slip came out at 4.0 s: the fitted muscle forces had absorbed the
-/// step's share that follows the activation. The characterisation places its step so: it
-/// ranks the terms by their held-out gain, where a step on a spike of the noise gains
-/// nothing.
+/// Unwhitened, the noise's slow AR(1) part dominates: the cumulative sum of
+/// [`change_point_cusum`] put a slip of +3.73 N·m at 5.217 s (trial 20 254 127) at 8.2 s, the
+/// edge of the range, where that part's standardised sum is largest; this scan puts it at
+/// 5.217 s. The characterisation places its step so: it ranks the terms by their held-out
+/// gain, where a step on a spike of the noise gains nothing.
 fn change_point(
     ctx: &Context,
     cols: &[Vec<f64>],
@@ -533,15 +532,18 @@ fn change_point(
 }
 
 /// The change point (s) of `residual` (N·m, one value per sample) by a cumulative sum, once
-/// projected off the time hats `cols` by least squares over the compared samples: the time maximising the
-/// standardised cumulative sum `|S_k − (k/m)S_m| / √(k(m−k)/m)` over the samples at least
-/// 0.5 s from either end (`None` on a recording too short for one).
+/// projected off the time hats `cols` by least squares over the compared samples: the time
+/// maximising the standardised cumulative sum `|S_k − (k/m)S_m| / √(k(m−k)/m)` over the
+/// samples at least 0.5 s from either end (`None` on a recording too short for one).
 ///
 /// The review places its step so. It decides by BIC, which charges the searched point one
-/// parameter; the scan of [`change_point`] maximises over every sample, and on fatigue at its
-/// detection limit the step it placed on a spike of the noise replaced fatigue by 1.3 in BIC
-/// (trial 20 301 129). A noise spike barely moves the unwhitened sum, though the noise's slow
-/// part can: a slip of +3.73 N·m at 5.217 s (trial 20 254 127) came out at 8.2 s.
+/// parameter (ln n ≈ 10), while the scan of [`change_point`] takes the largest of one χ²₁
+/// score per onset, nearly independent for spike-like whitened steps: for N independent ones
+/// that is about 2 ln N − ln(π ln N) ≈ 16 for the ≈ 16 000 onsets of a relaxed+2 trial without
+/// any step. In the review a step on a spike of the noise would compete with a catalogued
+/// cause.
+/// A spike barely moves the unwhitened sum, though the noise's slow part can (the slip above
+/// comes out at 8.2 s).
 fn change_point_cusum(ctx: &Context, cols: &[Vec<f64>], residual: &[f64]) -> Option<f64> {
     let t = ctx.inputs.times();
     let idx: Vec<usize> = (0..t.len()).filter(|&i| ctx.is_observed(i)).collect();

@@ -167,8 +167,8 @@ impl CvFolds {
     }
 }
 
-/// The fold of every sample under [`CvFolds::Cycles`] for `cycles ≥ 1` cycles: its cycle, or,
-/// in a hold, the cycle before it (before the first cycle, the first).
+/// The fold of every sample under [`CvFolds::Cycles`]: its cycle in `cycle`, or, in a hold,
+/// the cycle before it (before the first cycle, the first).
 ///
 /// The holds are where the drive ramps up and relaxes, so an electromechanical delay leaves
 /// most of its signal there: with the holds never held out, a 6.27 ms delay (1.2× its limit,
