@@ -205,6 +205,35 @@ fn uncatalogued_friction_gets_the_flexible_terms() {
     let s = report::check_svg(&svg).expect("well-formed SVG");
     assert!(s.has_text(&format!("{first} term (N·m)")), "{:?}", s.texts);
     assert!(html.contains("The flexible term"));
+    // a searched value of a term's shape (the friction's transition width) is in
+    // diagnosis.json, the report and the summary
+    let searched: Vec<(String, f64)> = u["extension"]["terms"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .flat_map(|t| t["searched"].as_array().unwrap().clone())
+        .map(|v| {
+            (
+                v["name"].as_str().unwrap().to_string(),
+                v["value"].as_f64().unwrap(),
+            )
+        })
+        .collect();
+    assert!(
+        searched.iter().any(|(n, _)| n == "transition_width"),
+        "{searched:?}"
+    );
+    let summary = String::from_utf8_lossy(&o.stdout);
+    for (name, value) in &searched {
+        assert!(
+            html.contains(&format!("{value:.2}")),
+            "{name} {value} in the report"
+        );
+        assert!(
+            summary.contains(&format!("{} {value:.3}", name.replace('_', " "))),
+            "{name} {value} in the summary"
+        );
+    }
     // the report and the summary still end with the command line
     let end = last_section(&html);
     assert!(end.contains("surae identify --method mcmc --trial trial.csv"));
