@@ -507,8 +507,9 @@ fn change_point(
     let (mut a, mut q) = (0.0, 0.0);
     let mut hc = DVector::<f64>::zeros(k);
     let mut best: Option<(usize, f64)> = None;
+    let mut d = Vec::new();
     for s in (0..n).rev() {
-        let d = ctx.plan.whitened_impulse(s, 1e-12);
+        ctx.plan.whitened_impulse(s, 1e-12, &mut d);
         for (o, &di) in d.iter().enumerate() {
             let i = s + o;
             q += di * (2.0 * wc[i] + di);

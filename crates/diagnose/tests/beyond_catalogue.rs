@@ -39,7 +39,14 @@ fn diagnosed(kind: Uncatalogued) -> (diagnose::Diagnosis, String, UncataloguedTr
         .iter()
         .position(|k| *k == kind)
         .expect("in ALL") as u64;
-    let seed = common::base_seed(BASE) + 1000 * slot;
+    let out = diagnosed_at(kind, common::base_seed(BASE) + 1000 * slot);
+    println!("{}", out.1);
+    out
+}
+
+/// The diagnosis of the trial `seed` hiding `kind`, with a context line (the seed, the effect
+/// and the summary) for failures.
+fn diagnosed_at(kind: Uncatalogued, seed: u64) -> (diagnose::Diagnosis, String, UncataloguedTrial) {
     let t = uncatalogued_trial(kind, seed)
         .unwrap_or_else(|e| panic!("seed {seed}: synthesis failed: {e}"));
     let s = &t.hidden.synthetic;
@@ -49,7 +56,6 @@ fn diagnosed(kind: Uncatalogued) -> (diagnose::Diagnosis, String, UncataloguedTr
         t.description,
         d.summary_lines().join("\n")
     );
-    println!("{ctx}");
     (d, ctx, t)
 }
 
@@ -133,11 +139,7 @@ fn check(kind: Uncatalogued) {
 /// Trial `seed` hiding `kind`: no cause named, `depends_on` starts with `variable`, and the
 /// review handed the catalogued `effect` the selection named to `variable`.
 fn handed_over(kind: Uncatalogued, seed: u64, effect: &str, variable: StateVariable) {
-    let t = uncatalogued_trial(kind, seed)
-        .unwrap_or_else(|e| panic!("seed {seed}: synthesis failed: {e}"));
-    let s = &t.hidden.synthetic;
-    let d = common::diagnose_with_defaults(&s.trial, &s.unloaded, seed);
-    let ctx = format!("seed {seed}; summary:\n{}", d.summary_lines().join("\n"));
+    let (d, ctx, _) = diagnosed_at(kind, seed);
     assert!(d.causes.is_empty(), "{:?}; {ctx}", d.causes);
     let u = depends_first(&d, variable, &ctx);
     assert!(
@@ -161,12 +163,7 @@ fn torque_drift_lives_in_time() {
 
 #[test]
 fn emg_crosstalk_is_found_in_the_raw_emg_and_corrected() {
-    let slot = 2;
-    assert_eq!(Uncatalogued::ALL[slot], Uncatalogued::EmgCrosstalk);
-    let seed = common::base_seed(BASE) + 1000 * slot as u64;
-    let t = uncatalogued_trial(Uncatalogued::EmgCrosstalk, seed)
-        .unwrap_or_else(|e| panic!("seed {seed}: synthesis failed: {e}"));
-    let (d, ctx, _) = diagnosed(Uncatalogued::EmgCrosstalk);
+    let (d, ctx, t) = diagnosed(Uncatalogued::EmgCrosstalk);
     assert!(d.causes.is_empty(), "named {:?}; {ctx}", d.causes);
     assert_eq!(d.verdict, Verdict::Deficient, "{ctx}");
     let checks = &d.emg_crosstalk;
@@ -264,12 +261,7 @@ fn a_friction_damping_mimics_is_handed_to_direction() {
 /// it, or the review hands it over to the term in time.
 #[test]
 fn a_delay_beside_a_slip_is_not_named() {
-    let seed = 9_503_010;
-    let t = uncatalogued_trial(Uncatalogued::StrapSlip, seed)
-        .unwrap_or_else(|e| panic!("seed {seed}: synthesis failed: {e}"));
-    let s = &t.hidden.synthetic;
-    let d = common::diagnose_with_defaults(&s.trial, &s.unloaded, seed);
-    let ctx = format!("seed {seed}; summary:\n{}", d.summary_lines().join("\n"));
+    let (d, ctx, _) = diagnosed_at(Uncatalogued::StrapSlip, 9_503_010);
     assert!(d.causes.is_empty(), "{:?}; {ctx}", d.causes);
     let u = depends_first(&d, StateVariable::Time, &ctx);
     let delay = d

@@ -383,13 +383,13 @@ impl WhitenPlan {
         }
     }
 
-    /// The whitened unit impulse at sample `at`: samples `at, at+1, …` of the whitening of
-    /// the record that is 1 at `at` and 0 elsewhere (before `at` the whitened record is 0), up
-    /// to where the filter's state has decayed below `tol` or to the plan's end. Whitening is
-    /// linear, so a step's whitened column at every onset follows from these by suffix sums
-    /// at a cost of their length, not the record's.
-    pub fn whitened_impulse(&self, at: usize, tol: f64) -> Vec<f64> {
-        let mut out = Vec::new();
+    /// The whitened unit impulse at sample `at` into `out` (cleared first): samples
+    /// `at, at+1, …` of the whitening of the record that is 1 at `at` and 0 elsewhere (before
+    /// `at` the whitened record is 0), up to where the filter's state has decayed below `tol`
+    /// or to the plan's end. Whitening is linear, so a step's whitened column at every onset
+    /// follows from these by suffix sums at a cost of their length, not the record's.
+    pub fn whitened_impulse(&self, at: usize, tol: f64, out: &mut Vec<f64>) {
+        out.clear();
         let mut xh = 0.0;
         for t in at..self.len() {
             let x = if t == at { 1.0 } else { 0.0 };
@@ -405,7 +405,6 @@ impl WhitenPlan {
                 break;
             }
         }
-        out
     }
 
     /// Whitens `N` records at once without storing them and returns the inner products of
@@ -663,8 +662,9 @@ mod tests {
         let n = 400;
         let mask: Vec<bool> = (0..n).map(|t| t % 53 != 7).collect();
         let plan = m.plan(n, Some(&mask));
+        let mut d = Vec::new();
         for at in [0, 7, 120, 399] {
-            let d = plan.whitened_impulse(at, 1e-14);
+            plan.whitened_impulse(at, 1e-14, &mut d);
             assert!(!d.is_empty() && at + d.len() <= n);
             let mut imp = vec![0.0; n];
             imp[at] = 1.0;
@@ -686,7 +686,8 @@ mod tests {
         plan.whiten(&step, &mut w);
         let mut sum = vec![0.0; n];
         for at in s0..n {
-            for (i, v) in plan.whitened_impulse(at, 1e-14).iter().enumerate() {
+            plan.whitened_impulse(at, 1e-14, &mut d);
+            for (i, v) in d.iter().enumerate() {
                 sum[at + i] += v;
             }
         }
