@@ -172,9 +172,9 @@ impl CvFolds {
 ///
 /// The holds are where the drive ramps up and relaxes, so an electromechanical delay leaves
 /// most of its signal there: with the holds never held out, a 6.27 ms delay (1.2× its limit,
-/// subject 20 291 138) that lowered the whole trial's cost by 82 lowered the held-out cycles'
-/// deviance by 18, which the refits' spread outweighed (held-out gain −4.3; with the holds,
-/// +122). A hold goes with the cycle before it so that the hold where the drive first ramps
+/// subject 20 291 138) that lowered the whole trial's cost by about 82 (ΔBIC −73) lowered the
+/// held-out cycles' deviance by 18, which the refits' spread outweighed (held-out gain −4.3;
+/// with the holds, +122). A hold goes with the cycle before it so that the hold where the drive first ramps
 /// up, the fresh muscle's reference, stays in the training set of every maximal cycle: held
 /// out with the first maximal cycle instead, it left fatigue at its limit (subject
 /// 20 301 129) with one maximal cycle to be told from the forces by, and a held-out gain of
