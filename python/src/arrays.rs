@@ -160,7 +160,7 @@ pub(crate) fn params_arg(arg: Option<JsonArg>) -> PyResult<ModelParams> {
     match arg {
         None => Ok(ModelParams::nominal()),
         Some(JsonArg::Path(p)) => {
-            let v = cli::commands::read_json(&p).map_err(crate::failure_to_py)?;
+            let v = surae_app::read_json(&p).map_err(crate::failure_to_py)?;
             ModelParams::nominal()
                 .merged_json(&v)
                 .map_err(|e| bad(format!("{}: {e}", p.display())))
@@ -176,7 +176,7 @@ pub(crate) fn effects_arg(arg: Option<JsonArg>) -> PyResult<Effects> {
     match arg {
         None => Ok(Effects::none()),
         Some(JsonArg::Path(p)) => {
-            let v = cli::commands::read_json(&p).map_err(crate::failure_to_py)?;
+            let v = surae_app::read_json(&p).map_err(crate::failure_to_py)?;
             Effects::from_json(&v).map_err(|e| bad(format!("{}: {e}", p.display())))
         }
         Some(JsonArg::Value(v)) => Effects::from_json(&v).map_err(|e| bad(format!("effects: {e}"))),
@@ -261,7 +261,7 @@ pub fn simulate<'py>(
 /// `emg_gl`) and its sampling rate `fs` (Hz).
 #[pyfunction]
 pub fn bundled_trial(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
-    let t = cli::bundled::seed_trial()
+    let t = surae_app::bundled::seed_trial()
         .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
     let out = PyDict::new(py);
     out.set_item("fs", t.sample_rate_hz())?;
@@ -284,7 +284,7 @@ pub fn bundled_trial(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
 /// of arrays: `time_s`, `ankle_angle_deg`, `torque_nm`, and `fs` (Hz).
 #[pyfunction]
 pub fn bundled_unloaded(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
-    let u = cli::bundled::seed_unloaded()
+    let u = surae_app::bundled::seed_unloaded()
         .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
     let out = PyDict::new(py);
     out.set_item("fs", u.sample_rate_hz())?;

@@ -1,6 +1,6 @@
-//! `identify` and `diagnose`: the command line's own code, run into a folder, with the JSON it
-//! wrote returned as a dict. Equality with `surae identify` / `surae diagnose` therefore holds
-//! by construction (apart from `wall_s`, a measured time).
+//! `identify`, `diagnose` and `design`: the application library's jobs, the ones the command
+//! line runs, with the JSON they wrote returned as a dict. Equality with `surae identify` /
+//! `surae diagnose` therefore holds by construction (apart from `wall_s`, a measured time).
 //!
 //! Inputs given as dicts (a trial or unloaded run as columns, parameters / effects / truth as
 //! JSON objects) are written into a temporary folder in the command line's file formats first;
@@ -11,12 +11,13 @@
 use crate::bad;
 use crate::convert::{json_arg, json_to_py, path_arg, vec1, JsonArg};
 use crate::run::{run_command, ProgressMode};
-use cli::commands::identify::{IdentifyArgs, Method};
-use cli::commands::{design::DesignArgs, diagnose::DiagnoseArgs, KneeArgs, ModelArgs, ReportArgs};
-use cli::error::Failure;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::{Path, PathBuf};
+use surae_app::{
+    AppError, AppResult, DesignJob, DiagnoseJob, IdentifyJob, KneeSettings, Method, ModelSettings,
+    Reporter,
+};
 
 /// A temporary folder for dict inputs and default outputs, and the names that replace its
 /// paths in messages and results.
@@ -53,11 +54,11 @@ impl Staging {
             .fold(text.to_string(), |t, (from, to)| t.replace(from, to))
     }
 
-    fn rename_failure(&self, f: Failure) -> Failure {
+    fn rename_failure(&self, f: AppError) -> AppError {
         match f {
-            Failure::BadInput(m) => Failure::BadInput(self.rename(&m)),
-            Failure::Internal(m) => Failure::Internal(self.rename(&m)),
-            Failure::Interrupted => Failure::Interrupted,
+            AppError::BadInput(m) => AppError::BadInput(self.rename(&m)),
+            AppError::Internal(m) => AppError::Internal(self.rename(&m)),
+            other => other,
         }
     }
 
@@ -182,12 +183,12 @@ fn run_to_json<'py, F>(
     command: F,
 ) -> PyResult<Bound<'py, PyAny>>
 where
-    F: FnOnce() -> cli::error::CmdResult + Send + 'static,
+    F: FnOnce(&Reporter) -> AppResult + Send + 'static,
 {
     let staging = std::sync::Arc::new(staging);
     let s = staging.clone();
-    run_command(py, progress, move || {
-        command().map_err(|f| s.rename_failure(f))
+    run_command(py, progress, move |rep| {
+        command(rep).map_err(|f| s.rename_failure(f))
     })?;
     let path = out.join(file);
     let text = std::fs::read_to_string(&path).map_err(|e| {
@@ -271,7 +272,7 @@ pub fn identify<'py>(
         Some(s) => Some(path_arg(s, "session")?),
         None => None,
     };
-    let args = IdentifyArgs {
+    let args = IdentifyJob {
         method,
         trial,
         session,
@@ -282,21 +283,17 @@ pub fn identify<'py>(
         seed,
         truth,
         max_iterations,
-        model: ModelArgs {
+        model: ModelSettings {
             params,
             effects,
             emg_is_envelope,
-            knee: KneeArgs { knee_angle_deg },
-            ..ModelArgs::default()
+            knee: KneeSettings { knee_angle_deg },
+            ..ModelSettings::default()
         },
         out: Some(out.clone()),
-        report: ReportArgs {
-            quiet: true,
-            json: false,
-        },
     };
-    run_to_json(py, staging, out, "identify.json", progress, move || {
-        cli::commands::identify::run(args)
+    run_to_json(py, staging, out, "identify.json", progress, move |rep| {
+        surae_app::identify(args, rep)
     })
 }
 
@@ -344,22 +341,18 @@ pub fn diagnose<'py>(
     } else {
         "diagnosis.json"
     };
-    let args = DiagnoseArgs {
+    let args = DiagnoseJob {
         trial,
         unloaded,
         session,
         params,
         seed,
         emg_is_envelope,
-        knee: KneeArgs { knee_angle_deg },
+        knee: KneeSettings { knee_angle_deg },
         out: Some(out.clone()),
-        report: ReportArgs {
-            quiet: true,
-            json: false,
-        },
     };
-    run_to_json(py, staging, out, file, progress, move || {
-        cli::commands::diagnose::run(args)
+    run_to_json(py, staging, out, file, progress, move |rep| {
+        surae_app::diagnose(args, rep)
     })
 }
 
@@ -411,7 +404,7 @@ pub fn design<'py>(
         Some(o) => path_arg(o, "out")?,
         None => staging.dir.path().join("out"),
     };
-    let args = DesignArgs {
+    let args = DesignJob {
         protocol: protocols,
         unloaded,
         params,
@@ -420,12 +413,8 @@ pub fn design<'py>(
         emg_draws,
         emg_seed,
         out: Some(out.clone()),
-        report: ReportArgs {
-            quiet: true,
-            json: false,
-        },
     };
-    run_to_json(py, staging, out, "design.json", progress, move || {
-        cli::commands::design::run(args)
+    run_to_json(py, staging, out, "design.json", progress, move |rep| {
+        surae_app::design(args, rep)
     })
 }

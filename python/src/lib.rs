@@ -2,9 +2,9 @@
 //!
 //! * [`arrays`]: functions on numpy arrays that need no files (`envelope`, `simulate`, the
 //!   bundled trial);
-//! * [`commands`]: `identify`, `diagnose` and `design`, which run the command line's own code
-//!   (`cli::commands::*::run`) into a folder and return the JSON it wrote, so a Python result is
-//!   the command line's result by construction;
+//! * [`commands`]: `identify`, `diagnose` and `design`, which run the application library's
+//!   jobs (`surae_app`, the code under the command line) into a folder and return the JSON
+//!   they wrote, so a Python result is the command line's result by construction;
 //! * [`run`]: runs a command on a worker thread with the GIL released, shows progress, and
 //!   stops it on Ctrl-C (KeyboardInterrupt).
 //!
@@ -30,13 +30,13 @@ create_exception!(
 );
 
 /// The Python exception for a command's failure.
-pub(crate) fn failure_to_py(f: cli::error::Failure) -> PyErr {
+pub(crate) fn failure_to_py(f: surae_app::AppError) -> PyErr {
     match f {
-        cli::error::Failure::BadInput(m) => InputError::new_err(m),
-        cli::error::Failure::Internal(m) => PyRuntimeError::new_err(format!("internal error: {m}")),
-        cli::error::Failure::Interrupted => {
+        surae_app::AppError::BadInput(m) => InputError::new_err(m),
+        surae_app::AppError::Interrupted => {
             pyo3::exceptions::PyKeyboardInterrupt::new_err("interrupted")
         }
+        other => PyRuntimeError::new_err(other.to_string()),
     }
 }
 

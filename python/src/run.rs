@@ -1,45 +1,19 @@
 //! Running a command from Python: the work runs on its own thread with the GIL released, while
 //! the calling thread wakes every 100 ms to show progress and to let Python handle signals.
-//! Ctrl-C (or an exception raised by a progress callback) asks the command to stop through the
-//! command line's progress observer; the command then fails with `Interrupted`, writes
-//! nothing, and the exception is raised once its thread has finished.
+//! Ctrl-C (or an exception raised by a progress callback) asks the job to stop through the
+//! observer this call passes it; the job then fails with `Interrupted`, writes nothing, and
+//! the exception is raised once its thread has finished. Each call has its own observer, so
+//! Python threads may run jobs side by side.
 
-use cli::error::CmdResult;
-use cli::progress::{set_observer, ProgressObserver};
 use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex};
 use std::time::Duration;
+use surae_app::{AppResult, JobObserver, Reporter};
 
 /// How often the calling thread wakes up.
 const POLL: Duration = Duration::from_millis(100);
-
-/// The observer is process-wide, so commands run one at a time; a second Python thread calling
-/// in waits for this flag (with the GIL released, and interruptible).
-static BUSY: AtomicBool = AtomicBool::new(false);
-
-/// Holds [`BUSY`] while a command runs.
-struct Turn;
-
-impl Turn {
-    fn take(py: Python<'_>) -> PyResult<Self> {
-        while BUSY
-            .compare_exchange(false, true, Ordering::Acquire, Ordering::Relaxed)
-            .is_err()
-        {
-            py.detach(|| std::thread::sleep(POLL));
-            py.check_signals()?;
-        }
-        Ok(Turn)
-    }
-}
-
-impl Drop for Turn {
-    fn drop(&mut self) {
-        BUSY.store(false, Ordering::Release);
-    }
-}
 
 /// How the caller wants progress shown.
 pub(crate) enum ProgressMode {
@@ -77,15 +51,17 @@ struct Update {
     message: String,
 }
 
-/// Records the latest update from the worker threads and carries the stop request to them.
+/// Records the latest update and the warnings from the worker threads and carries the stop
+/// request to them.
 #[derive(Default)]
 struct LatestUpdate {
     latest: Mutex<Update>,
     changes: AtomicU64,
     stop: AtomicBool,
+    warnings: Mutex<Vec<String>>,
 }
 
-impl ProgressObserver for LatestUpdate {
+impl JobObserver for LatestUpdate {
     fn update(&self, label: &str, position: u64, total: u64, message: &str) {
         if let Ok(mut u) = self.latest.lock() {
             *u = Update {
@@ -100,6 +76,12 @@ impl ProgressObserver for LatestUpdate {
 
     fn stop_requested(&self) -> bool {
         self.stop.load(Ordering::Relaxed)
+    }
+
+    fn warning(&self, message: &str) {
+        if let Ok(mut w) = self.warnings.lock() {
+            w.push(message.to_string());
+        }
     }
 }
 
@@ -148,17 +130,16 @@ impl Shower {
     }
 }
 
-/// Runs `work` (a command of the `cli` crate) as described in the module documentation.
-/// Warnings the command recorded become Python `UserWarning`s after a success.
+/// Runs `work` (a job of the application library, given the reporter it reports to) as
+/// described in the module documentation. Warnings the job recorded become Python
+/// `UserWarning`s after a success.
 pub(crate) fn run_command<F>(py: Python<'_>, progress: ProgressMode, work: F) -> PyResult<()>
 where
-    F: FnOnce() -> CmdResult + Send + 'static,
+    F: FnOnce(&Reporter) -> AppResult + Send + 'static,
 {
-    let _turn = Turn::take(py)?;
     let obs = Arc::new(LatestUpdate::default());
-    set_observer(Some(obs.clone()));
-    // warnings left over from an earlier command that failed are not this run's
-    cli::take_warnings();
+    // quiet: no summary lines; the observer still sees every progress update
+    let rep = Reporter::new(obs.clone(), true);
     let finished = Arc::new((Mutex::new(false), Condvar::new()));
     let signal_end = finished.clone();
     let handle = std::thread::spawn(move || {
@@ -174,7 +155,7 @@ where
             }
         }
         let _end = SignalEnd(signal_end);
-        work()
+        work(&rep)
     });
     let mut shower = Shower {
         mode: progress,
@@ -207,8 +188,11 @@ where
         }
     }
     let joined = py.detach(|| handle.join());
-    set_observer(None);
-    let warnings = cli::take_warnings();
+    let warnings = obs
+        .warnings
+        .lock()
+        .map(|mut w| std::mem::take(&mut *w))
+        .unwrap_or_default();
     let _ = shower.finish(py);
     if let Some(e) = raised {
         return Err(e);

@@ -134,8 +134,13 @@ fn timed_mcmc(
 /// `surae identify --session` reads them): (evaluations, wall s, CPU s if known).
 fn sa_session_run(root: &Path) -> Result<(u64, f64, Option<f64>)> {
     let manifest = root.join("fixtures/session3/session.json");
-    let session = cli::commands::session::load_session(&manifest, &Default::default(), None)
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let session = surae_app::load_session(
+        &manifest,
+        &Default::default(),
+        None,
+        &surae_app::Reporter::silent(),
+    )
+    .map_err(|e| anyhow::anyhow!("{e}"))?;
     let set = session.problem_set().map_err(|e| anyhow::anyhow!("{e}"))?;
     let settings = identify_sa::SaIdentifySettings::default();
     let cpu0 = cpu_seconds();
@@ -154,9 +159,16 @@ fn sa_session_run(root: &Path) -> Result<(u64, f64, Option<f64>)> {
 /// `fixtures/session3`: (evaluations, wall s, CPU s if known, converged, max R̂, min ESS).
 fn mcmc_session_run(root: &Path) -> Result<(u64, f64, Option<f64>, bool, f64, f64)> {
     let manifest = root.join("fixtures/session3/session.json");
-    let session = cli::commands::session::load_session(&manifest, &Default::default(), None)
+    let session = surae_app::load_session(
+        &manifest,
+        &Default::default(),
+        None,
+        &surae_app::Reporter::silent(),
+    )
+    .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let (problems, noises) = session
+        .mcmc_trials(&surae_app::Reporter::silent())
         .map_err(|e| anyhow::anyhow!("{e}"))?;
-    let (problems, noises) = session.mcmc_trials().map_err(|e| anyhow::anyhow!("{e}"))?;
     let trials: Vec<identify_mcmc::SessionTrialLikelihood<'_>> = problems
         .iter()
         .zip(&noises)

@@ -6,8 +6,13 @@
 //! summary, and exits 0 on success, 2 on bad input (one line naming the file,
 //! line and column), 1 on an internal failure.
 
+mod args;
+mod terminal;
+
 use clap::{Parser, Subcommand};
-use cli::commands;
+use std::sync::Arc;
+use surae_app::{AppResult, Reporter};
+use terminal::Terminal;
 
 /// Triceps-surae muscle parameters from an isokinetic dynamometer test with EMG.
 #[derive(Parser, Debug)]
@@ -20,22 +25,22 @@ struct Cli {
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Normalised EMG envelopes (band-pass 10–350 Hz, rectify, 2 Hz low-pass, ÷ max).
-    Envelope(commands::envelope::EnvelopeArgs),
+    Envelope(args::EnvelopeArgs),
     /// Model torque for a trial (total and per muscle), optionally with effects.
-    Simulate(commands::simulate::SimulateArgs),
+    Simulate(args::SimulateArgs),
     /// One-at-a-time ±20 % parameter sweeps: RMS torque change (dissertation Fig. 6).
-    Sensitivity(commands::sensitivity::SensitivityArgs),
+    Sensitivity(args::SensitivityArgs),
     /// Identify LST, F0 and α0 of sol, gm, gl, and with --with the parameters of named
     /// effects; then test the fit for structure left in its residual (writes identify.json).
-    Identify(commands::identify::IdentifyArgs),
+    Identify(args::IdentifyArgs),
     /// What the model gets wrong: residual analysis, the named cause(s), the
     /// extended model and its held-out gain (writes diagnosis.json).
-    Diagnose(commands::diagnose::DiagnoseArgs),
+    Diagnose(args::DiagnoseArgs),
     /// Expected posterior sd of each parameter for candidate protocols, before testing.
-    Design(commands::design::DesignArgs),
+    Design(args::DesignArgs),
     /// What a lab's file holds (channels, rate, duration, ranges) and a starter recording map;
     /// given a map, the trial it reads and the checks of the recording.
-    Inspect(commands::inspect::InspectArgs),
+    Inspect(args::InspectArgs),
 }
 
 fn main() {
@@ -62,18 +67,10 @@ fn main() {
             std::process::exit(2);
         }
     };
-    let result = match cli.command {
-        Command::Envelope(a) => commands::envelope::run(a),
-        Command::Simulate(a) => commands::simulate::run(a),
-        Command::Sensitivity(a) => commands::sensitivity::run(a),
-        Command::Identify(a) => commands::identify::run(a),
-        Command::Diagnose(a) => commands::diagnose::run(a),
-        Command::Design(a) => commands::design::run(a),
-        Command::Inspect(a) => commands::inspect::run(a),
-    };
+    let (terminal, result) = run(cli.command);
     match result {
         Ok(()) => {
-            for w in cli::take_warnings() {
+            for w in terminal.take_warnings() {
                 eprintln!("warning: {w}");
             }
         }
@@ -83,4 +80,30 @@ fn main() {
             std::process::exit(f.exit_code());
         }
     }
+}
+
+/// Runs one command: its options as the library's settings, reported to the terminal.
+fn run(command: Command) -> (Arc<Terminal>, AppResult) {
+    let report = match &command {
+        Command::Identify(a) => a.report,
+        Command::Diagnose(a) => a.report,
+        Command::Design(a) => a.report,
+        Command::Inspect(a) => a.report,
+        // these print no progress and a summary only when they write
+        Command::Envelope(_) | Command::Simulate(_) | Command::Sensitivity(_) => {
+            args::ReportArgs::default()
+        }
+    };
+    let terminal = Arc::new(Terminal::new(report));
+    let rep = Reporter::new(terminal.clone(), report.quiet);
+    let result = match command {
+        Command::Envelope(a) => surae_app::envelope(a.into(), &rep),
+        Command::Simulate(a) => surae_app::simulate(a.into(), &rep),
+        Command::Sensitivity(a) => surae_app::sensitivity(a.into(), &rep),
+        Command::Identify(a) => surae_app::identify(a.into(), &rep),
+        Command::Diagnose(a) => surae_app::diagnose(a.into(), &rep),
+        Command::Design(a) => surae_app::design(a.into(), &rep),
+        Command::Inspect(a) => surae_app::inspect(a.into(), &rep),
+    };
+    (terminal, result)
 }

@@ -2,7 +2,7 @@
 //! adequacy of an identified model (the diagnosis's residual structure test at the identified
 //! point, `"adequacy"` in `identify.json`).
 
-use crate::error::{CmdResult, Failure};
+use crate::error::{AppError, AppResult};
 use muscle_model::{EffectKind, Effects, ModelParams, ParamId};
 use serde_json::{json, Value};
 
@@ -16,12 +16,12 @@ fn valid_names() -> String {
 }
 
 /// Parses `--with`: catalogued effect names, each kept once, in the order given.
-pub(super) fn parse_with(names: Option<&[String]>) -> CmdResult<Vec<EffectKind>> {
+pub(super) fn parse_with(names: Option<&[String]>) -> AppResult<Vec<EffectKind>> {
     let mut kinds = Vec::new();
     for name in names.into_iter().flatten() {
         let name = name.trim();
         let kind = EffectKind::from_name(name).ok_or_else(|| {
-            Failure::bad(format!(
+            AppError::bad(format!(
                 "--with `{name}`: not a catalogued effect; the effects are {}",
                 valid_names()
             ))
@@ -60,7 +60,7 @@ pub(super) fn with_effects(mut effects: Effects, kinds: &[EffectKind]) -> Effect
 /// In a session of several trials, every free parameter is shared by the trials; an effect
 /// whose parameters differ between trials (`diagnose::effect_scope`: a torque offset, gravity)
 /// cannot be identified that way.
-pub(super) fn check_session_scope(kinds: &[EffectKind], trials: usize) -> CmdResult {
+pub(super) fn check_session_scope(kinds: &[EffectKind], trials: usize) -> AppResult {
     if trials < 2 {
         return Ok(());
     }
@@ -70,7 +70,7 @@ pub(super) fn check_session_scope(kinds: &[EffectKind], trials: usize) -> CmdRes
         .map(|k| k.name())
         .collect();
     if let Some(first) = per_trial.first() {
-        return Err(Failure::bad(format!(
+        return Err(AppError::bad(format!(
             "--with {}: a per-trial effect (its parameters differ between a session's trials), \
              and a session's identification shares every parameter between its trials; \
              identify each trial on its own with `--trial T --with {first}`",
@@ -86,14 +86,14 @@ pub(super) fn identified_point(
     params: &ModelParams,
     effects: &Effects,
     identified: &Value,
-) -> CmdResult<(ModelParams, Effects)> {
+) -> AppResult<(ModelParams, Effects)> {
     let mut params = *params;
     let mut effects = *effects;
     for (name, v) in identified.as_object().into_iter().flatten() {
-        let id = ParamId::parse(name).map_err(Failure::internal)?;
+        let id = ParamId::parse(name).map_err(AppError::internal)?;
         let v = v
             .as_f64()
-            .ok_or_else(|| Failure::internal(format!("{name} is not a number")))?;
+            .ok_or_else(|| AppError::internal(format!("{name} is not a number")))?;
         id.set(&mut params, &mut effects, v);
     }
     Ok((params, effects))

@@ -4,16 +4,17 @@
 //! dynamometer correction).
 
 use super::super::session::{file_stem, load_session};
-use super::SimulateArgs;
-use crate::error::{CmdResult, Failure};
+use super::SimulateJob;
+use crate::error::{AppError, AppResult};
 use crate::output::OutDir;
+use crate::Reporter;
 use muscle_model::{simulate, SimSettings};
 use serde_json::json;
 use std::path::Path;
 
 /// Runs `simulate --session`.
-pub(super) fn run(args: &SimulateArgs, session_path: &Path) -> CmdResult {
-    let session = load_session(session_path, &args.model, None)?;
+pub(super) fn run(args: &SimulateJob, session_path: &Path, rep: &Reporter) -> AppResult {
+    let session = load_session(session_path, &args.model, None, rep)?;
     let out_dir = args
         .out
         .clone()
@@ -22,7 +23,7 @@ pub(super) fn run(args: &SimulateArgs, session_path: &Path) -> CmdResult {
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("csv") || e.eq_ignore_ascii_case("sto"))
     {
-        return Err(Failure::bad(format!(
+        return Err(AppError::bad(format!(
             "--out {}: with --session, --out is a folder (one CSV per trial and simulate.json)",
             out_dir.display()
         )));
@@ -48,7 +49,7 @@ pub(super) fn run(args: &SimulateArgs, session_path: &Path) -> CmdResult {
             &session.effects,
             &SimSettings::default(),
         )
-        .map_err(|e| Failure::bad(format!("{}: simulation failed: {e}", t.source)))?;
+        .map_err(|e| AppError::bad(format!("{}: simulation failed: {e}", t.source)))?;
         let (rms, r2) = t.fit_of(&sim.torque)?;
         rows.push(json!({"name": t.name, "source": t.source, "rms_nm": rms, "r2": r2}));
         let mut text = String::with_capacity(inputs.len() * 60);
@@ -75,33 +76,37 @@ pub(super) fn run(args: &SimulateArgs, session_path: &Path) -> CmdResult {
         "mean_r2": mean("r2"),
         "emg_normalisation": session.emg.to_json(),
     });
-    let text = serde_json::to_string_pretty(&doc).map_err(Failure::internal)? + "\n";
+    let text = serde_json::to_string_pretty(&doc).map_err(AppError::internal)? + "\n";
     for (name, t) in &texts {
         out.write(name, t.as_bytes())?;
     }
     let path = out.write("simulate.json", text.as_bytes())?;
-    println!(
+    rep.say(&format!(
         "simulate: session {} — {} trials",
         session_path.display(),
         session.trials.len()
-    );
+    ));
     for l in session.emg.summary_lines() {
-        println!("{l}");
+        rep.say(&l);
     }
-    println!("  trial                     RMS (N·m)     R²");
+    rep.say("  trial                     RMS (N·m)     R²");
     for r in doc["trials"].as_array().into_iter().flatten() {
-        println!(
+        rep.say(&format!(
             "  {:<24} {:>9.2} {:>8.3}",
             r["name"].as_str().unwrap_or(""),
             r["rms_nm"].as_f64().unwrap_or(f64::NAN),
             r["r2"].as_f64().unwrap_or(f64::NAN)
-        );
+        ));
     }
-    println!(
+    rep.say(&format!(
         "  mean                     {:>9.2} {:>8.3}",
         doc["mean_rms_nm"].as_f64().unwrap_or(f64::NAN),
         doc["mean_r2"].as_f64().unwrap_or(f64::NAN)
-    );
-    println!("wrote {} and {} trial CSVs", path.display(), texts.len());
+    ));
+    rep.say(&format!(
+        "wrote {} and {} trial CSVs",
+        path.display(),
+        texts.len()
+    ));
     Ok(())
 }

@@ -5,32 +5,29 @@
 //! `ankle_angle_r_moment = −torque_nm`, since OpenSim's ankle moment is positive towards
 //! dorsiflexion and surae's torque towards plantarflexion.
 
-use super::{load_model_config, load_trial, out_file, trial_inputs, ModelArgs};
-use crate::error::{CmdResult, Failure};
+use super::{load_model_config, load_trial, out_file, trial_inputs, ModelSettings};
+use crate::error::{AppError, AppResult};
 use crate::output::write_file_checked;
+use crate::Reporter;
 use muscle_model::{simulate, SimSettings};
 use std::path::PathBuf;
 
 mod session_out;
 
 /// Arguments of `surae simulate`.
-#[derive(clap::Args, Debug)]
-pub struct SimulateArgs {
+#[derive(Debug)]
+pub struct SimulateJob {
     /// Trial: a trial CSV, a recording map (`.json`) of a lab's files, or a CEINMS trial folder (a session of one) (docs/formats.md);
     /// the bundled seed trial when omitted.
-    #[arg(long, conflicts_with = "session")]
     pub trial: Option<PathBuf>,
     /// Session manifest (docs/formats.md): the model on each of its trials; `--out` is then a
     /// folder (one CSV per trial and `simulate.json` with each trial's RMS error and R²).
     /// `--params` may be an `identify.json`, whose identified values are set over the
     /// session's parameters.
-    #[arg(long)]
     pub session: Option<PathBuf>,
-    #[command(flatten)]
-    pub model: ModelArgs,
+    pub model: ModelSettings,
     /// Output: a `.csv` file, an OpenSim storage file (`.sto`), or a folder to write
     /// `simulate.csv` into (default `out/simulate/simulate.csv`).
-    #[arg(long)]
     pub out: Option<PathBuf>,
 }
 
@@ -60,7 +57,7 @@ fn csv_text(trial: &experiment::Trial, sim: &muscle_model::SimOutput) -> String 
 
 /// The OpenSim storage file: `time`, `ankle_angle_r` (degrees), the CSV's torque columns and
 /// `ankle_angle_r_moment` in OpenSim's sign.
-fn sto_text(trial: &experiment::Trial, sim: &muscle_model::SimOutput) -> CmdResult<String> {
+fn sto_text(trial: &experiment::Trial, sim: &muscle_model::SimOutput) -> AppResult<String> {
     let mut labels: Vec<String> = ["time", "ankle_angle_r", "torque_nm"]
         .map(String::from)
         .to_vec();
@@ -82,23 +79,23 @@ fn sto_text(trial: &experiment::Trial, sim: &muscle_model::SimOutput) -> CmdResu
         labels,
         columns,
     })
-    .map_err(Failure::internal)
+    .map_err(AppError::internal)
 }
 
 /// Runs the command.
-pub fn run(args: SimulateArgs) -> CmdResult {
+pub fn run(args: SimulateJob, rep: &Reporter) -> AppResult {
     if let Some(session) = &args.session {
-        return session_out::run(&args, session);
+        return session_out::run(&args, session, rep);
     }
     // a CEINMS trial folder is a session of one
     if let Some(folder) = args.trial.as_deref().filter(|p| p.is_dir()) {
-        return session_out::run(&args, folder);
+        return session_out::run(&args, folder, rep);
     }
     let (params, effects, cfg_inputs) = load_model_config(&args.model)?;
-    let loaded = load_trial(args.trial.as_deref())?;
+    let loaded = load_trial(args.trial.as_deref(), rep)?;
     let inputs = trial_inputs(&loaded, &args.model)?;
     let sim = simulate(&inputs, &params, &effects, &SimSettings::default())
-        .map_err(|e| Failure::bad(format!("{}: simulation failed: {e}", loaded.name)))?;
+        .map_err(|e| AppError::bad(format!("{}: simulation failed: {e}", loaded.name)))?;
     let trial = &loaded.trial;
     let sto = args
         .out
@@ -131,7 +128,7 @@ pub fn run(args: SimulateArgs) -> CmdResult {
         .sqrt();
     let peak = sim.torque.iter().cloned().fold(f64::MIN, f64::max);
     let stats = sim.total_stats();
-    println!(
+    rep.say(&format!(
         "simulate: {} ({} samples), effects: {}",
         loaded.name,
         trial.len(),
@@ -145,8 +142,8 @@ pub fn run(args: SimulateArgs) -> CmdResult {
                 .collect::<Vec<_>>()
                 .join(", ")
         }
-    );
-    println!("  peak model torque      {peak:8.2} N·m");
+    ));
+    rep.say(&format!("  peak model torque      {peak:8.2} N·m"));
     for m in &sim.muscles {
         // a dorsiflexor's torque is negative: its largest pull is its minimum
         let (label, p) = if m.torque.iter().any(|&t| t < 0.0) {
@@ -154,16 +151,16 @@ pub fn run(args: SimulateArgs) -> CmdResult {
         } else {
             ("peak", m.torque.iter().cloned().fold(f64::MIN, f64::max))
         };
-        println!("    {:<4} {label}           {p:8.2} N·m", m.name);
+        rep.say(&format!("    {:<4} {label}           {p:8.2} N·m", m.name));
     }
-    println!("  RMS vs measured torque {rms_diff:8.2} N·m");
-    println!(
+    rep.say(&format!("  RMS vs measured torque {rms_diff:8.2} N·m"));
+    rep.say(&format!(
         "  integrator: {} steps ({} rejected), {} RHS calls over {} muscles",
         stats.accepted,
         stats.rejected,
         stats.rhs_calls,
         sim.muscles.len()
-    );
-    println!("wrote {}", target.display());
+    ));
+    rep.say(&format!("wrote {}", target.display()));
     Ok(())
 }

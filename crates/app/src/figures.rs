@@ -1,7 +1,8 @@
 //! Figures and HTML reports written next to the JSON results (crate `report`).
 
-use crate::error::{CmdResult, Failure};
+use crate::error::{AppError, AppResult};
 use crate::output::OutDir;
+use crate::Reporter;
 use muscle_model::{Muscle, TrialInputs};
 use report::html::Report;
 use std::path::PathBuf;
@@ -34,15 +35,17 @@ pub struct FigureSet<'a> {
     out: &'a OutDir,
     page: Report,
     written: Vec<PathBuf>,
+    rep: Reporter,
 }
 
 impl<'a> FigureSet<'a> {
     /// A new report titled `title` that writes into `out`.
-    pub fn new(out: &'a OutDir, title: &str) -> Self {
+    pub fn new(out: &'a OutDir, title: &str, rep: &Reporter) -> Self {
         Self {
             out,
             page: Report::new(title),
             written: Vec::new(),
+            rep: rep.clone(),
         }
     }
 
@@ -53,22 +56,22 @@ impl<'a> FigureSet<'a> {
 
     /// Adds a figure produced by `make` as `name.svg` and in the page. A
     /// figure that cannot be drawn is reported and skipped, not fatal.
-    pub fn add(&mut self, name: &str, caption: &str, make: report::Result<String>) -> CmdResult {
+    pub fn add(&mut self, name: &str, caption: &str, make: report::Result<String>) -> AppResult {
         match make {
             Ok(svg) => {
                 let p = self.out.write(&format!("{name}.svg"), svg.as_bytes())?;
                 self.page
                     .figure(caption, &svg)
-                    .map_err(|e| Failure::internal(format!("figure {name}: {e}")))?;
+                    .map_err(|e| AppError::internal(format!("figure {name}: {e}")))?;
                 self.written.push(p);
             }
-            Err(e) => crate::warn(format!("figure {name} not drawn: {e}")),
+            Err(e) => self.rep.warn(format!("figure {name} not drawn: {e}")),
         }
         Ok(())
     }
 
     /// Writes `report.html`; returns every file written.
-    pub fn finish(mut self) -> CmdResult<Vec<PathBuf>> {
+    pub fn finish(mut self) -> AppResult<Vec<PathBuf>> {
         let html = self.page.to_html();
         let p = self.out.write("report.html", html.as_bytes())?;
         self.written.push(p);

@@ -15,11 +15,12 @@
 //! diagnosed before anything is written.
 
 use super::super::session::{file_stem, load_session, LoadedSession, SessionTrial};
-use super::super::ModelArgs;
-use super::{diagnosis_json, trial_args, write_figures, Closing, DiagnoseArgs, PLANNED};
-use crate::error::{CmdResult, Failure};
+use super::super::ModelSettings;
+use super::{diagnosis_json, trial_args, write_figures, Closing, DiagnoseJob, PLANNED};
+use crate::error::{AppError, AppResult};
 use crate::output::OutDir;
 use crate::progress::ProgressDisplay;
+use crate::Reporter;
 use diagnose::{DiagnoseSettings, Diagnosis, DiagnosisRecording, SessionDiagnosis, SessionMember};
 use muscle_model::TrialInputs;
 use serde_json::{json, Value};
@@ -47,13 +48,13 @@ struct Diagnosed {
 }
 
 /// Runs `diagnose --session`.
-pub(super) fn run(args: &DiagnoseArgs, session_path: &Path) -> CmdResult {
-    let model = ModelArgs {
+pub(super) fn run(args: &DiagnoseJob, session_path: &Path, rep: &Reporter) -> AppResult {
+    let model = ModelSettings {
         params: args.params.clone(),
         emg_is_envelope: args.emg_is_envelope,
-        ..ModelArgs::default()
+        ..ModelSettings::default()
     };
-    let session = load_session(session_path, &model, None)?;
+    let session = load_session(session_path, &model, None, rep)?;
     let out_dir = args
         .out
         .clone()
@@ -67,13 +68,13 @@ pub(super) fn run(args: &DiagnoseArgs, session_path: &Path) -> CmdResult {
     let input_refs: Vec<&Path> = session.inputs_read.iter().map(|p| p.as_path()).collect();
     let out = OutDir::prepare(&out_dir, &input_refs, &planned_refs)?;
 
-    let show = args.report.show();
+    let show = rep.show();
     let mut done = Vec::with_capacity(session.trials.len());
     for (k, (t, stem)) in session.trials.iter().zip(&stems).enumerate() {
         let label = format!("diag {}/{}", k + 1, session.trials.len());
-        done.push(diagnose_trial(&session, k, t, stem, args, show, &label)?);
+        done.push(diagnose_trial(&session, k, t, stem, args, &label, rep)?);
     }
-    let joint = diagnose_jointly(&session, &done, show)?;
+    let joint = diagnose_jointly(&session, &done, show, rep)?;
 
     // every trial's report ends with the command that identifies the session with the causes
     // of its joint diagnosis
@@ -100,6 +101,7 @@ pub(super) fn run(args: &DiagnoseArgs, session_path: &Path) -> CmdResult {
             &r.d,
             r.span.clone(),
             &closing,
+            rep,
         )?;
         rows.push(session_row(t, r)?);
     }
@@ -108,17 +110,17 @@ pub(super) fn run(args: &DiagnoseArgs, session_path: &Path) -> CmdResult {
         "params": args.params.as_ref().map(|p| p.display().to_string())
             .or_else(|| session.manifest.params.as_ref().map(|p| p.display().to_string())),
     });
-    let joint_json = serde_json::to_value(&joint).map_err(Failure::internal)?;
+    let joint_json = serde_json::to_value(&joint).map_err(AppError::internal)?;
     if let (Some(o), Value::Object(j)) = (doc.as_object_mut(), joint_json) {
         o.extend(j);
         o.insert("trials".into(), Value::Array(rows));
     }
-    let text = serde_json::to_string_pretty(&doc).map_err(Failure::internal)? + "\n";
+    let text = serde_json::to_string_pretty(&doc).map_err(AppError::internal)? + "\n";
     let path = out.write(SESSION_FILE, text.as_bytes())?;
 
-    args.report.print_json(&text);
+    rep.print_json(&text);
     if show {
-        let say = |s: &str| args.report.say(s);
+        let say = |s: &str| rep.say(s);
         for l in session.emg.summary_lines() {
             say(&l);
         }
@@ -153,7 +155,7 @@ pub(super) fn run(args: &DiagnoseArgs, session_path: &Path) -> CmdResult {
 }
 
 /// The trials' folder names; two names that become the same folder are an error.
-fn trial_stems(session: &LoadedSession) -> CmdResult<Vec<String>> {
+fn trial_stems(session: &LoadedSession) -> AppResult<Vec<String>> {
     let mut stems: Vec<String> = Vec::with_capacity(session.trials.len());
     for t in &session.trials {
         let stem = file_stem(&t.name);
@@ -164,7 +166,7 @@ fn trial_stems(session: &LoadedSession) -> CmdResult<Vec<String>> {
             .find(|(_, s)| **s == stem)
             .map(|(o, _)| o)
         {
-            return Err(Failure::bad(format!(
+            return Err(AppError::bad(format!(
                 "{}: trials `{}` and `{}` would share the output folder {stem}/",
                 session.manifest.path.display(),
                 other.name,
@@ -182,12 +184,12 @@ fn diagnose_trial(
     k: usize,
     t: &SessionTrial,
     stem: &str,
-    args: &DiagnoseArgs,
-    show: bool,
+    args: &DiagnoseJob,
     label: &str,
-) -> CmdResult<Diagnosed> {
+    rep: &Reporter,
+) -> AppResult<Diagnosed> {
     let entry = &session.manifest.trials[k];
-    let progress = ProgressDisplay::new(show, 0, label);
+    let progress = rep.progress(0, label);
     let mut observer = |p: &diagnose::DiagnosisProgress| {
         progress.message(format!(
             "{}: {} ({} simulations)",
@@ -197,9 +199,9 @@ fn diagnose_trial(
     };
     let fail = |e: diagnose::DiagnoseError, progress: &ProgressDisplay| {
         if progress.stop_requested() {
-            Failure::Interrupted
+            AppError::Interrupted
         } else {
-            Failure::bad(format!("{}: {e}", t.source))
+            AppError::bad(format!("{}: {e}", t.source))
         }
     };
     let diagnosed = match &t.ceinms {
@@ -223,13 +225,13 @@ fn diagnose_trial(
         None => {
             // the trial as `--trial`/`--unloaded` read it, so that its diagnosis is theirs
             let path = entry.source.path();
-            let model = crate::commands::ModelArgs {
+            let model = crate::jobs::ModelSettings {
                 emg_is_envelope: args.emg_is_envelope,
-                ..crate::commands::ModelArgs::default()
+                ..crate::jobs::ModelSettings::default()
             };
-            let (trial, _) = crate::commands::session::read_session_trial(path, &model)?;
+            let (trial, _) = crate::jobs::session::read_session_trial(path, &model, rep)?;
             let unloaded = match &entry.unloaded {
-                Some(u) => Some(crate::commands::read_unloaded_any(u)?),
+                Some(u) => Some(crate::jobs::read_unloaded_any(u, rep)?),
                 None => None,
             };
             let settings = DiagnoseSettings {
@@ -279,7 +281,8 @@ fn diagnose_jointly(
     session: &LoadedSession,
     done: &[Diagnosed],
     show: bool,
-) -> CmdResult<SessionDiagnosis> {
+    rep: &Reporter,
+) -> AppResult<SessionDiagnosis> {
     if let ([t], [r]) = (session.trials.as_slice(), done) {
         // the trial's diagnosis as `--trial` gives it
         return Ok(SessionDiagnosis::of_one_trial(&t.name, &r.d));
@@ -301,7 +304,7 @@ fn diagnose_jointly(
             }
         })
         .collect();
-    let progress = ProgressDisplay::new(show, 0, "diag session");
+    let progress = ProgressDisplay::new(rep, show, 0, "diag session");
     let mut observer = |p: &diagnose::DiagnosisProgress| {
         progress.message(format!("{} ({} simulations)", p.message, p.evaluations));
         progress.flow()
@@ -309,9 +312,9 @@ fn diagnose_jointly(
     let d = diagnose::diagnose_session(&members, &DiagnoseSettings::default(), &mut observer)
         .map_err(|e| {
             if progress.stop_requested() {
-                Failure::Interrupted
+                AppError::Interrupted
             } else {
-                Failure::bad(format!("{}: {e}", session.manifest.path.display()))
+                AppError::bad(format!("{}: {e}", session.manifest.path.display()))
             }
         })?;
     progress.finish();
@@ -328,7 +331,7 @@ fn weighted_span(w: &[f64]) -> Range<usize> {
 /// The trial's line of `diagnosis_session.json`. For a CEINMS trial it adds the moment's RMS
 /// error and R² of the baseline and final models at the moment file's own samples, the
 /// numbers `identify` and `simulate` report.
-fn session_row(t: &SessionTrial, r: &Diagnosed) -> CmdResult<Value> {
+fn session_row(t: &SessionTrial, r: &Diagnosed) -> AppResult<Value> {
     let d = &r.d;
     let moment_fit = match &t.ceinms {
         Some(_) => {

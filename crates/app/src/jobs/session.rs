@@ -10,8 +10,9 @@
 //! become fixed muscles; `--params` replaces them, or, given an `identify.json`, sets its
 //! identified values over them.
 
-use super::{read_json, read_text, ModelArgs};
-use crate::error::{CmdResult, Failure};
+use super::{read_json, read_text, ModelSettings};
+use crate::error::{AppError, AppResult};
+use crate::Reporter;
 use experiment::ceinms::CeinmsModelTrial;
 use muscle_model::{Effects, ModelParams, ParamId, Problem, ProblemSet};
 use serde_json::{json, Value};
@@ -46,12 +47,12 @@ impl SessionTrial {
     /// The measured torque and a prediction on the inputs' grid, brought to the samples where
     /// the fit is judged: the moment file's own samples for a CEINMS trial, every sample
     /// (corrected torque) otherwise.
-    pub fn judged(&self, prediction: &[f64]) -> CmdResult<(Vec<f64>, Vec<f64>)> {
+    pub fn judged(&self, prediction: &[f64]) -> AppResult<(Vec<f64>, Vec<f64>)> {
         match &self.ceinms {
             Some(c) => {
                 let p = c
                     .at_torque_samples(prediction)
-                    .map_err(|e| Failure::internal(e.to_string()))?;
+                    .map_err(|e| AppError::internal(e.to_string()))?;
                 Ok((c.torque_at_samples.clone(), p))
             }
             None => Ok((self.problem.measured().to_vec(), prediction.to_vec())),
@@ -59,7 +60,7 @@ impl SessionTrial {
     }
 
     /// RMS error (N·m) and R² of `prediction` where the fit is judged.
-    pub fn fit_of(&self, prediction: &[f64]) -> CmdResult<(f64, f64)> {
+    pub fn fit_of(&self, prediction: &[f64]) -> AppResult<(f64, f64)> {
         let (m, p) = self.judged(prediction)?;
         Ok(experiment::ceinms::moment_fit(&m, &p))
     }
@@ -105,12 +106,15 @@ impl LoadedSession {
     /// sampler subtracts the systematic part itself) and its noise side: the unloaded run's
     /// correction and AR(1)+white noise, or, without one, AR(1)+white fitted to the trial's own
     /// residual.
-    pub fn mcmc_trials(&self) -> CmdResult<(Vec<Problem>, Vec<identify_mcmc::NoiseSpec>)> {
+    pub fn mcmc_trials(
+        &self,
+        rep: &Reporter,
+    ) -> AppResult<(Vec<Problem>, Vec<identify_mcmc::NoiseSpec>)> {
         use identify_mcmc::{NoiseKind, NoiseSpec};
         let mut problems = Vec::with_capacity(self.trials.len());
         let mut noises = Vec::with_capacity(self.trials.len());
         for (t, entry) in self.trials.iter().zip(&self.manifest.trials) {
-            let bad = |e: &dyn std::fmt::Display| Failure::bad(format!("{}: {e}", t.source));
+            let bad = |e: &dyn std::fmt::Display| AppError::bad(format!("{}: {e}", t.source));
             let p = &t.problem;
             let mut raw = Problem::new(
                 p.inputs().clone(),
@@ -128,7 +132,7 @@ impl LoadedSession {
             let noise = match &t.correction {
                 Some(c) => {
                     // the correction is placed at the trial's own motion events
-                    let (trial, _, _) = read_trial_or_map(entry.source.path())?;
+                    let (trial, _, _) = read_trial_or_map(entry.source.path(), rep)?;
                     NoiseSpec::from_correction(&trial, c, NoiseKind::Ar1White)
                         .map_err(|e| bad(&e))?
                 }
@@ -141,9 +145,9 @@ impl LoadedSession {
     }
 
     /// The trials' problems as one set.
-    pub fn problem_set(&self) -> CmdResult<ProblemSet> {
+    pub fn problem_set(&self) -> AppResult<ProblemSet> {
         ProblemSet::new(self.trials.iter().map(|t| t.problem.clone()).collect())
-            .map_err(|e| Failure::bad(format!("{}: {e}", self.manifest.path.display())))
+            .map_err(|e| AppError::bad(format!("{}: {e}", self.manifest.path.display())))
     }
 }
 
@@ -156,7 +160,7 @@ pub fn load_params_file(
     osim: &opensim_files::OsimMuscleNames,
     fixed: &[String],
     base: &ModelParams,
-) -> CmdResult<(ModelParams, Option<Effects>)> {
+) -> AppResult<(ModelParams, Option<Effects>)> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
@@ -171,13 +175,13 @@ pub fn load_params_file(
                 osim,
                 &ModelParams::nominal(),
             )
-            .map_err(Failure::bad)?;
+            .map_err(AppError::bad)?;
             Ok((p, None))
         }
         "xml" => {
-            let subject = ceinms_files::read_subject(path).map_err(Failure::bad)?;
+            let subject = ceinms_files::read_subject(path).map_err(AppError::bad)?;
             let p =
-                experiment::ceinms::ceinms_model_params(&subject, fixed).map_err(Failure::bad)?;
+                experiment::ceinms::ceinms_model_params(&subject, fixed).map_err(AppError::bad)?;
             Ok((p.params, None))
         }
         _ => {
@@ -188,7 +192,7 @@ pub fn load_params_file(
             }
             let p = ModelParams::nominal()
                 .merged_json(&value)
-                .map_err(|e| Failure::bad(format!("{name}: {e}")))?;
+                .map_err(|e| AppError::bad(format!("{name}: {e}")))?;
             Ok((p, None))
         }
     }
@@ -200,27 +204,27 @@ fn identified_over(
     doc: &Value,
     base: &ModelParams,
     name: &str,
-) -> CmdResult<(ModelParams, Effects)> {
+) -> AppResult<(ModelParams, Effects)> {
     let mut effects = match doc.get("effects") {
         Some(v) => {
-            Effects::from_json(v).map_err(|e| Failure::bad(format!("{name}: effects: {e}")))?
+            Effects::from_json(v).map_err(|e| AppError::bad(format!("{name}: effects: {e}")))?
         }
         None => Effects::none(),
     };
     let mut params = *base;
     let map = doc["params"]
         .as_object()
-        .ok_or_else(|| Failure::bad(format!("{name}: params: expected an object")))?;
+        .ok_or_else(|| AppError::bad(format!("{name}: params: expected an object")))?;
     for (k, v) in map {
-        let id = ParamId::parse(k).map_err(|e| Failure::bad(format!("{name}: params: {e}")))?;
+        let id = ParamId::parse(k).map_err(|e| AppError::bad(format!("{name}: params: {e}")))?;
         let x = v
             .as_f64()
-            .ok_or_else(|| Failure::bad(format!("{name}: params.{k}: expected a number")))?;
+            .ok_or_else(|| AppError::bad(format!("{name}: params.{k}: expected a number")))?;
         id.set(&mut params, &mut effects, x);
     }
     params
         .validate()
-        .map_err(|e| Failure::bad(format!("{name}: {e}")))?;
+        .map_err(|e| AppError::bad(format!("{name}: {e}")))?;
     Ok((params, effects))
 }
 
@@ -239,14 +243,15 @@ struct LoadedCsv {
 /// (`--params`), effects (`--effects`) and EMG handling; `free` overrides its free parameters.
 pub fn load_session(
     path: &Path,
-    model: &ModelArgs,
+    model: &ModelSettings,
     free: Option<&[String]>,
-) -> CmdResult<LoadedSession> {
+    rep: &Reporter,
+) -> AppResult<LoadedSession> {
     // a CEINMS trial folder given as `--trial` is a session of one
     let manifest = if path.is_dir() {
         SessionManifest::of_recording(path)
     } else {
-        session::read_session_manifest(path).map_err(Failure::bad)?
+        session::read_session_manifest(path).map_err(AppError::bad)?
     };
     let mut read = if path.is_dir() {
         Vec::new()
@@ -266,7 +271,7 @@ pub fn load_session(
         match &t.source {
             TrialSource::Recording(_) if p.is_dir() => {
                 if t.unloaded.is_some() || t.knee_angle_deg.is_some() {
-                    return Err(Failure::bad(format!(
+                    return Err(AppError::bad(format!(
                         "{}: trial {}: a CEINMS recording has no unloaded run or knee angle \
                          (its lengths and moment arms already hold the knee's)",
                         manifest.path.display(),
@@ -274,7 +279,7 @@ pub fn load_session(
                     )));
                 }
                 let c = experiment::ceinms::read_ceinms_trial(p, ceinms_files::DEFAULT_JOINT)
-                    .map_err(Failure::bad)?;
+                    .map_err(AppError::bad)?;
                 for m in &c.muscles {
                     if !ceinms_muscles.contains(m) {
                         ceinms_muscles.push(m.clone());
@@ -283,7 +288,7 @@ pub fn load_session(
                 loaded.push(Loaded::Ceinms(Box::new(c)));
             }
             TrialSource::Recording(_) if recording::file_kind(p) != recording::FileKind::Map => {
-                return Err(Failure::bad(format!(
+                return Err(AppError::bad(format!(
                     "{}: trial {}: recording {} is not a CEINMS trial folder (a folder with \
                      emg.txt, lmt.txt, R_ankle_feMa.txt and R_ankle_feTorque.txt) nor a \
                      recording map (.json)",
@@ -293,7 +298,7 @@ pub fn load_session(
                 )));
             }
             TrialSource::Csv(_) | TrialSource::Recording(_) => {
-                let (mut trial, geometry) = read_session_trial(p, model)?;
+                let (mut trial, geometry) = read_session_trial(p, model, rep)?;
                 // the recording as recorded is what its checks judge
                 let checks = super::inspect::trial_checks(&super::LoadedTrial {
                     trial: trial.clone(),
@@ -312,7 +317,7 @@ pub fn load_session(
                     ..diagnose::DiagnoseSettings::default()
                 };
                 let crosstalk = diagnose::emg_crosstalk(&trial, &settings).map_err(|e| {
-                    Failure::bad(format!(
+                    AppError::bad(format!(
                         "{}: trial {}: {e}",
                         manifest.path.display(),
                         t.name
@@ -324,7 +329,7 @@ pub fn load_session(
                 let unloaded = match &t.unloaded {
                     Some(u) => {
                         read.push(u.clone());
-                        let un = super::read_unloaded_any(u)?;
+                        let un = super::read_unloaded_any(u, rep)?;
                         super::check_unloaded(
                             &trial,
                             &p.display().to_string(),
@@ -355,7 +360,7 @@ pub fn load_session(
             Loaded::Ceinms(_) => None,
         })
         .collect();
-    let emg = session_emg_references(&manifest, &csv_trials, model, &mut read)?;
+    let emg = session_emg_references(&manifest, &csv_trials, model, &mut read, rep)?;
 
     // parameters: the session's, replaced by --params or with an identify.json over them
     let osim = opensim_files::OsimMuscleNames::renamed(
@@ -364,7 +369,7 @@ pub fn load_session(
             .iter()
             .map(|(k, v)| (k.as_str(), v.as_str())),
     )
-    .map_err(|e| Failure::bad(format!("{}: {e}", manifest.path.display())))?;
+    .map_err(|e| AppError::bad(format!("{}: {e}", manifest.path.display())))?;
     let mut params = ModelParams::nominal();
     let mut effects_from_params = None;
     if let Some(p) = &manifest.params {
@@ -392,8 +397,8 @@ pub fn load_session(
     let free: Vec<ParamId> = match free_names {
         Some(names) => names
             .iter()
-            .map(|n| ParamId::parse(n).map_err(|e| Failure::bad(format!("--free {n}: {e}"))))
-            .collect::<CmdResult<_>>()?,
+            .map(|n| ParamId::parse(n).map_err(|e| AppError::bad(format!("--free {n}: {e}"))))
+            .collect::<AppResult<_>>()?,
         None => ParamId::identified().to_vec(),
     };
     let bounds: Vec<(f64, f64)> = free
@@ -408,7 +413,7 @@ pub fn load_session(
         .collect();
     for name in manifest.bounds.keys() {
         if !free.iter().any(|id| &id.name() == name) {
-            return Err(Failure::bad(format!(
+            return Err(AppError::bad(format!(
                 "{}: bounds.{name}: not a free parameter of this identification",
                 manifest.path.display()
             )));
@@ -418,7 +423,7 @@ pub fn load_session(
     let mut trials = Vec::with_capacity(loaded.len());
     for (entry, l) in manifest.trials.iter().zip(loaded) {
         let source = entry.source.path().display().to_string();
-        let bad = |e: &dyn std::fmt::Display| Failure::bad(format!("{source}: {e}"));
+        let bad = |e: &dyn std::fmt::Display| AppError::bad(format!("{source}: {e}"));
         let trial = match l {
             Loaded::Csv(csv) => {
                 let LoadedCsv {
@@ -437,7 +442,7 @@ pub fn load_session(
                     .map_err(|e| bad(&e))?;
                 let mut inputs =
                     experiment::model_inputs_referenced(&trial, &opts, &emg.references, &source)
-                        .map_err(Failure::bad)?;
+                        .map_err(AppError::bad)?;
                 if let Some(g) = &entry.geometry {
                     inputs = with_muscle_analysis(inputs, g, &params, &osim)?;
                 }
@@ -571,16 +576,17 @@ const MVC_EXCESS_WARNING: f64 = 0.10;
 fn session_emg_references(
     manifest: &SessionManifest,
     trials: &[(&str, &experiment::Trial)],
-    model: &ModelArgs,
+    model: &ModelSettings,
     read: &mut Vec<PathBuf>,
-) -> CmdResult<SessionEmgNormalisation> {
+    rep: &Reporter,
+) -> AppResult<SessionEmgNormalisation> {
     let opts = experiment::InputOptions {
         emg_is_envelope: model.emg_is_envelope,
         ..experiment::InputOptions::default()
     };
     if model.emg_is_envelope || trials.is_empty() {
         if !manifest.mvc.is_empty() {
-            crate::warn(format!(
+            rep.warn(format!(
                 "{}: mvc: not used: {}",
                 manifest.path.display(),
                 if trials.is_empty() {
@@ -603,7 +609,7 @@ fn session_emg_references(
         .zip(trials)
     {
         let name = entry.source.path().display().to_string();
-        trial_peaks.push(experiment::envelope_peaks(trial, &opts, &name).map_err(Failure::bad)?);
+        trial_peaks.push(experiment::envelope_peaks(trial, &opts, &name).map_err(AppError::bad)?);
     }
     let session_max = experiment::EmgReferences::largest(&trial_peaks);
     if manifest.mvc.is_empty() {
@@ -615,17 +621,17 @@ fn session_emg_references(
     let mut mvc_peaks = Vec::with_capacity(manifest.mvc.len());
     for p in &manifest.mvc {
         read.push(p.clone());
-        let (t, _) = read_session_trial(p, model)?;
+        let (t, _) = read_session_trial(p, model, rep)?;
         mvc_peaks.push(
             experiment::envelope_peaks(&t, &opts, &p.display().to_string())
-                .map_err(Failure::bad)?,
+                .map_err(AppError::bad)?,
         );
     }
     let mut refs = experiment::EmgReferences::largest(&mvc_peaks);
     for (channel, v) in session_max.iter() {
         match refs.get(channel) {
             None => {
-                crate::warn(format!(
+                rep.warn(format!(
                     "{}: mvc: no MVC trial has emg_{channel}; that channel is normalised by its \
                      largest envelope over the session's trials",
                     manifest.path.display()
@@ -638,7 +644,7 @@ fn session_emg_references(
                     .zip(&trial_peaks)
                     .find(|(_, p)| p.get(channel) == Some(v))
                     .map_or("?", |((n, _), _)| *n);
-                crate::warn(format!(
+                rep.warn(format!(
                     "{}: trial {name}: the emg_{channel} envelope reaches {:.0} % of the MVC \
                      reference; its normalised envelope is clipped at 1",
                     manifest.path.display(),
@@ -664,10 +670,10 @@ fn with_muscle_analysis(
     g: &session::GeometryFiles,
     params: &ModelParams,
     osim: &opensim_files::OsimMuscleNames,
-) -> CmdResult<muscle_model::TrialInputs> {
-    let read = |p: &Path| -> CmdResult<opensim_files::StoTable> {
+) -> AppResult<muscle_model::TrialInputs> {
+    let read = |p: &Path| -> AppResult<opensim_files::StoTable> {
         let text = read_text(p)?;
-        opensim_files::read_sto(&text, &p.display().to_string()).map_err(Failure::bad)
+        opensim_files::read_sto(&text, &p.display().to_string()).map_err(AppError::bad)
     };
     let (lengths, arms) = (read(&g.lengths)?, read(&g.moment_arms)?);
     let times = inputs.times().to_vec();
@@ -690,9 +696,9 @@ fn with_muscle_analysis(
         let series = |file: &Path, table: &opensim_files::StoTable, v: &[f64]| {
             let t = table
                 .time()
-                .ok_or_else(|| Failure::bad(format!("{}: no time column", file.display())))?;
+                .ok_or_else(|| AppError::bad(format!("{}: no time column", file.display())))?;
             if t.first().is_none_or(|&a| a > t0 + 1e-9) || t.last().is_none_or(|&b| b < t1 - 1e-9) {
-                return Err(Failure::bad(format!(
+                return Err(AppError::bad(format!(
                     "{}: covers {:.3}–{:.3} s, the trial {t0:.3}–{t1:.3} s",
                     file.display(),
                     t.first().copied().unwrap_or(f64::NAN),
@@ -700,7 +706,7 @@ fn with_muscle_analysis(
                 )));
             }
             numerics::interpolate::resample_linear(t, v, &times)
-                .map_err(|e| Failure::bad(format!("{}: {column}: {e}", file.display())))
+                .map_err(|e| AppError::bad(format!("{}: {column}: {e}", file.display())))
         };
         let lmt_m = series(&g.lengths, &lengths, l)?;
         let moment_arm_m = series(&g.moment_arms, &arms, r)?
@@ -715,11 +721,11 @@ fn with_muscle_analysis(
                     moment_arm_m,
                 },
             )
-            .map_err(|e| Failure::bad(format!("{}: {column}: {e}", g.lengths.display())))?;
+            .map_err(|e| AppError::bad(format!("{}: {column}: {e}", g.lengths.display())))?;
         found += 1;
     }
     if found == 0 {
-        return Err(Failure::bad(format!(
+        return Err(AppError::bad(format!(
             "{}: no column for any muscle of the model (looked for {}, {}, {} and the fixed \
              muscles' names)",
             g.lengths.display(),
@@ -736,11 +742,12 @@ fn with_muscle_analysis(
 /// the session normalises every trial's EMG alike.
 pub fn read_session_trial(
     p: &Path,
-    model: &ModelArgs,
-) -> CmdResult<(experiment::Trial, Vec<recording::MappedGeometry>)> {
-    let (trial, geometry, envelopes) = read_trial_or_map(p)?;
+    model: &ModelSettings,
+    rep: &Reporter,
+) -> AppResult<(experiment::Trial, Vec<recording::MappedGeometry>)> {
+    let (trial, geometry, envelopes) = read_trial_or_map(p, rep)?;
     if envelopes && !model.emg_is_envelope {
-        return Err(Failure::bad(format!(
+        return Err(AppError::bad(format!(
             "{}: emg_is_envelope: in a session every trial's EMG is read alike: give \
              --emg-is-envelope for the session",
             p.display()
@@ -753,18 +760,19 @@ pub fn read_session_trial(
 /// whether it says its EMG is envelopes already.
 fn read_trial_or_map(
     p: &Path,
-) -> CmdResult<(experiment::Trial, Vec<recording::MappedGeometry>, bool)> {
+    rep: &Reporter,
+) -> AppResult<(experiment::Trial, Vec<recording::MappedGeometry>, bool)> {
     if recording::file_kind(p) != recording::FileKind::Map {
         return Ok((
-            experiment::read_trial(p).map_err(Failure::bad)?,
+            experiment::read_trial(p).map_err(AppError::bad)?,
             Vec::new(),
             false,
         ));
     }
-    let map = recording::read_map(p).map_err(Failure::bad)?;
-    let rec = recording::read_trial_recording(&map).map_err(Failure::bad)?;
+    let map = recording::read_map(p).map_err(AppError::bad)?;
+    let rec = recording::read_trial_recording(&map).map_err(AppError::bad)?;
     for n in &rec.notes {
-        crate::warn(format!("{}: {n}", p.display()));
+        rep.warn(format!("{}: {n}", p.display()));
     }
     Ok((rec.trial, rec.geometry, rec.emg_is_envelope))
 }

@@ -1,6 +1,7 @@
 //! `surae design`: the expected posterior sd of each identified parameter under candidate
 //! protocols, from the Fisher information of the model (crate `design`, `docs/design.md`).
 
+use crate::Reporter;
 use std::path::{Path, PathBuf};
 
 use design::{
@@ -9,77 +10,67 @@ use design::{
 };
 use serde_json::{json, Map, Value};
 
-use super::{load_model_config, ModelArgs, ReportArgs};
-use crate::error::{CmdResult, Failure};
+use super::{load_model_config, ModelSettings};
+use crate::error::{AppError, AppResult};
 use crate::output::OutDir;
 
 /// Arguments of `surae design`.
-#[derive(clap::Args, Debug)]
-pub struct DesignArgs {
+#[derive(Debug)]
+pub struct DesignJob {
     /// A candidate protocol: trials separated by commas, each `knee<deg>@<speed>` with an
     /// optional `x<cycles>` (e.g. `knee0@30,knee90@30,knee0@60`, `knee0@30x2`). Repeat the
     /// option to compare protocols.
-    #[arg(long, required = true, value_name = "P")]
     pub protocol: Vec<String>,
     /// An unloaded run (CSV) whose random error (AR(1) + white) replaces the synthetic
     /// dynamometer's noise.
-    #[arg(long, value_name = "U.csv")]
     pub unloaded: Option<PathBuf>,
     /// The design point: a parameters JSON, an OpenSim model (`.osim`), a CEINMS subject XML or
     /// an `identify.json` (nominal parameters when omitted).
-    #[arg(long, value_name = "P.json|.osim")]
     pub params: Option<PathBuf>,
     /// With an `.osim` `--params`: the model's names of sol, gm and gl.
-    #[arg(long, value_delimiter = ',', value_name = "MUSCLE=NAME")]
     pub osim_muscles: Vec<String>,
     /// Prior sd of each trial's constant torque offset left after the unloaded run's
     /// correction (N·m), integrated out; 0 treats the offset as known.
-    #[arg(long, default_value_t = design::OFFSET_PRIOR_SD_NM, value_name = "NM", allow_negative_numbers = true)]
     pub offset_sd: f64,
     /// EMG realisations (synthetic EMG seeds) each trial's information is averaged over.
-    #[arg(long, default_value_t = design::DEFAULT_EMG_DRAWS, value_name = "N")]
     pub emg_draws: usize,
     /// First EMG seed (realisation k uses seed + k).
-    #[arg(long, default_value_t = design::DEFAULT_EMG_SEED)]
     pub emg_seed: u64,
     /// Output folder (default `out/design`): `design.json`, `design.svg`.
-    #[arg(long)]
     pub out: Option<PathBuf>,
-    #[command(flatten)]
-    pub report: ReportArgs,
 }
 
 /// Runs the command.
-pub fn run(args: DesignArgs) -> CmdResult {
+pub fn run(args: DesignJob, rep: &Reporter) -> AppResult {
     let protocols = args
         .protocol
         .iter()
         .map(|p| {
             p.parse::<DesignProtocol>()
-                .map_err(|e| Failure::bad(format!("--{e}")))
+                .map_err(|e| AppError::bad(format!("--{e}")))
         })
-        .collect::<CmdResult<Vec<_>>>()?;
+        .collect::<AppResult<Vec<_>>>()?;
     if !(args.offset_sd.is_finite() && args.offset_sd >= 0.0) {
-        return Err(Failure::bad(format!(
+        return Err(AppError::bad(format!(
             "--offset-sd {}: must be finite and ≥ 0",
             args.offset_sd
         )));
     }
     if !(1..=1000).contains(&args.emg_draws) {
-        return Err(Failure::bad(format!(
+        return Err(AppError::bad(format!(
             "--emg-draws {}: must be 1 to 1000",
             args.emg_draws
         )));
     }
-    let model = ModelArgs {
+    let model = ModelSettings {
         params: args.params.clone(),
         osim_muscles: args.osim_muscles.clone(),
-        ..ModelArgs::default()
+        ..ModelSettings::default()
     };
     let (mut params, _, read) = load_model_config(&model)?;
     if !params.fixed.is_empty() {
         let names: Vec<&str> = params.fixed.iter().map(|f| f.name).collect();
-        crate::warn(format!(
+        rep.warn(format!(
             "{}: the fixed muscles {} are left out (the design's synthetic trials have EMG for \
              sol, gm and gl only)",
             args.params
@@ -90,7 +81,10 @@ pub fn run(args: DesignArgs) -> CmdResult {
         params.fixed = Default::default();
     }
     let (noise, noise_source) = match &args.unloaded {
-        Some(p) => (noise_of_unloaded(p)?, Value::from(p.display().to_string())),
+        Some(p) => (
+            noise_of_unloaded(p, rep)?,
+            Value::from(p.display().to_string()),
+        ),
         None => (DesignNoise::synthetic(), Value::from("synthetic")),
     };
     let offset = if args.offset_sd > 0.0 {
@@ -119,23 +113,23 @@ pub fn run(args: DesignArgs) -> CmdResult {
         .iter()
         .flat_map(DesignProtocol::trial_names)
         .collect();
-    if args.report.show() {
-        eprintln!(
+    if rep.show() {
+        rep.note(&format!(
             "design: {} protocol(s), {} distinct trial(s) × {} EMG realisation(s) …",
             protocols.len(),
             distinct.len(),
             args.emg_draws
-        );
+        ));
     }
     let infos = trial_informations(&protocols, &params, &noise, &settings)
-        .map_err(|e| Failure::bad(format!("design: {e}")))?;
+        .map_err(|e| AppError::bad(format!("design: {e}")))?;
     let mut rows = Vec::with_capacity(protocols.len());
     let mut known = Vec::with_capacity(protocols.len());
     for p in &protocols {
         let u = uncertainty_of(p, &infos, &params, offset)
-            .map_err(|e| Failure::bad(format!("design: {e}")))?;
+            .map_err(|e| AppError::bad(format!("design: {e}")))?;
         let k = uncertainty_of(p, &infos, &params, OffsetTreatment::Known)
-            .map_err(|e| Failure::bad(format!("design: {e}")))?;
+            .map_err(|e| AppError::bad(format!("design: {e}")))?;
         rows.push(u);
         known.push(k);
     }
@@ -153,7 +147,7 @@ pub fn run(args: DesignArgs) -> CmdResult {
         "emg": {"first_seed": args.emg_seed, "draws": args.emg_draws},
         "jacobian": {"rel_step": settings.jacobian.rel_step, "rtol": settings.jacobian.sim.rtol},
     });
-    let text = serde_json::to_string_pretty(&doc).map_err(Failure::internal)? + "\n";
+    let text = serde_json::to_string_pretty(&doc).map_err(AppError::internal)? + "\n";
     let json_path = out.write("design.json", text.as_bytes())?;
 
     let names: Vec<String> = rows[0]
@@ -179,11 +173,11 @@ pub fn run(args: DesignArgs) -> CmdResult {
         Ok(svg) => {
             out.write("design.svg", svg.as_bytes())?;
         }
-        Err(e) => crate::warn(format!("figure design not drawn: {e}")),
+        Err(e) => rep.warn(format!("figure design not drawn: {e}")),
     }
 
-    args.report.print_json(&text);
-    args.report.say(&format!(
+    rep.print_json(&text);
+    rep.say(&format!(
         "design: expected posterior sd, % of the value at the design point ({}; noise {}: AR(1) \
          {:.2} N·m, {:.3} s, white {:.2} N·m; offset prior sd {} N·m)",
         args.params
@@ -196,9 +190,9 @@ pub fn run(args: DesignArgs) -> CmdResult {
         args.offset_sd
     ));
     for line in table(&rows, &names) {
-        args.report.say(&line);
+        rep.say(&line);
     }
-    args.report.say(&format!(
+    rep.say(&format!(
         "  (* = not identifiable: sd with the bounds' prior above half the prior sd)\n  wrote {}",
         json_path.display()
     ));
@@ -206,11 +200,11 @@ pub fn run(args: DesignArgs) -> CmdResult {
 }
 
 /// The random part of an unloaded run's dynamometer correction.
-fn noise_of_unloaded(path: &Path) -> CmdResult<DesignNoise> {
-    let u = super::read_unloaded_any(path)?;
+fn noise_of_unloaded(path: &Path, rep: &Reporter) -> AppResult<DesignNoise> {
+    let u = super::read_unloaded_any(path, rep)?;
     let c = experiment::DynamometerCorrection::from_unloaded(&u)
-        .map_err(|e| Failure::bad(format!("{}: {e}", path.display())))?;
-    DesignNoise::from_correction(&c).map_err(|e| Failure::bad(format!("{}: {e}", path.display())))
+        .map_err(|e| AppError::bad(format!("{}: {e}", path.display())))?;
+    DesignNoise::from_correction(&c).map_err(|e| AppError::bad(format!("{}: {e}", path.display())))
 }
 
 fn by_name(u: &ProtocolUncertainty, f: impl Fn(&design::ParamUncertainty) -> Value) -> Value {

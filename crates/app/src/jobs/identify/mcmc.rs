@@ -8,7 +8,7 @@ pub(super) fn mcmc_figures(
     set: &mut FigureSet<'_>,
     prep: &Prepared,
     m: &identify_mcmc::McmcIdentification,
-) -> CmdResult {
+) -> AppResult {
     let truth = prep
         .truth
         .as_ref()
@@ -21,7 +21,7 @@ pub(super) fn posterior_figures(
     set: &mut FigureSet<'_>,
     truth: Option<Vec<f64>>,
     m: &identify_mcmc::McmcIdentification,
-) -> CmdResult {
+) -> AppResult {
     let labels: Vec<String> = m.names.iter().map(|n| report::param_label(n)).collect();
     let names: Vec<&str> = labels.iter().map(|s| s.as_str()).collect();
     let draws = &m.run.draws;
@@ -68,7 +68,7 @@ pub(super) fn posterior_figures(
     }
     set.page()
         .table("Posterior", &headers, &rows)
-        .map_err(|e| Failure::internal(e.to_string()))?;
+        .map_err(|e| AppError::internal(e.to_string()))?;
     let corr: Vec<Vec<String>> = m
         .correlations
         .iter()
@@ -77,7 +77,7 @@ pub(super) fn posterior_figures(
         .collect();
     set.page()
         .table("Strongest posterior correlations", &["a", "b", "r"], &corr)
-        .map_err(|e| Failure::internal(e.to_string()))?;
+        .map_err(|e| AppError::internal(e.to_string()))?;
     set.add(
         "traces",
         "Trace plots of the kept draws, one colour per chain (dissertation Figs. 16–17)",
@@ -123,7 +123,7 @@ pub(super) fn posterior_figures(
 pub(super) fn mcmc_settings(
     seed: u64,
     max_iterations: Option<usize>,
-) -> CmdResult<identify_mcmc::McmcIdentifySettings> {
+) -> AppResult<identify_mcmc::McmcIdentifySettings> {
     let mut settings = identify_mcmc::McmcIdentifySettings::default();
     settings.mcmc.seed = seed;
     if let Some(n) = max_iterations {
@@ -131,7 +131,7 @@ pub(super) fn mcmc_settings(
         settings
             .mcmc
             .validate()
-            .map_err(|e| Failure::bad(format!("--max-iterations {n}: {e}")))?;
+            .map_err(|e| AppError::bad(format!("--max-iterations {n}: {e}")))?;
     }
     Ok(settings)
 }
@@ -142,9 +142,10 @@ pub(super) fn sample(
     settings: &identify_mcmc::McmcIdentifySettings,
     show: bool,
     what: &str,
-) -> CmdResult<identify_mcmc::McmcIdentification> {
+    rep: &Reporter,
+) -> AppResult<identify_mcmc::McmcIdentification> {
     let cap = settings.mcmc.max_total as u64;
-    let progress = ProgressDisplay::new(show, cap, "MCMC");
+    let progress = ProgressDisplay::new(rep, show, cap, "MCMC");
     let m =
         identify_mcmc::identify_session(trials, settings, |p: &identify_mcmc::ChainProgress| {
             progress.chain(0, p.iterations as u64, f64::NAN);
@@ -154,10 +155,10 @@ pub(super) fn sample(
             ));
             progress.flow()
         })
-        .map_err(|e| Failure::bad(format!("{what}: identification failed: {e}")))?;
+        .map_err(|e| AppError::bad(format!("{what}: identification failed: {e}")))?;
     progress.finish();
     if progress.stop_requested() {
-        return Err(Failure::Interrupted);
+        return Err(AppError::Interrupted);
     }
     Ok(m)
 }
@@ -318,7 +319,8 @@ pub(super) fn run_mcmc(
     seed: u64,
     max_iterations: Option<usize>,
     show: bool,
-) -> CmdResult<Outcome> {
+    rep: &Reporter,
+) -> AppResult<Outcome> {
     use identify_mcmc::{NoiseKind, NoiseSpec, SessionTrialLikelihood};
     // The sampler corrects the raw torque itself (NoiseSpec carries the
     // systematic part), so it gets the problem on the torque as measured.
@@ -329,10 +331,10 @@ pub(super) fn run_mcmc(
         *prep.problem.base_effects(),
         prep.problem.free().to_vec(),
     )
-    .map_err(|e| Failure::internal(e.to_string()))?;
+    .map_err(|e| AppError::internal(e.to_string()))?;
     let noise = match &prep.correction {
         Some(c) => NoiseSpec::from_correction(&prep.loaded.trial, c, NoiseKind::Ar1White)
-            .map_err(|e| Failure::bad(format!("{}: {e}", prep.loaded.name)))?,
+            .map_err(|e| AppError::bad(format!("{}: {e}", prep.loaded.name)))?,
         None => NoiseSpec::from_residual(NoiseKind::Ar1White),
     };
     let settings = mcmc_settings(seed, max_iterations)?;
@@ -340,13 +342,13 @@ pub(super) fn run_mcmc(
         problem: &problem,
         noise: &noise,
     };
-    let m = sample(&[trial], &settings, show, &prep.loaded.name)?;
+    let m = sample(&[trial], &settings, show, &prep.loaded.name, rep)?;
     let mean = m.mean();
     // prediction on the corrected scale, like the SA figures
     let prediction = prep
         .problem
         .predict(&mean)
-        .map_err(|e| Failure::internal(format!("simulation of the posterior mean failed: {e}")))?;
+        .map_err(|e| AppError::internal(format!("simulation of the posterior mean failed: {e}")))?;
     let fit = experiment::ceinms::moment_fit(prep.problem.measured(), &prediction);
     let trials = vec![trial_entry(&prep.loaded.name, &m.trials[0], fit)];
     let lines = summary_lines(&prep.loaded.name, &m, &trials);

@@ -7,18 +7,21 @@ mod mcmc;
 mod other_tools;
 mod with;
 
-use super::{load_model_config, load_trial, load_unloaded, trial_inputs, LoadedTrial, ModelArgs};
-use crate::error::{CmdResult, Failure};
+use super::{
+    load_model_config, load_trial, load_unloaded, trial_inputs, LoadedTrial, ModelSettings,
+};
+use crate::error::{AppError, AppResult};
 use crate::figures::{self, FigureSet};
 use crate::output::OutDir;
 use crate::progress::ProgressDisplay;
+use crate::Reporter;
 use muscle_model::{EffectKind, Effects, ModelParams, ParamId, Problem};
 use serde_json::{json, Map, Value};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// Identification method.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Method {
     /// Simulated annealing (eq. 13 acceptance) with a Levenberg–Marquardt polish.
     Sa,
@@ -52,28 +55,19 @@ const PLANNED: &[&str] = &[
 ];
 
 /// Arguments of `surae identify`.
-#[derive(clap::Args, Debug)]
-pub struct IdentifyArgs {
+#[derive(Debug)]
+pub struct IdentifyJob {
     /// `sa` (simulated annealing) or `mcmc` (Metropolis–Hastings).
-    #[arg(long, value_enum)]
     pub method: Method,
     /// Trial: a trial CSV, a recording map (`.json`) of a lab's files, or a CEINMS trial folder (a session of one) (docs/formats.md);
     /// the bundled seed trial (and its unloaded run) when omitted.
-    #[arg(long, conflicts_with = "session")]
     pub trial: Option<PathBuf>,
     /// Session manifest (docs/formats.md): several trials of one subject identified together,
     /// with the session's parameters and free parameters.
-    #[arg(long)]
     pub session: Option<PathBuf>,
     /// The parameters to identify, comma-separated (e.g.
     /// `sol.lst_m,sol.fom_n,activation.shape_a,electromechanical_delay.delay_ms`); default LST,
     /// F0 and α0 of sol, gm and gl. With --session only.
-    #[arg(
-        long,
-        value_delimiter = ',',
-        requires = "session",
-        value_name = "NAMES"
-    )]
     pub free: Option<Vec<String>>,
     /// Catalogued effects whose parameters are identified with the muscles', comma-separated
     /// (e.g. `electromechanical_delay,passive_joint_torque`): torque_offset,
@@ -83,47 +77,32 @@ pub struct IdentifyArgs {
     /// value in --effects, or at its null value, and has a uniform prior on its range. With
     /// --session its parameters join the free ones, shared by the trials (a per-trial effect,
     /// torque_offset or gravity, is refused in a session of several trials).
-    #[arg(long = "with", value_delimiter = ',', value_name = "EFFECTS")]
     pub with_effects: Option<Vec<String>>,
     /// SA only: number of annealing chains (starts); chain 0 starts from the base values, the
     /// others from random points. Default 4.
-    #[arg(long, value_name = "N")]
     pub chains: Option<u32>,
     /// Unloaded run CSV (`time_s, ankle_angle_deg, torque_nm`): its cycle-locked
     /// error is removed from the measured torque and its noise sets the likelihood.
-    #[arg(long)]
     pub unloaded: Option<PathBuf>,
     /// Seed of every random choice (results do not depend on the thread count).
-    #[arg(long, default_value_t = 42)]
     pub seed: u64,
     /// True parameters (a parameters JSON, docs/formats.md, or a fixture's `truth.json`):
     /// adds `errors_pct`. The bundled trial's truth is used when no `--trial` is given.
-    #[arg(long)]
     pub truth: Option<PathBuf>,
     /// MCMC only: cap on the iterations per chain (warm-up and sampling). A
     /// run that reaches it before R̂ < 1.01 and bulk ESS ≥ 400 reports
     /// `"converged": false`. Default: the sampler's documented cap.
-    #[arg(long, value_name = "N")]
     pub max_iterations: Option<usize>,
-    #[command(flatten)]
-    pub model: ModelArgs,
+    pub model: ModelSettings,
     /// Output folder (default `out/identify`).
-    #[arg(long)]
     pub out: Option<PathBuf>,
-    #[command(flatten)]
-    pub report: super::ReportArgs,
-}
-
-/// Reads a truth file: a parameters JSON, or an object with a `params` member.
-pub fn read_truth(path: &Path, text: &str) -> CmdResult<ModelParams> {
-    read_truth_model(path, text).map(|(p, _)| p)
 }
 
 /// Reads a truth file with its effects: a parameters JSON (no effect), or an object with a
 /// `params` member and, as a fixture's `truth.json` has, an `effects` member.
-pub fn read_truth_model(path: &Path, text: &str) -> CmdResult<(ModelParams, Effects)> {
+pub fn read_truth_model(path: &Path, text: &str) -> AppResult<(ModelParams, Effects)> {
     let v: Value = serde_json::from_str(text).map_err(|e| {
-        Failure::bad(format!(
+        AppError::bad(format!(
             "{}:{}:{}: invalid JSON: {e}",
             path.display(),
             e.line(),
@@ -136,12 +115,12 @@ pub fn read_truth_model(path: &Path, text: &str) -> CmdResult<(ModelParams, Effe
     };
     let effects = match effects {
         Some(e) => Effects::from_json(&e)
-            .map_err(|e| Failure::bad(format!("{}: effects: {e}", path.display())))?,
+            .map_err(|e| AppError::bad(format!("{}: effects: {e}", path.display())))?,
         None => Effects::none(),
     };
     let params = ModelParams::nominal()
         .merged_json(&params)
-        .map_err(|e| Failure::bad(format!("{}: {e}", path.display())))?;
+        .map_err(|e| AppError::bad(format!("{}: {e}", path.display())))?;
     Ok((params, effects))
 }
 
@@ -183,12 +162,13 @@ pub fn prepare(
     trial: Option<&Path>,
     unloaded: Option<&Path>,
     truth: Option<&Path>,
-    model: &ModelArgs,
+    model: &ModelSettings,
     with: &[EffectKind],
-) -> CmdResult<Prepared> {
+    rep: &Reporter,
+) -> AppResult<Prepared> {
     let (params, effects, mut inputs_read) = load_model_config(model)?;
-    let mut loaded = load_trial(trial)?;
-    let unloaded = load_unloaded(unloaded, trial.is_some())?;
+    let mut loaded = load_trial(trial, rep)?;
+    let unloaded = load_unloaded(unloaded, trial.is_some(), rep)?;
     if let Some((u, name)) = &unloaded {
         super::check_unloaded(&loaded.trial, &loaded.name, u, name)?;
     }
@@ -203,7 +183,7 @@ pub fn prepare(
                 Path::new(crate::bundled::SEED_TRUTH_NAME),
                 crate::bundled::SEED_TRUTH,
             )
-            .map_err(|e| Failure::internal(e.to_string()))?,
+            .map_err(|e| AppError::internal(e.to_string()))?,
         ),
         None => None,
     };
@@ -218,15 +198,15 @@ pub fn prepare(
         .input_options(model.emg_is_envelope || loaded.emg_is_envelope);
     // the TA's crosstalk is removed from the raw triceps EMG as `surae diagnose` removes it
     let crosstalk = diagnose::emg_crosstalk(&loaded.trial, &with::settings(opts))
-        .map_err(|e| Failure::bad(format!("{}: {e}", loaded.name)))?;
+        .map_err(|e| AppError::bad(format!("{}: {e}", loaded.name)))?;
     if let Some(t) = diagnose::remove_crosstalk(&loaded.trial, &crosstalk) {
         loaded.trial = t;
     }
     let unloaded_name = unloaded.as_ref().map(|(_, n)| n.clone());
     let prep = identify_sa::prepare_trial(&loaded.trial, unloaded.as_ref().map(|(u, _)| u), &opts)
         .map_err(|e| match &unloaded_name {
-            Some(n) => Failure::bad(format!("{} / {n}: {e}", loaded.name)),
-            None => Failure::bad(format!("{}: {e}", loaded.name)),
+            Some(n) => AppError::bad(format!("{} / {n}: {e}", loaded.name)),
+            None => AppError::bad(format!("{}: {e}", loaded.name)),
         })?;
     let noise = match &prep.correction {
         Some(c) => json!({
@@ -248,13 +228,13 @@ pub fn prepare(
         with::with_effects(effects, with),
         with::with_free(ParamId::identified().to_vec(), with),
     )
-    .map_err(|e| Failure::bad(format!("{}: {e}", loaded.name)))?;
+    .map_err(|e| AppError::bad(format!("{}: {e}", loaded.name)))?;
     if !with.is_empty() {
         // an effect the trial cannot carry (antagonist_coactivation without emg_ta) is refused
         // before anything is written
         problem
             .predict(&problem.base_vector())
-            .map_err(|e| Failure::bad(format!("{}: --with: {e}", loaded.name)))?;
+            .map_err(|e| AppError::bad(format!("{}: --with: {e}", loaded.name)))?;
     }
     Ok(Prepared {
         loaded,
@@ -293,39 +273,39 @@ fn rms(a: &[f64], b: &[f64]) -> f64 {
 }
 
 /// Runs the command.
-pub fn run(args: IdentifyArgs) -> CmdResult {
+pub fn run(args: IdentifyJob, rep: &Reporter) -> AppResult {
     let with = with::parse_with(args.with_effects.as_deref())?;
     if args.max_iterations.is_some() && args.method != Method::Mcmc {
-        return Err(Failure::bad(
+        return Err(AppError::bad(
             "--max-iterations applies to --method mcmc only",
         ));
     }
     if let Some(c) = args.chains {
         if args.method != Method::Sa {
-            return Err(Failure::bad("--chains applies to --method sa only"));
+            return Err(AppError::bad("--chains applies to --method sa only"));
         }
         if c == 0 {
-            return Err(Failure::bad("--chains: at least 1"));
+            return Err(AppError::bad("--chains: at least 1"));
         }
     }
     if let Some(session) = &args.session {
         if args.unloaded.is_some() {
-            return Err(Failure::bad(
+            return Err(AppError::bad(
                 "--session: each trial's unloaded run is named in the manifest; --unloaded \
                  applies to --trial",
             ));
         }
-        return joint::run(&args, session, &with);
+        return joint::run(&args, session, &with, rep);
     }
     if let Some(folder) = args.trial.as_deref().filter(|p| p.is_dir()) {
         if args.unloaded.is_some() {
-            return Err(Failure::bad(format!(
+            return Err(AppError::bad(format!(
                 "{}: a CEINMS trial folder has no unloaded run (its moment comes from inverse \
                  dynamics); --unloaded does not apply",
                 folder.display()
             )));
         }
-        return joint::run(&args, folder, &with);
+        return joint::run(&args, folder, &with, rep);
     }
     let prep = prepare(
         args.trial.as_deref(),
@@ -333,6 +313,7 @@ pub fn run(args: IdentifyArgs) -> CmdResult {
         args.truth.as_deref(),
         &args.model,
         &with,
+        rep,
     )?;
     let out_dir = args
         .out
@@ -340,15 +321,15 @@ pub fn run(args: IdentifyArgs) -> CmdResult {
         .unwrap_or_else(|| crate::default_out("identify"));
     let input_refs: Vec<&Path> = prep.inputs.iter().map(|p| p.as_path()).collect();
     let out = OutDir::prepare(&out_dir, &input_refs, PLANNED)?;
-    let show = args.report.show();
+    let show = rep.show();
     let Outcome {
         mut doc,
         lines,
         prediction,
         mcmc,
     } = match args.method {
-        Method::Sa => run_sa(&prep, args.seed, args.chains, show)?,
-        Method::Mcmc => mcmc::run_mcmc(&prep, args.seed, args.max_iterations, show)?,
+        Method::Sa => run_sa(&prep, args.seed, args.chains, show, rep)?,
+        Method::Mcmc => mcmc::run_mcmc(&prep, args.seed, args.max_iterations, show, rep)?,
     };
 
     // common fields
@@ -398,12 +379,12 @@ pub fn run(args: IdentifyArgs) -> CmdResult {
         let e = errors_pct(&params, truth);
         obj.insert("errors_pct".into(), json!(e));
     }
-    let text = serde_json::to_string_pretty(&doc).map_err(Failure::internal)? + "\n";
+    let text = serde_json::to_string_pretty(&doc).map_err(AppError::internal)? + "\n";
     let path = out.write("identify.json", text.as_bytes())?;
     let mut files = Vec::new();
     if let Some(m) = &mcmc {
         let mut csv = Vec::new();
-        m.write_chains_csv(&mut csv).map_err(Failure::internal)?;
+        m.write_chains_csv(&mut csv).map_err(AppError::internal)?;
         files.push(out.write("chains.csv", &csv)?);
     }
     // files for ArviZ and OpenSim, reported on a line of their own
@@ -420,11 +401,12 @@ pub fn run(args: IdentifyArgs) -> CmdResult {
         &prediction,
         args.method,
         mcmc.as_ref(),
+        rep,
     )?);
 
-    args.report.print_json(&text);
+    rep.print_json(&text);
     if show {
-        let say = |s: &str| args.report.say(s);
+        let say = |s: &str| rep.say(s);
         for l in &lines {
             say(l);
         }
@@ -496,27 +478,33 @@ struct Outcome {
     mcmc: Option<identify_mcmc::McmcIdentification>,
 }
 
-fn run_sa(prep: &Prepared, seed: u64, chains: Option<u32>, show: bool) -> CmdResult<Outcome> {
+fn run_sa(
+    prep: &Prepared,
+    seed: u64,
+    chains: Option<u32>,
+    show: bool,
+    rep: &Reporter,
+) -> AppResult<Outcome> {
     let mut settings = identify_sa::SaIdentifySettings::default().with_seed(seed);
     if let Some(c) = chains {
         settings = settings.with_chains(c);
     }
     let total = u64::from(settings.chains) * settings.annealer.max_evaluations;
-    let progress = ProgressDisplay::new(show, total, "SA");
+    let progress = ProgressDisplay::new(rep, show, total, "SA");
     let observer = |ev: &identify_sa::IdentifyEvent| {
         progress.on_sa_event(ev);
         progress.flow()
     };
     let fit = identify_sa::identify(&prep.problem, &settings, &observer)
-        .map_err(|e| Failure::bad(format!("{}: identification failed: {e}", prep.loaded.name)))?;
+        .map_err(|e| AppError::bad(format!("{}: identification failed: {e}", prep.loaded.name)))?;
     progress.finish();
     if progress.stop_requested() {
-        return Err(Failure::Interrupted);
+        return Err(AppError::Interrupted);
     }
     let prediction = prep
         .problem
         .predict(&fit.x)
-        .map_err(|e| Failure::internal(format!("simulation of the fit failed: {e}")))?;
+        .map_err(|e| AppError::internal(format!("simulation of the fit failed: {e}")))?;
     let rms_raw = rms(&prep.measured_raw, &prediction);
     let params: Map<String, Value> = fit
         .params
@@ -585,7 +573,8 @@ fn write_figures(
     prediction: &[f64],
     method: Method,
     mcmc: Option<&identify_mcmc::McmcIdentification>,
-) -> CmdResult<Vec<PathBuf>> {
+    rep: &Reporter,
+) -> AppResult<Vec<PathBuf>> {
     let inputs = prep.problem.inputs();
     let measured = prep.problem.measured();
     let time = inputs.times();
@@ -598,6 +587,7 @@ fn write_figures(
     let mut set = FigureSet::new(
         out,
         &format!("surae identify ({}) — {}", method.name(), prep.loaded.name),
+        rep,
     );
     set.page().paragraph(format!(
         "Identification of tendon slack length (LST), maximum isometric force (F0) and \
@@ -658,7 +648,7 @@ fn write_figures(
     }
     set.page()
         .table("Identified parameters", &headers, &rows)
-        .map_err(|e| Failure::internal(e.to_string()))?;
+        .map_err(|e| AppError::internal(e.to_string()))?;
     set.page().key_values(
         "Fit",
         &[

@@ -2,8 +2,8 @@
 //! `chains/chain_<k>.csv`, k from 1) and the identified values in a copy of the user's
 //! OpenSim model (`identified.osim`). Formats in docs/formats.md.
 
-use super::super::{is_osim, osim_names, read_text, ModelArgs};
-use crate::error::{CmdResult, Failure};
+use super::super::{is_osim, osim_names, read_text, ModelSettings};
+use crate::error::{AppError, AppResult};
 use crate::output::OutDir;
 use muscle_model::{ModelParams, ParamId};
 use serde_json::Value;
@@ -15,7 +15,7 @@ pub(super) fn write_chains(
     m: &identify_mcmc::McmcIdentification,
     seed: u64,
     trial: &str,
-) -> CmdResult<Vec<PathBuf>> {
+) -> AppResult<Vec<PathBuf>> {
     let description = [
         "surae identify --method mcmc: random-walk Metropolis-Hastings with mode jumps (not NUTS)",
         &format!("trial = {trial}"),
@@ -25,7 +25,7 @@ pub(super) fn write_chains(
     for c in 0..m.run.log_density.len() {
         let mut csv = Vec::new();
         identify_mcmc::write_cmdstan_chain(m, c, seed, &description, &mut csv)
-            .map_err(Failure::internal)?;
+            .map_err(AppError::internal)?;
         files.push(out.write(&format!("chains/chain_{}.csv", c + 1), &csv)?);
     }
     Ok(files)
@@ -35,10 +35,10 @@ pub(super) fn write_chains(
 /// and α0 of sol, gm and gl (`doc["params"]`), nothing else changed. `None` otherwise.
 pub(super) fn write_identified_osim(
     out: &OutDir,
-    model: &ModelArgs,
+    model: &ModelSettings,
     base: &ModelParams,
     doc: &Value,
-) -> CmdResult<Option<PathBuf>> {
+) -> AppResult<Option<PathBuf>> {
     let Some(path) = model.params.as_deref().filter(|p| is_osim(p)) else {
         return Ok(None);
     };
@@ -46,10 +46,10 @@ pub(super) fn write_identified_osim(
     let mut effects = muscle_model::Effects::none();
     if let Some(map) = doc["params"].as_object() {
         for (name, v) in map {
-            let id = ParamId::parse(name).map_err(Failure::internal)?;
+            let id = ParamId::parse(name).map_err(AppError::internal)?;
             let v = v
                 .as_f64()
-                .ok_or_else(|| Failure::internal(format!("{name} is not a number")))?;
+                .ok_or_else(|| AppError::internal(format!("{name} is not a number")))?;
             id.set(&mut params, &mut effects, v);
         }
     }
@@ -63,10 +63,10 @@ pub(super) fn write_osim_copy(
     path: &std::path::Path,
     names: &opensim_files::OsimMuscleNames,
     params: &ModelParams,
-) -> CmdResult<PathBuf> {
+) -> AppResult<PathBuf> {
     let text = read_text(path)?;
     let edited =
         opensim_files::write_identified_osim(&text, &path.display().to_string(), names, params)
-            .map_err(Failure::bad)?;
+            .map_err(AppError::bad)?;
     out.write("identified.osim", edited.as_bytes())
 }

@@ -2,11 +2,12 @@
 //! effect explains it, and what the extension buys out of sample; with `--session`, the
 //! session's trials jointly and every trial on its own (`session_run`).
 
-use super::{load_trial, load_unloaded, trial_inputs, ModelArgs};
-use crate::error::{CmdResult, Failure};
+use super::{load_trial, load_unloaded, trial_inputs, ModelSettings};
+use crate::error::{AppError, AppResult};
 use crate::figures::{self, FigureSet};
 use crate::output::OutDir;
 use crate::progress::ProgressDisplay;
+use crate::Reporter;
 use diagnose::{DiagnoseSettings, Diagnosis};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -28,71 +29,61 @@ const PLANNED: &[&str] = &[
 ];
 
 /// Arguments of `surae diagnose`.
-#[derive(clap::Args, Debug)]
-pub struct DiagnoseArgs {
+#[derive(Debug)]
+pub struct DiagnoseJob {
     /// Trial: a trial CSV, a recording map (`.json`) of a lab's files, or a CEINMS trial folder (a session of one) (docs/formats.md);
     /// the bundled seed trial (and its unloaded run) when omitted.
-    #[arg(long, conflicts_with = "session")]
     pub trial: Option<PathBuf>,
     /// Unloaded run CSV: its cycle-locked error is removed from the measured
     /// torque and its noise sets the likelihood. Strongly recommended.
-    #[arg(long, conflicts_with = "session")]
     pub unloaded: Option<PathBuf>,
     /// Session manifest (docs/formats.md): the trials diagnosed jointly (shared muscle
     /// parameters and subject effects, per-trial offset and gravity, held-out gain by leaving
     /// one trial out) into `DIR/diagnosis_session.json`, and every trial on its own with the
     /// session's parameters into `--out DIR/<trial>/`.
-    #[arg(long)]
     pub session: Option<PathBuf>,
     /// With `--session`: parameters replacing the session's (parameters JSON, `.osim`, CEINMS
     /// subject XML), or an `identify.json` whose identified values are set over them.
-    #[arg(long, requires = "session")]
     pub params: Option<PathBuf>,
     /// Seed (the diagnosis itself is deterministic; kept for scripts that pass one).
-    #[arg(long, default_value_t = 42)]
     pub seed: u64,
     /// The EMG columns are already normalised envelopes in [0, 1].
-    #[arg(long)]
     pub emg_is_envelope: bool,
-    #[command(flatten)]
-    pub knee: super::KneeArgs,
+    pub knee: super::KneeSettings,
     /// Output folder (default `out/diagnose`).
-    #[arg(long)]
     pub out: Option<PathBuf>,
-    #[command(flatten)]
-    pub report: super::ReportArgs,
 }
 
 /// Runs the command.
-pub fn run(args: DiagnoseArgs) -> CmdResult {
+pub fn run(args: DiagnoseJob, rep: &Reporter) -> AppResult {
     if let Some(session) = &args.session {
         if args.knee.knee_angle_deg.is_some() {
-            return Err(Failure::bad(
+            return Err(AppError::bad(
                 "--knee-angle-deg: with --session, each trial's knee angle is in the manifest",
             ));
         }
-        return session_run::run(&args, session);
+        return session_run::run(&args, session, rep);
     }
     if let Some(folder) = args.trial.as_deref().filter(|p| p.is_dir()) {
         if args.unloaded.is_some() || args.knee.knee_angle_deg.is_some() {
-            return Err(Failure::bad(format!(
+            return Err(AppError::bad(format!(
                 "{}: a CEINMS trial folder has no unloaded run or knee angle (its lengths and \
                  moment arms hold the knee's); --unloaded and --knee-angle-deg do not apply",
                 folder.display()
             )));
         }
-        return session_run::run(&args, folder);
+        return session_run::run(&args, folder, rep);
     }
-    let loaded = load_trial(args.trial.as_deref())?;
-    let unloaded = load_unloaded(args.unloaded.as_deref(), args.trial.is_some())?;
+    let loaded = load_trial(args.trial.as_deref(), rep)?;
+    let unloaded = load_unloaded(args.unloaded.as_deref(), args.trial.is_some(), rep)?;
     if let Some((u, name)) = &unloaded {
         super::check_unloaded(&loaded.trial, &loaded.name, u, name)?;
     }
     let emg_is_envelope = args.emg_is_envelope || loaded.emg_is_envelope;
-    let model_args = ModelArgs {
+    let model_args = ModelSettings {
         emg_is_envelope,
         knee: args.knee,
-        ..ModelArgs::default()
+        ..ModelSettings::default()
     };
     // validates the inputs with messages that name the file
     let inputs = trial_inputs(&loaded, &model_args)?;
@@ -111,8 +102,8 @@ pub fn run(args: DiagnoseArgs) -> CmdResult {
         input_options: args.knee.input_options(emg_is_envelope),
         ..DiagnoseSettings::default()
     };
-    let show = args.report.show();
-    let progress = ProgressDisplay::new(show, 0, "diag");
+    let show = rep.show();
+    let progress = ProgressDisplay::new(rep, show, 0, "diag");
     let mut observer = |p: &diagnose::DiagnosisProgress| {
         progress.message(format!("{} ({} simulations)", p.message, p.evaluations));
         progress.flow()
@@ -125,13 +116,13 @@ pub fn run(args: DiagnoseArgs) -> CmdResult {
     )
     .map_err(|e| {
         if progress.stop_requested() {
-            return Failure::Interrupted;
+            return AppError::Interrupted;
         }
         let names = match &unloaded {
             Some((_, n)) => format!("{} / {n}", loaded.name),
             None => loaded.name.clone(),
         };
-        Failure::bad(format!("{names}: {e}"))
+        AppError::bad(format!("{names}: {e}"))
     })?;
     progress.finish();
 
@@ -161,11 +152,12 @@ pub fn run(args: DiagnoseArgs) -> CmdResult {
         &d,
         0..inputs.len(),
         &closing,
+        rep,
     )?;
 
-    args.report.print_json(&text);
+    rep.print_json(&text);
     if show {
-        let say = |s: &str| args.report.say(s);
+        let say = |s: &str| rep.say(s);
         say(&format!("diagnose: {}", loaded.name));
         if unloaded.is_none() {
             say("  (no unloaded run: the dynamometer's own error cannot be told from a torque offset)");
@@ -301,7 +293,7 @@ fn shell_word(p: &Path) -> String {
 /// The arguments of `surae diagnose` that name the trial and how it is read, as the user gave
 /// them, for `surae identify`: `--trial`, `--unloaded`, `--session` (with `--params`),
 /// `--emg-is-envelope` and `--knee-angle-deg` (nothing for the bundled trial).
-pub(super) fn trial_args(args: &DiagnoseArgs) -> String {
+pub(super) fn trial_args(args: &DiagnoseJob) -> String {
     let mut a: Vec<String> = Vec::new();
     let mut flag = |name: &str, p: Option<&PathBuf>| {
         if let Some(p) = p {
@@ -331,7 +323,7 @@ fn diagnosis_json(
     fitted_on_hz: f64,
     source: Option<&str>,
     checks: Option<&recording::checks::TrialChecks>,
-) -> CmdResult<String> {
+) -> AppResult<String> {
     let mut doc = d.to_json_value();
     if let Some(obj) = doc.as_object_mut() {
         if let Some(c) = checks {
@@ -347,7 +339,7 @@ fn diagnosis_json(
             serde_json::json!(d.noise.dynamometer(1.0 / fitted_on_hz)),
         );
     }
-    Ok(serde_json::to_string_pretty(&doc).map_err(Failure::internal)? + "\n")
+    Ok(serde_json::to_string_pretty(&doc).map_err(AppError::internal)? + "\n")
 }
 
 /// The figures and `report.html` of a diagnosis, drawn over the samples `span` (the compared
@@ -355,6 +347,8 @@ fn diagnosis_json(
 /// is left out for a recording without a joint angle; the flexible terms are drawn when the
 /// diagnosis has them. The report ends with `closing`. A figure of [`PLANNED`] this run did
 /// not draw is removed from `out`.
+// every figure of the report draws from its own series
+#[allow(clippy::too_many_arguments)]
 fn write_figures(
     out: &OutDir,
     name: &str,
@@ -363,7 +357,8 @@ fn write_figures(
     d: &Diagnosis,
     span: Range<usize>,
     closing: &Closing,
-) -> CmdResult<Vec<PathBuf>> {
+    rep: &Reporter,
+) -> AppResult<Vec<PathBuf>> {
     let s = &d.residual_analysis.series;
     let time = &s.time_s[span.clone()];
     let measured = &measured_all[span.clone()];
@@ -381,7 +376,7 @@ fn write_figures(
         .zip(extended_residual)
         .map(|(m, r)| m - r)
         .collect();
-    let mut set = FigureSet::new(out, &format!("surae diagnose — {name}"));
+    let mut set = FigureSet::new(out, &format!("surae diagnose — {name}"), rep);
     let causes: Vec<&str> = d.causes.iter().map(|c| c.as_str()).collect();
     let mut effect_labels: Vec<(String, f64)> = Vec::new();
     if let Some(effects) = &d.extended.effects {
@@ -461,7 +456,7 @@ fn write_figures(
             ],
             &rows,
         )
-        .map_err(|e| Failure::internal(e.to_string()))?;
+        .map_err(|e| AppError::internal(e.to_string()))?;
 
     set.page()
         .table(
@@ -471,7 +466,7 @@ fn write_figures(
             &["parameter", "value", "68 % interval", "Laplace SE"],
             &parameter_rows(&d.extended),
         )
-        .map_err(|e| Failure::internal(e.to_string()))?;
+        .map_err(|e| AppError::internal(e.to_string()))?;
 
     let angle = &s.angle_deg[span.clone()];
     let env: Vec<(&str, &[f64])> = figures::envelopes(inputs)
@@ -553,12 +548,12 @@ fn write_figures(
 /// Removes the figures of [`PLANNED`] that are in `out` but were not written on this run
 /// (left by an earlier run). `OutDir::prepare` refused a run with an input under one of
 /// these names, so no input is removed.
-fn remove_stale(out: &OutDir, written: &[PathBuf]) -> CmdResult {
+fn remove_stale(out: &OutDir, written: &[PathBuf]) -> AppResult {
     for name in PLANNED.iter().filter(|n| n.ends_with(".svg")) {
         let p = out.path(name);
         if !written.contains(&p) && p.is_file() {
             std::fs::remove_file(&p).map_err(|e| {
-                Failure::bad(format!(
+                AppError::bad(format!(
                     "{}: cannot remove the figure of an earlier run: {e}",
                     p.display()
                 ))
@@ -624,7 +619,7 @@ fn beyond_the_catalogue(
     set: &mut FigureSet<'_>,
     d: &Diagnosis,
     u: &diagnose::Unexplained,
-) -> CmdResult {
+) -> AppResult {
     let page = set.page();
     page.heading("Beyond the catalogue");
     let gain_of = |v: diagnose::StateVariable| {
@@ -703,7 +698,7 @@ fn beyond_the_catalogue(
             ],
             &rows,
         )
-        .map_err(|e| Failure::internal(e.to_string()))?;
+        .map_err(|e| AppError::internal(e.to_string()))?;
     }
     for r in &u.replaced {
         page.paragraph(format!(

@@ -7,11 +7,12 @@
 //! (`"adequacy"`).
 
 use super::super::session::{file_stem, load_session, LoadedSession};
-use super::IdentifyArgs;
-use crate::error::{CmdResult, Failure};
+use super::IdentifyJob;
+use crate::error::{AppError, AppResult};
 use crate::figures::{self, FigureSet};
 use crate::output::OutDir;
 use crate::progress::ProgressDisplay;
+use crate::Reporter;
 use muscle_model::{EffectKind, Effects, ModelParams, ParamId};
 use serde_json::{json, Map, Value};
 use std::path::Path;
@@ -20,13 +21,25 @@ use std::path::Path;
 type Truth = (ModelParams, Effects);
 
 /// Runs `identify --session`.
-pub(super) fn run(args: &IdentifyArgs, session_path: &Path, with: &[EffectKind]) -> CmdResult {
+pub(super) fn run(
+    args: &IdentifyJob,
+    session_path: &Path,
+    with: &[EffectKind],
+    rep: &Reporter,
+) -> AppResult {
     let truth = session_truth(args)?;
     let free = free_names(args, session_path, with)?;
     if args.method == super::Method::Mcmc {
-        return run_mcmc(args, session_path, truth.as_ref(), free.as_deref(), with);
+        return run_mcmc(
+            args,
+            session_path,
+            truth.as_ref(),
+            free.as_deref(),
+            with,
+            rep,
+        );
     }
-    let session = load_session(session_path, &args.model, free.as_deref())?;
+    let session = load_session(session_path, &args.model, free.as_deref(), rep)?;
     let set = session.problem_set()?;
     let out_dir = args
         .out
@@ -44,34 +57,34 @@ pub(super) fn run(args: &IdentifyArgs, session_path: &Path, with: &[EffectKind])
     if let Some(c) = args.chains {
         settings = settings.with_chains(c);
     }
-    let show = args.report.show();
+    let show = rep.show();
     let total = u64::from(settings.chains) * settings.annealer.max_evaluations;
-    let progress = ProgressDisplay::new(show, total, "SA");
+    let progress = ProgressDisplay::new(rep, show, total, "SA");
     let observer = |ev: &identify_sa::IdentifyEvent| {
         progress.on_sa_event(ev);
         progress.flow()
     };
     let fit = identify_sa::identify_set(&set, &settings, &observer).map_err(|e| {
-        Failure::bad(format!(
+        AppError::bad(format!(
             "{}: identification failed: {e}",
             session_path.display()
         ))
     })?;
     progress.finish();
     if progress.stop_requested() {
-        return Err(Failure::Interrupted);
+        return Err(AppError::Interrupted);
     }
 
     let (params, effects) = set
         .params_from_vector(&fit.x)
-        .map_err(|e| Failure::internal(e.to_string()))?;
-    let adequacy = trials_adequacy(&session, &params, &effects, set.free());
+        .map_err(|e| AppError::internal(e.to_string()))?;
+    let adequacy = trials_adequacy(&session, &params, &effects, set.free(), rep);
     let mut trials = Vec::with_capacity(session.trials.len());
     let mut predictions = Vec::with_capacity(session.trials.len());
     let start = set.base_vector();
     for t in &session.trials {
         let failed = |e: muscle_model::ModelError| {
-            Failure::bad(format!("{}: simulation of the fit failed: {e}", t.source))
+            AppError::bad(format!("{}: simulation of the fit failed: {e}", t.source))
         };
         let pred = t.problem.predict(&fit.x).map_err(failed)?;
         let (rms, r2) = t.fit_of(&pred)?;
@@ -130,7 +143,7 @@ pub(super) fn run(args: &IdentifyArgs, session_path: &Path, with: &[EffectKind])
     doc["with"] = json!(with.iter().map(|k| k.name()).collect::<Vec<_>>());
     let adequacy_lines = add_adequacy(&mut doc, &session, &adequacy);
     let truth_lines = add_session_keys(&mut doc, &session, truth.as_ref());
-    let text = serde_json::to_string_pretty(&doc).map_err(Failure::internal)? + "\n";
+    let text = serde_json::to_string_pretty(&doc).map_err(AppError::internal)? + "\n";
     let path = out.write("identify.json", text.as_bytes())?;
     let mut files = write_figures(
         &out,
@@ -140,12 +153,13 @@ pub(super) fn run(args: &IdentifyArgs, session_path: &Path, with: &[EffectKind])
         &doc,
         truth.as_ref(),
         None,
+        rep,
     )?;
     files.extend(session_osim_copy(&out, args, &session, &params)?);
 
-    args.report.print_json(&text);
+    rep.print_json(&text);
     if show {
-        let say = |s: &str| args.report.say(s);
+        let say = |s: &str| rep.say(s);
         say(&format!(
             "identify (sa): session {} — {} trials, {} evaluations in {:.1} s",
             session_path.display(),
@@ -206,6 +220,8 @@ pub(super) fn run(args: &IdentifyArgs, session_path: &Path, with: &[EffectKind])
 }
 
 /// The per-trial fit figures (and, for MCMC, the posterior's) and `report.html`.
+// every figure of the report draws from its own series
+#[allow(clippy::too_many_arguments)]
 fn write_figures(
     out: &OutDir,
     session: &LoadedSession,
@@ -214,7 +230,8 @@ fn write_figures(
     doc: &Value,
     truth: Option<&Truth>,
     mcmc: Option<&identify_mcmc::McmcIdentification>,
-) -> CmdResult<Vec<std::path::PathBuf>> {
+    rep: &Reporter,
+) -> AppResult<Vec<std::path::PathBuf>> {
     let method = if mcmc.is_some() { "mcmc" } else { "sa" };
     let mut set = FigureSet::new(
         out,
@@ -222,6 +239,7 @@ fn write_figures(
             "surae identify ({method}) — session {}",
             session_path.display()
         ),
+        rep,
     );
     set.page().paragraph(
         if mcmc.is_some() {
@@ -297,7 +315,7 @@ fn session_tables(
     session: &LoadedSession,
     doc: &Value,
     with_params: bool,
-) -> CmdResult {
+) -> AppResult {
     let num = |v: &Value, digits: usize| {
         v.as_f64()
             .map_or_else(|| "—".to_string(), |x| report::format_sig(x, digits))
@@ -329,7 +347,7 @@ fn session_tables(
             ],
             &rows,
         )
-        .map_err(|e| Failure::internal(e.to_string()))?;
+        .map_err(|e| AppError::internal(e.to_string()))?;
     set.page().paragraph(format!(
         "EMG normalisation: {} ({} trials; one reference per channel for the whole session).",
         match norm["source"].as_str() {
@@ -367,7 +385,7 @@ fn session_tables(
         .collect();
     set.page()
         .table("Shared parameters", &headers, &rows)
-        .map_err(|e| Failure::internal(e.to_string()))?;
+        .map_err(|e| AppError::internal(e.to_string()))?;
     Ok(())
 }
 
@@ -390,10 +408,10 @@ fn planned_outputs(session: &LoadedSession, fixed: &[&str]) -> Vec<String> {
 /// the manifest's), if it has one.
 fn session_osim_copy(
     out: &OutDir,
-    args: &IdentifyArgs,
+    args: &IdentifyJob,
     session: &LoadedSession,
     params: &muscle_model::ModelParams,
-) -> CmdResult<Option<std::path::PathBuf>> {
+) -> AppResult<Option<std::path::PathBuf>> {
     let osim = [args.model.params.as_ref(), session.manifest.params.as_ref()]
         .into_iter()
         .flatten()
@@ -408,12 +426,12 @@ fn session_osim_copy(
             .iter()
             .map(|(k, v)| (k.as_str(), v.as_str())),
     )
-    .map_err(Failure::bad)?;
+    .map_err(AppError::bad)?;
     super::other_tools::write_osim_copy(out, path, &names, params).map(Some)
 }
 
 /// `--truth` (a parameters JSON or a fixture's `truth.json`), read before anything runs.
-fn session_truth(args: &IdentifyArgs) -> CmdResult<Option<Truth>> {
+fn session_truth(args: &IdentifyJob) -> AppResult<Option<Truth>> {
     match &args.truth {
         Some(p) => {
             let text = super::super::read_text(p)?;
@@ -427,24 +445,24 @@ fn session_truth(args: &IdentifyArgs) -> CmdResult<Option<Truth>> {
 /// or the 9 muscle parameters, followed by the effects' parameters; `--free` as given (`None`:
 /// the manifest's) otherwise. A per-trial effect in a session of several trials is refused.
 fn free_names(
-    args: &IdentifyArgs,
+    args: &IdentifyJob,
     session_path: &Path,
     with: &[EffectKind],
-) -> CmdResult<Option<Vec<String>>> {
+) -> AppResult<Option<Vec<String>>> {
     if with.is_empty() {
         return Ok(args.free.clone());
     }
     let manifest = if session_path.is_dir() {
         ::session::SessionManifest::of_recording(session_path)
     } else {
-        ::session::read_session_manifest(session_path).map_err(Failure::bad)?
+        ::session::read_session_manifest(session_path).map_err(AppError::bad)?
     };
     super::with::check_session_scope(with, manifest.trials.len())?;
     let base: Vec<ParamId> = match args.free.as_ref().or(manifest.free.as_ref()) {
         Some(names) => names
             .iter()
-            .map(|n| ParamId::parse(n).map_err(|e| Failure::bad(format!("--free {n}: {e}"))))
-            .collect::<CmdResult<_>>()?,
+            .map(|n| ParamId::parse(n).map_err(|e| AppError::bad(format!("--free {n}: {e}"))))
+            .collect::<AppResult<_>>()?,
         None => ParamId::identified().to_vec(),
     };
     Ok(Some(
@@ -463,6 +481,7 @@ fn trials_adequacy(
     params: &ModelParams,
     effects: &Effects,
     free: &[ParamId],
+    rep: &Reporter,
 ) -> Vec<Result<diagnose::Adequacy, String>> {
     session
         .trials
@@ -470,7 +489,9 @@ fn trials_adequacy(
         .zip(&session.manifest.trials)
         .map(|(t, entry)| {
             let unloaded = match &entry.unloaded {
-                Some(u) => Some(super::super::read_unloaded_any(u).map_err(|e| e.to_string())?),
+                Some(u) => {
+                    Some(super::super::read_unloaded_any(u, rep).map_err(|e| e.to_string())?)
+                }
                 None => None,
             };
             let mut rec =
@@ -549,14 +570,15 @@ fn add_session_keys(
 }
 
 fn run_mcmc(
-    args: &IdentifyArgs,
+    args: &IdentifyJob,
     session_path: &Path,
     truth: Option<&Truth>,
     free: Option<&[String]>,
     with: &[EffectKind],
-) -> CmdResult {
+    rep: &Reporter,
+) -> AppResult {
     use identify_mcmc::SessionTrialLikelihood;
-    let session = load_session(session_path, &args.model, free)?;
+    let session = load_session(session_path, &args.model, free, rep)?;
     let set = session.problem_set()?;
     let settings = super::mcmc::mcmc_settings(args.seed, args.max_iterations)?;
     let out_dir = args
@@ -580,16 +602,16 @@ fn run_mcmc(
     );
     let planned_refs: Vec<&str> = planned.iter().map(String::as_str).collect();
 
-    let (problems, noises) = session.mcmc_trials()?;
+    let (problems, noises) = session.mcmc_trials(rep)?;
     let likelihoods: Vec<SessionTrialLikelihood<'_>> = problems
         .iter()
         .zip(&noises)
         .map(|(problem, noise)| SessionTrialLikelihood { problem, noise })
         .collect();
     let out = OutDir::prepare(&out_dir, &input_refs, &planned_refs)?;
-    let show = args.report.show();
+    let show = rep.show();
     let what = session_path.display().to_string();
-    let m = super::mcmc::sample(&likelihoods, &settings, show, &what)?;
+    let m = super::mcmc::sample(&likelihoods, &settings, show, &what, rep)?;
 
     let mean = m.mean();
     let start = set.base_vector();
@@ -597,7 +619,7 @@ fn run_mcmc(
     let mut predictions = Vec::with_capacity(session.trials.len());
     for (t, fit) in session.trials.iter().zip(&m.trials) {
         let failed = |e: muscle_model::ModelError| {
-            Failure::bad(format!(
+            AppError::bad(format!(
                 "{}: simulation of the posterior mean failed: {e}",
                 t.source
             ))
@@ -621,7 +643,7 @@ fn run_mcmc(
     );
     let (params, effects) = set
         .params_from_vector(&mean)
-        .map_err(|e| Failure::internal(e.to_string()))?;
+        .map_err(|e| AppError::internal(e.to_string()))?;
     let mut doc = super::mcmc::mcmc_doc(&m, entries);
     let bounds: Map<String, Value> = set
         .names()
@@ -643,13 +665,13 @@ fn run_mcmc(
         doc["effects"] = effects.to_json_value();
     }
     doc["with"] = json!(with.iter().map(|k| k.name()).collect::<Vec<_>>());
-    let adequacy = trials_adequacy(&session, &params, &effects, set.free());
+    let adequacy = trials_adequacy(&session, &params, &effects, set.free(), rep);
     let adequacy_lines = add_adequacy(&mut doc, &session, &adequacy);
     let truth_lines = add_session_keys(&mut doc, &session, truth);
-    let text = serde_json::to_string_pretty(&doc).map_err(Failure::internal)? + "\n";
+    let text = serde_json::to_string_pretty(&doc).map_err(AppError::internal)? + "\n";
     let path = out.write("identify.json", text.as_bytes())?;
     let mut csv = Vec::new();
-    m.write_chains_csv(&mut csv).map_err(Failure::internal)?;
+    m.write_chains_csv(&mut csv).map_err(AppError::internal)?;
     let mut files = vec![out.write("chains.csv", &csv)?];
     let names: Vec<&str> = session.trials.iter().map(|t| t.name.as_str()).collect();
     let chain_files = super::other_tools::write_chains(&out, &m, args.seed, &names.join(", "))?;
@@ -661,12 +683,13 @@ fn run_mcmc(
         &doc,
         truth,
         Some(&m),
+        rep,
     )?);
     files.extend(session_osim_copy(&out, args, &session, &params)?);
 
-    args.report.print_json(&text);
+    rep.print_json(&text);
     if show {
-        let say = |s: &str| args.report.say(s);
+        let say = |s: &str| rep.say(s);
         for l in lines.iter().chain(&truth_lines).chain(&adequacy_lines) {
             say(l);
         }

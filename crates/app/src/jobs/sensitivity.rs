@@ -1,54 +1,50 @@
 //! `surae sensitivity`: one-at-a-time ±20 % sweeps (the dissertation's Fig. 6).
 
-use super::{load_model_config, load_trial, trial_inputs, ModelArgs};
-use crate::error::{CmdResult, Failure};
+use super::{load_model_config, load_trial, trial_inputs, ModelSettings};
+use crate::error::{AppError, AppResult};
 use crate::figures::FigureSet;
 use crate::output::OutDir;
+use crate::Reporter;
 use muscle_model::{sensitivity, SensitivitySettings};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `surae sensitivity`.
-#[derive(clap::Args, Debug)]
-pub struct SensitivityArgs {
+#[derive(Debug)]
+pub struct SensitivityJob {
     /// Trial: a trial CSV, a recording map (`.json`) of a lab's files (docs/formats.md);
     /// the bundled seed trial when omitted.
-    #[arg(long)]
     pub trial: Option<PathBuf>,
-    #[command(flatten)]
-    pub model: ModelArgs,
+    pub model: ModelSettings,
     /// Largest relative change in percent (the sweep goes from −MAX to +MAX).
-    #[arg(long, default_value_t = 20.0)]
     pub max_change: f64,
     /// Step of the sweep in percent.
-    #[arg(long, default_value_t = 5.0)]
     pub step: f64,
     /// Output folder (default `out/sensitivity`): `sensitivity.csv`, `sensitivity.json`.
-    #[arg(long)]
     pub out: Option<PathBuf>,
 }
 
 /// Runs the command.
-pub fn run(args: SensitivityArgs) -> CmdResult {
+pub fn run(args: SensitivityJob, rep: &Reporter) -> AppResult {
     if !(args.step.is_finite() && args.step > 0.0) {
-        return Err(Failure::bad(format!(
+        return Err(AppError::bad(format!(
             "--step {}: must be positive",
             args.step
         )));
     }
     if !(args.max_change.is_finite() && args.max_change > 0.0 && args.max_change < 100.0) {
-        return Err(Failure::bad(format!(
+        return Err(AppError::bad(format!(
             "--max-change {}: must be in (0, 100)",
             args.max_change
         )));
     }
     let n_steps = (args.max_change / args.step).floor() as i64;
     if !(1..=1000).contains(&n_steps) {
-        return Err(Failure::bad(
+        return Err(AppError::bad(
             "--step must be at most --max-change, and not tiny",
         ));
     }
     let (params, effects, cfg_inputs) = load_model_config(&args.model)?;
-    let loaded = load_trial(args.trial.as_deref())?;
+    let loaded = load_trial(args.trial.as_deref(), rep)?;
     let inputs = trial_inputs(&loaded, &args.model)?;
     let changes: Vec<f64> = (-n_steps..=n_steps)
         .filter(|&k| k != 0)
@@ -59,7 +55,7 @@ pub fn run(args: SensitivityArgs) -> CmdResult {
         ..SensitivitySettings::default()
     };
     let table = sensitivity(&inputs, &params, &effects, &settings)
-        .map_err(|e| Failure::bad(format!("{}: nominal simulation failed: {e}", loaded.name)))?;
+        .map_err(|e| AppError::bad(format!("{}: nominal simulation failed: {e}", loaded.name)))?;
 
     let out_dir = args
         .out
@@ -89,7 +85,7 @@ pub fn run(args: SensitivityArgs) -> CmdResult {
             rms_change_nm: r.rms_change_nm,
         })
         .collect();
-    let mut set = FigureSet::new(&out, &format!("surae sensitivity — {}", loaded.name));
+    let mut set = FigureSet::new(&out, &format!("surae sensitivity — {}", loaded.name), rep);
     set.page().paragraph(format!(
         "One-at-a-time sweeps of each identified parameter (dissertation Fig. 6): RMS change \
          of the ankle torque against the nominal simulation (nominal RMS torque {:.1} N·m).",
@@ -102,26 +98,26 @@ pub fn run(args: SensitivityArgs) -> CmdResult {
     )?;
     set.finish()?;
 
-    println!(
+    rep.say(&format!(
         "sensitivity: {} ({} samples), nominal RMS torque {:.2} N·m, changes ±{}% in {}% steps",
         loaded.name,
         loaded.trial.len(),
         table.nominal_rms_torque_nm,
         args.max_change,
         args.step
-    );
-    println!("  parameter        max RMS change   (% of nominal RMS)");
+    ));
+    rep.say("  parameter        max RMS change   (% of nominal RMS)");
     for r in &table.ranking {
-        println!(
+        rep.say(&format!(
             "  {:<16} {:8.2} N·m      {:6.1} %{}",
             r.param,
             r.max_rms_change_nm,
             r.max_rms_change_pct,
             if r.matters { "   matters" } else { "" }
-        );
+        ));
     }
     let important = table.important();
-    println!(
+    rep.say(&format!(
         "parameters that matter (≥ {}% of the nominal RMS torque): {}",
         table.threshold_pct,
         if important.is_empty() {
@@ -129,17 +125,17 @@ pub fn run(args: SensitivityArgs) -> CmdResult {
         } else {
             important.join(", ")
         }
-    );
+    ));
     if table.failures() > 0 {
-        println!(
+        rep.say(&format!(
             "  {} variations failed to simulate (see the table)",
             table.failures()
-        );
+        ));
     }
-    println!(
+    rep.say(&format!(
         "wrote {}, {}, sensitivity.svg and report.html",
         csv.display(),
         json.display()
-    );
+    ));
     Ok(())
 }

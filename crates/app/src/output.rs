@@ -1,6 +1,6 @@
 //! Safe output: `--out` checks and atomic writes (no half-written files).
 
-use crate::error::{CmdResult, Failure};
+use crate::error::{AppError, AppResult};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -19,25 +19,25 @@ impl OutDir {
     /// Checks that `dir` can be used as an output folder, that none of the
     /// files the command will write there (`planned`) is one of `inputs`,
     /// and creates it. Checking up front means a refused run writes nothing.
-    pub fn prepare(dir: &Path, inputs: &[&Path], planned: &[&str]) -> CmdResult<Self> {
+    pub fn prepare(dir: &Path, inputs: &[&Path], planned: &[&str]) -> AppResult<Self> {
         let canon_inputs: Vec<PathBuf> = inputs.iter().map(|p| canonical_or_self(p)).collect();
         for name in planned {
             let target = canonical_or_self(&dir.join(name));
             if canon_inputs.contains(&target) {
-                return Err(Failure::bad(format!(
+                return Err(AppError::bad(format!(
                     "refusing to overwrite the input file {}",
                     dir.join(name).display()
                 )));
             }
         }
         if dir.exists() && !dir.is_dir() {
-            return Err(Failure::bad(format!(
+            return Err(AppError::bad(format!(
                 "--out {}: exists and is not a folder",
                 dir.display()
             )));
         }
         std::fs::create_dir_all(dir).map_err(|e| {
-            Failure::bad(format!(
+            AppError::bad(format!(
                 "--out {}: cannot create folder: {e}",
                 dir.display()
             ))
@@ -54,7 +54,7 @@ impl OutDir {
     }
 
     /// Writes `name` in the folder atomically, refusing to overwrite an input.
-    pub fn write(&self, name: &str, bytes: &[u8]) -> CmdResult<PathBuf> {
+    pub fn write(&self, name: &str, bytes: &[u8]) -> AppResult<PathBuf> {
         let target = self.path(name);
         write_file_checked(&target, bytes, &self.inputs)?;
         Ok(target)
@@ -63,16 +63,16 @@ impl OutDir {
 
 /// Writes `bytes` to `target` through a temporary file in the same folder and
 /// a rename, refusing to overwrite any of `inputs`.
-pub fn write_file_checked(target: &Path, bytes: &[u8], inputs: &[PathBuf]) -> CmdResult<()> {
+pub fn write_file_checked(target: &Path, bytes: &[u8], inputs: &[PathBuf]) -> AppResult<()> {
     let canon_target = canonical_or_self(target);
     if inputs.contains(&canon_target) {
-        return Err(Failure::bad(format!(
+        return Err(AppError::bad(format!(
             "refusing to overwrite the input file {}",
             target.display()
         )));
     }
     if target.is_dir() {
-        return Err(Failure::bad(format!(
+        return Err(AppError::bad(format!(
             "{}: is a folder, expected a file",
             target.display()
         )));
@@ -82,7 +82,7 @@ pub fn write_file_checked(target: &Path, bytes: &[u8], inputs: &[PathBuf]) -> Cm
         .filter(|p| !p.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
     std::fs::create_dir_all(parent)
-        .map_err(|e| Failure::bad(format!("{}: cannot create folder: {e}", parent.display())))?;
+        .map_err(|e| AppError::bad(format!("{}: cannot create folder: {e}", parent.display())))?;
     let file_name = target
         .file_name()
         .map(|s| s.to_string_lossy().into_owned())
@@ -96,7 +96,7 @@ pub fn write_file_checked(target: &Path, bytes: &[u8], inputs: &[PathBuf]) -> Cm
     })();
     if let Err(e) = result {
         let _ = std::fs::remove_file(&tmp);
-        return Err(Failure::bad(format!(
+        return Err(AppError::bad(format!(
             "{}: cannot write: {e}",
             target.display()
         )));

@@ -2,28 +2,25 @@
 //! the trial it reads and the checks a lab runs before trusting a file (docs/formats.md,
 //! "A lab's recordings").
 
+use crate::Reporter;
 use std::path::{Path, PathBuf};
 
 use serde_json::json;
 
-use super::{load_mapped_trial, trial_inputs, ModelArgs, ReportArgs};
-use crate::error::{CmdResult, Failure};
+use super::{load_mapped_trial, trial_inputs, ModelSettings};
+use crate::error::{AppError, AppResult};
 use crate::output::OutDir;
 
 /// Arguments of `surae inspect`.
-#[derive(clap::Args, Debug)]
-pub struct InspectArgs {
+#[derive(Debug)]
+pub struct InspectJob {
     /// The file(s) of one recording: a delimited text export (comma, semicolon or tab), OpenSim
     /// `.sto`/`.mot` files (several: one recording split over them), a `.c3d`, a CEINMS trial
     /// folder, or a recording map (`.json`) to read and check.
-    #[arg(required = true, value_name = "FILE")]
     pub files: Vec<PathBuf>,
     /// Output folder (default `out/inspect`): `map.json`, the starter map, with paths relative
     /// to this folder, and `inspect.json`.
-    #[arg(long)]
     pub out: Option<PathBuf>,
-    #[command(flatten)]
-    pub report: ReportArgs,
 }
 
 const PLANNED: &[&str] = &["map.json", "inspect.json"];
@@ -31,7 +28,7 @@ const PLANNED: &[&str] = &["map.json", "inspect.json"];
 /// The checks of a trial, with the nominal model's torque as the EMG-driven prediction (the
 /// sign check); `None` for the prediction when the model cannot run on it.
 pub fn trial_checks(loaded: &super::LoadedTrial) -> recording::checks::TrialChecks {
-    let prediction = trial_inputs(loaded, &ModelArgs::default())
+    let prediction = trial_inputs(loaded, &ModelSettings::default())
         .ok()
         .and_then(|inputs| {
             muscle_model::simulate(
@@ -64,7 +61,7 @@ pub fn check_lines(checks: &recording::checks::TrialChecks) -> Vec<String> {
 }
 
 /// Runs the command.
-pub fn run(args: InspectArgs) -> CmdResult {
+pub fn run(args: InspectJob, rep: &Reporter) -> AppResult {
     let out_dir = args
         .out
         .clone()
@@ -77,7 +74,7 @@ pub fn run(args: InspectArgs) -> CmdResult {
             .iter()
             .find(|p| recording::file_kind(p) == recording::FileKind::Map)
         {
-            return Err(Failure::bad(format!(
+            return Err(AppError::bad(format!(
                 "{}: a map is inspected alone (surae inspect {})",
                 m.display(),
                 m.display()
@@ -86,12 +83,12 @@ pub fn run(args: InspectArgs) -> CmdResult {
     }
     let inputs: Vec<&Path> = args.files.iter().map(PathBuf::as_path).collect();
     if is_map {
-        return run_map(&args, &out_dir, &inputs);
+        return run_map(&args, &out_dir, &inputs, rep);
     }
     // read everything before the output folder is made: a bad file leaves nothing behind
-    let found = recording::inspect::inspect(&args.files, &out_dir).map_err(Failure::bad)?;
+    let found = recording::inspect::inspect(&args.files, &out_dir).map_err(AppError::bad)?;
     let out = OutDir::prepare(&out_dir, &inputs, PLANNED)?;
-    let say = |l: &str| args.report.say(l);
+    let say = |l: &str| rep.say(l);
     for f in &found.files {
         for l in f.lines() {
             say(&l);
@@ -120,9 +117,9 @@ pub fn run(args: InspectArgs) -> CmdResult {
         "unassigned": found.unassigned,
         "notes": found.notes,
     });
-    let text = serde_json::to_string_pretty(&report).map_err(Failure::internal)? + "\n";
+    let text = serde_json::to_string_pretty(&report).map_err(AppError::internal)? + "\n";
     written.push(out.write("inspect.json", text.as_bytes())?);
-    args.report.print_json(&text);
+    rep.print_json(&text);
     for p in written {
         say(&format!("wrote {}", p.display()));
     }
@@ -130,10 +127,10 @@ pub fn run(args: InspectArgs) -> CmdResult {
 }
 
 /// A map: its files summarised, the trial it reads, and the checks.
-fn run_map(args: &InspectArgs, out_dir: &Path, inputs: &[&Path]) -> CmdResult {
+fn run_map(args: &InspectJob, out_dir: &Path, inputs: &[&Path], rep: &Reporter) -> AppResult {
     let map_path = &args.files[0];
-    let loaded = load_mapped_trial(map_path)?;
-    let map = recording::read_map(map_path).map_err(Failure::bad)?;
+    let loaded = load_mapped_trial(map_path, rep)?;
+    let map = recording::read_map(map_path).map_err(AppError::bad)?;
     // the files as the map reads them (its header line and decimal mark)
     let opts = recording::DelimitedOptions {
         header_line: map.header_line,
@@ -141,13 +138,13 @@ fn run_map(args: &InspectArgs, out_dir: &Path, inputs: &[&Path]) -> CmdResult {
     };
     let mut files = Vec::new();
     for f in &loaded.data_files {
-        let t = recording::open_table(f, &opts).map_err(Failure::bad)?;
+        let t = recording::open_table(f, &opts).map_err(AppError::bad)?;
         files.push(recording::inspect::FileSummary::of(&t));
     }
     let mut all_inputs: Vec<&Path> = inputs.to_vec();
     all_inputs.extend(loaded.data_files.iter().map(PathBuf::as_path));
     let out = OutDir::prepare(out_dir, &all_inputs, &PLANNED[1..])?;
-    let say = |l: &str| args.report.say(l);
+    let say = |l: &str| rep.say(l);
     for s in &files {
         for l in s.lines() {
             say(&l);
@@ -178,9 +175,9 @@ fn run_map(args: &InspectArgs, out_dir: &Path, inputs: &[&Path]) -> CmdResult {
                   "start_s": t.time_s[0], "end_s": t.time_s[t.len() - 1]},
         "checks": checks,
     });
-    let text = serde_json::to_string_pretty(&report).map_err(Failure::internal)? + "\n";
+    let text = serde_json::to_string_pretty(&report).map_err(AppError::internal)? + "\n";
     let p = out.write("inspect.json", text.as_bytes())?;
-    args.report.print_json(&text);
+    rep.print_json(&text);
     say(&format!("wrote {}", p.display()));
     Ok(())
 }

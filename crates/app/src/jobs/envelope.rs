@@ -1,37 +1,35 @@
 //! `surae envelope`: normalised EMG envelopes of a trial (filter chain in docs/model.md).
 
 use super::{load_trial, out_file};
-use crate::error::{CmdResult, Failure};
+use crate::error::{AppError, AppResult};
 use crate::output::write_file_checked;
+use crate::Reporter;
 use experiment::EmgMuscle;
 use muscle_model::Muscle;
 use std::path::PathBuf;
 
 /// Arguments of `surae envelope`.
-#[derive(clap::Args, Debug)]
-pub struct EnvelopeArgs {
+#[derive(Debug)]
+pub struct EnvelopeJob {
     /// Trial: a trial CSV, a recording map (`.json`) of a lab's files (docs/formats.md);
     /// the bundled seed trial when omitted.
-    #[arg(long)]
     pub trial: Option<PathBuf>,
     /// Output: a `.csv` file, or a folder to write `envelope.csv` into
     /// (default `out/envelope/envelope.csv`).
-    #[arg(long)]
     pub out: Option<PathBuf>,
     /// Normalise a channel by an MVC reference instead of the trial maximum,
     /// e.g. `--mvc emg_sol=0.41` (in the raw EMG's unit, after band-pass,
     /// rectification and low-pass). Repeat for several channels.
-    #[arg(long, value_name = "COLUMN=VALUE")]
     pub mvc: Vec<String>,
 }
 
-fn parse_mvc(items: &[String]) -> CmdResult<Vec<(String, f64)>> {
+fn parse_mvc(items: &[String]) -> AppResult<Vec<(String, f64)>> {
     items
         .iter()
         .map(|s| {
             let (k, v) = s
                 .split_once('=')
-                .ok_or_else(|| Failure::bad(format!("--mvc {s}: expected COLUMN=VALUE")))?;
+                .ok_or_else(|| AppError::bad(format!("--mvc {s}: expected COLUMN=VALUE")))?;
             let k = k.trim();
             let k = if k.starts_with("emg_") {
                 k.to_string()
@@ -39,16 +37,16 @@ fn parse_mvc(items: &[String]) -> CmdResult<Vec<(String, f64)>> {
                 format!("emg_{k}")
             };
             if !["emg_sol", "emg_gm", "emg_gl", "emg_ta"].contains(&k.as_str()) {
-                return Err(Failure::bad(format!(
+                return Err(AppError::bad(format!(
                     "--mvc {s}: unknown channel '{k}' (emg_sol, emg_gm, emg_gl, emg_ta)"
                 )));
             }
             let v: f64 = v
                 .trim()
                 .parse()
-                .map_err(|_| Failure::bad(format!("--mvc {s}: '{v}' is not a number")))?;
+                .map_err(|_| AppError::bad(format!("--mvc {s}: '{v}' is not a number")))?;
             if !(v.is_finite() && v > 0.0) {
-                return Err(Failure::bad(format!(
+                return Err(AppError::bad(format!(
                     "--mvc {s}: the MVC value must be positive"
                 )));
             }
@@ -58,9 +56,9 @@ fn parse_mvc(items: &[String]) -> CmdResult<Vec<(String, f64)>> {
 }
 
 /// Runs the command.
-pub fn run(args: EnvelopeArgs) -> CmdResult {
+pub fn run(args: EnvelopeJob, rep: &Reporter) -> AppResult {
     let mvc = parse_mvc(&args.mvc)?;
-    let loaded = load_trial(args.trial.as_deref())?;
+    let loaded = load_trial(args.trial.as_deref(), rep)?;
     let trial = &loaded.trial;
     let fs = trial.sample_rate_hz();
     let mut opts = experiment::InputOptions::default();
@@ -72,7 +70,7 @@ pub fn run(args: EnvelopeArgs) -> CmdResult {
             _ => EmgMuscle::Ta,
         };
         if m == EmgMuscle::Ta && trial.emg_ta.is_none() {
-            return Err(Failure::bad(format!(
+            return Err(AppError::bad(format!(
                 "--mvc: {} has no column {k}",
                 loaded.name
             )));
@@ -80,7 +78,7 @@ pub fn run(args: EnvelopeArgs) -> CmdResult {
         opts = opts.with_mvc(m, *v);
     }
     let inputs =
-        experiment::model_inputs_named(trial, &opts, &loaded.name).map_err(Failure::bad)?;
+        experiment::model_inputs_named(trial, &opts, &loaded.name).map_err(AppError::bad)?;
     let mut envs: Vec<(&str, &[f64])> = vec![
         ("emg_sol", inputs.envelope(Muscle::Sol)),
         ("emg_gm", inputs.envelope(Muscle::Gm)),
@@ -113,13 +111,13 @@ pub fn run(args: EnvelopeArgs) -> CmdResult {
         .collect();
     write_file_checked(&target, text.as_bytes(), &inputs)?;
 
-    println!(
+    rep.say(&format!(
         "envelope: {} ({} samples at {:.1} Hz, {:.2} s)",
         loaded.name,
         trial.len(),
         fs,
         trial.time_s[trial.len() - 1] - trial.time_s[0]
-    );
+    ));
     for (name, e) in &envs {
         let mean = e.iter().sum::<f64>() / e.len() as f64;
         let (imax, _) =
@@ -127,11 +125,11 @@ pub fn run(args: EnvelopeArgs) -> CmdResult {
                 (0, f64::MIN),
                 |acc, (i, &v)| if v > acc.1 { (i, v) } else { acc },
             );
-        println!(
+        rep.say(&format!(
             "  {name:<8} mean {mean:.3}, peak at {:.3} s",
             trial.time_s[imax]
-        );
+        ));
     }
-    println!("wrote {}", target.display());
+    rep.say(&format!("wrote {}", target.display()));
     Ok(())
 }

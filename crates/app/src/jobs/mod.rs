@@ -10,7 +10,8 @@ pub mod session;
 pub mod simulate;
 
 use crate::bundled;
-use crate::error::{CmdResult, Failure};
+use crate::error::{AppError, AppResult};
+use crate::Reporter;
 use experiment::{Trial, Unloaded};
 use std::path::{Path, PathBuf};
 
@@ -30,12 +31,12 @@ pub struct LoadedTrial {
 
 /// What `--trial` and `--unloaded` take (docs/formats.md): a trial CSV or a recording map
 /// (`.json`) of a lab's files; any other data file needs a map.
-fn not_a_trial(p: &Path, kind: recording::FileKind, option: &str) -> Option<Failure> {
+fn not_a_trial(p: &Path, kind: recording::FileKind, option: &str) -> Option<AppError> {
     let what = match kind {
         recording::FileKind::C3d => "a C3D file",
         recording::FileKind::Storage => "an OpenSim storage file",
         recording::FileKind::CeinmsFolder => {
-            return Some(Failure::bad(format!(
+            return Some(AppError::bad(format!(
                 "{}: a folder: a CEINMS trial folder is read by simulate, identify and diagnose \
                  (as a session of one) or as a session trial's \"recording\"",
                 p.display()
@@ -43,7 +44,7 @@ fn not_a_trial(p: &Path, kind: recording::FileKind, option: &str) -> Option<Fail
         }
         _ => return None,
     };
-    Some(Failure::bad(format!(
+    Some(AppError::bad(format!(
         "{}: {what}: give a recording map that names its channels (`surae inspect {}` prints \
          one) as {option}",
         p.display(),
@@ -52,18 +53,18 @@ fn not_a_trial(p: &Path, kind: recording::FileKind, option: &str) -> Option<Fail
 }
 
 /// A recording map read into a trial, with its data files and what the reader noted.
-pub fn load_mapped_trial(p: &Path) -> CmdResult<LoadedTrial> {
-    let map = recording::read_map(p).map_err(Failure::bad)?;
-    let rec = recording::read_trial_recording(&map).map_err(Failure::bad)?;
+pub fn load_mapped_trial(p: &Path, rep: &Reporter) -> AppResult<LoadedTrial> {
+    let map = recording::read_map(p).map_err(AppError::bad)?;
+    let rec = recording::read_trial_recording(&map).map_err(AppError::bad)?;
     if !rec.geometry.is_empty() {
-        return Err(Failure::bad(format!(
+        return Err(AppError::bad(format!(
             "{}: channels lmt_<muscle>_m / ma_<muscle>_m: geometry series are read in a session \
              (--session, with this map as a trial's \"recording\")",
             p.display()
         )));
     }
     for n in &rec.notes {
-        crate::warn(format!("{}: {n}", p.display()));
+        rep.warn(format!("{}: {n}", p.display()));
     }
     let mut data_files: Vec<PathBuf> = Vec::new();
     for s in &rec.sources {
@@ -83,7 +84,7 @@ pub fn load_mapped_trial(p: &Path) -> CmdResult<LoadedTrial> {
 
 /// Reads `--trial` (a trial CSV or a recording map), or the bundled seed trial when it is not
 /// given.
-pub fn load_trial(path: Option<&Path>) -> CmdResult<LoadedTrial> {
+pub fn load_trial(path: Option<&Path>, rep: &Reporter) -> AppResult<LoadedTrial> {
     match path {
         Some(p) => {
             let kind = recording::file_kind(p);
@@ -91,10 +92,10 @@ pub fn load_trial(path: Option<&Path>) -> CmdResult<LoadedTrial> {
                 return Err(f);
             }
             if kind == recording::FileKind::Map {
-                return load_mapped_trial(p);
+                return load_mapped_trial(p, rep);
             }
-            let trial = experiment::read_trial(p).map_err(Failure::bad)?;
-            warn_ignored(&p.display().to_string(), &trial.ignored_columns);
+            let trial = experiment::read_trial(p).map_err(AppError::bad)?;
+            warn_ignored(&p.display().to_string(), &trial.ignored_columns, rep);
             Ok(LoadedTrial {
                 trial,
                 name: p.display().to_string(),
@@ -104,7 +105,7 @@ pub fn load_trial(path: Option<&Path>) -> CmdResult<LoadedTrial> {
             })
         }
         None => Ok(LoadedTrial {
-            trial: bundled::seed_trial().map_err(Failure::internal)?,
+            trial: bundled::seed_trial().map_err(AppError::internal)?,
             name: bundled::SEED_TRIAL_NAME.to_string(),
             path: None,
             data_files: Vec::new(),
@@ -114,17 +115,17 @@ pub fn load_trial(path: Option<&Path>) -> CmdResult<LoadedTrial> {
 }
 
 /// Reads an unloaded run: an unloaded-run CSV or a recording map of its angle and torque.
-pub fn read_unloaded_any(p: &Path) -> CmdResult<Unloaded> {
+pub fn read_unloaded_any(p: &Path, rep: &Reporter) -> AppResult<Unloaded> {
     let kind = recording::file_kind(p);
     if let Some(f) = not_a_trial(p, kind, "the unloaded run") {
         return Err(f);
     }
     if kind == recording::FileKind::Map {
-        let map = recording::read_map(p).map_err(Failure::bad)?;
-        return recording::read_unloaded_recording(&map).map_err(Failure::bad);
+        let map = recording::read_map(p).map_err(AppError::bad)?;
+        return recording::read_unloaded_recording(&map).map_err(AppError::bad);
     }
-    let u = experiment::read_unloaded(p).map_err(Failure::bad)?;
-    warn_ignored(&p.display().to_string(), &u.ignored_columns);
+    let u = experiment::read_unloaded(p).map_err(AppError::bad)?;
+    warn_ignored(&p.display().to_string(), &u.ignored_columns, rep);
     Ok(u)
 }
 
@@ -133,20 +134,21 @@ pub fn read_unloaded_any(p: &Path) -> CmdResult<Unloaded> {
 pub fn load_unloaded(
     path: Option<&Path>,
     trial_given: bool,
-) -> CmdResult<Option<(Unloaded, String)>> {
+    rep: &Reporter,
+) -> AppResult<Option<(Unloaded, String)>> {
     match (path, trial_given) {
-        (Some(p), _) => Ok(Some((read_unloaded_any(p)?, p.display().to_string()))),
+        (Some(p), _) => Ok(Some((read_unloaded_any(p, rep)?, p.display().to_string()))),
         (None, false) => Ok(Some((
-            bundled::seed_unloaded().map_err(Failure::internal)?,
+            bundled::seed_unloaded().map_err(AppError::internal)?,
             bundled::SEED_UNLOADED_NAME.to_string(),
         ))),
         (None, true) => Ok(None),
     }
 }
 
-fn warn_ignored(name: &str, cols: &[String]) {
+fn warn_ignored(name: &str, cols: &[String], rep: &Reporter) {
     if !cols.is_empty() {
-        crate::warn(format!(
+        rep.warn(format!(
             "{name}: ignored unknown columns: {}",
             cols.join(", ")
         ));
@@ -160,10 +162,10 @@ pub fn check_unloaded(
     trial_name: &str,
     unloaded: &Unloaded,
     unloaded_name: &str,
-) -> CmdResult {
+) -> AppResult {
     let (ft, fu) = (trial.sample_rate_hz(), unloaded.sample_rate_hz());
     if ((ft - fu) / ft).abs() > 1e-6 {
-        return Err(Failure::bad(format!(
+        return Err(AppError::bad(format!(
             "{unloaded_name}: sampled at {fu:.3} Hz but {trial_name} at {ft:.3} Hz; the unloaded \
              run must be recorded like the trial"
         )));
@@ -182,40 +184,34 @@ pub fn out_file(out: Option<&Path>, command: &str, default_file: &str) -> PathBu
 }
 
 /// Model options shared by the commands that simulate.
-#[derive(clap::Args, Debug, Clone, Default)]
-pub struct ModelArgs {
+#[derive(Debug, Clone, Default)]
+pub struct ModelSettings {
     /// Parameters JSON (docs/formats.md; any subset, the rest is nominal), an OpenSim model
     /// (`.osim`) whose soleus and gastrocnemii give F0, LOM, LST, α0 and vmax, a CEINMS
     /// subject XML, or an `identify.json` whose identified values are set over the nominal
     /// ones.
-    #[arg(long)]
     pub params: Option<PathBuf>,
     /// With an `.osim` `--params`: the model's names of sol, gm and gl when they are not
     /// gait2392's `soleus_r`, `med_gas_r`, `lat_gas_r` (e.g. `sol=soleus_l,gm=med_gas_l`).
-    #[arg(long, value_delimiter = ',', value_name = "MUSCLE=NAME")]
     pub osim_muscles: Vec<String>,
     /// Effects JSON (effects and their parameters in docs/formats.md): `{"<effect>": {"<param>": value}}`.
-    #[arg(long)]
     pub effects: Option<PathBuf>,
     /// The EMG columns are already normalised envelopes in [0, 1] (skip the
     /// EMG filtering of docs/model.md).
-    #[arg(long)]
     pub emg_is_envelope: bool,
-    #[command(flatten)]
-    pub knee: KneeArgs,
+    pub knee: KneeSettings,
 }
 
 /// The knee angle of a trial recorded without a `knee_angle_deg` column.
-#[derive(clap::Args, Debug, Clone, Copy, Default)]
-pub struct KneeArgs {
+#[derive(Debug, Clone, Copy, Default)]
+pub struct KneeSettings {
     /// Constant knee flexion of the trial, in degrees (0 extended, 90 flexed), when the
     /// file has no `knee_angle_deg` column; a file whose column holds other values is an
     /// error. Without either the knee is extended.
-    #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
     pub knee_angle_deg: Option<f64>,
 }
 
-impl KneeArgs {
+impl KneeSettings {
     /// The reader's options for the EMG given as raw signals or as envelopes, with this knee
     /// angle.
     pub fn input_options(&self, emg_is_envelope: bool) -> experiment::InputOptions {
@@ -227,9 +223,9 @@ impl KneeArgs {
     }
 }
 
-pub fn read_text(path: &Path) -> CmdResult<String> {
+pub fn read_text(path: &Path) -> AppResult<String> {
     let bytes = std::fs::read(path).map_err(|e| {
-        Failure::bad(format!(
+        AppError::bad(format!(
             "{}: {}",
             path.display(),
             match e.kind() {
@@ -239,14 +235,14 @@ pub fn read_text(path: &Path) -> CmdResult<String> {
         ))
     })?;
     String::from_utf8(bytes)
-        .map_err(|_| Failure::bad(format!("{}: not UTF-8 text", path.display())))
+        .map_err(|_| AppError::bad(format!("{}: not UTF-8 text", path.display())))
 }
 
 /// Reads a JSON file; syntax errors name the file, line and column.
-pub fn read_json(path: &Path) -> CmdResult<serde_json::Value> {
+pub fn read_json(path: &Path) -> AppResult<serde_json::Value> {
     let text = read_text(path)?;
     serde_json::from_str(&text).map_err(|e| {
-        Failure::bad(format!(
+        AppError::bad(format!(
             "{}:{}:{}: invalid JSON: {e}",
             path.display(),
             e.line(),
@@ -259,8 +255,8 @@ pub fn read_json(path: &Path) -> CmdResult<serde_json::Value> {
 /// none when absent; an `identify.json`'s effects when it carries them and no `--effects` is
 /// given); also returns the paths read, so outputs never overwrite them.
 pub fn load_model_config(
-    args: &ModelArgs,
-) -> CmdResult<(
+    args: &ModelSettings,
+) -> AppResult<(
     muscle_model::ModelParams,
     muscle_model::Effects,
     Vec<PathBuf>,
@@ -286,10 +282,10 @@ pub fn load_model_config(
 }
 
 /// An effects JSON file (docs/formats.md).
-pub fn read_effects(path: &Path) -> CmdResult<muscle_model::Effects> {
+pub fn read_effects(path: &Path) -> AppResult<muscle_model::Effects> {
     let value = read_json(path)?;
     muscle_model::Effects::from_json(&value)
-        .map_err(|e| Failure::bad(format!("{}: {e}", path.display())))
+        .map_err(|e| AppError::bad(format!("{}: {e}", path.display())))
 }
 
 /// Whether `path` names an OpenSim model (`.osim`).
@@ -300,34 +296,34 @@ pub fn is_osim(path: &Path) -> bool {
 
 /// The `--osim-muscles` map (gait2392's names for those not given); an error when it is
 /// given without an `.osim` `--params`.
-pub fn osim_names(args: &ModelArgs) -> CmdResult<opensim_files::OsimMuscleNames> {
+pub fn osim_names(args: &ModelSettings) -> AppResult<opensim_files::OsimMuscleNames> {
     if !args.osim_muscles.is_empty() && !args.params.as_deref().is_some_and(is_osim) {
-        return Err(Failure::bad(
+        return Err(AppError::bad(
             "--osim-muscles applies to an OpenSim model given as --params model.osim",
         ));
     }
     let mut pairs = Vec::new();
     for item in &args.osim_muscles {
         let (k, v) = item.split_once('=').ok_or_else(|| {
-            Failure::bad(format!(
+            AppError::bad(format!(
                 "--osim-muscles `{item}`: expected MUSCLE=NAME, e.g. sol=soleus_l"
             ))
         })?;
         pairs.push((k.trim(), v.trim()));
     }
-    opensim_files::OsimMuscleNames::renamed(pairs).map_err(Failure::bad)
+    opensim_files::OsimMuscleNames::renamed(pairs).map_err(AppError::bad)
 }
 
 /// The model inputs of a loaded trial (angle in rad, normalised envelopes, knee angle from
 /// the file or `--knee-angle-deg`).
 pub fn trial_inputs(
     loaded: &LoadedTrial,
-    args: &ModelArgs,
-) -> CmdResult<muscle_model::TrialInputs> {
+    args: &ModelSettings,
+) -> AppResult<muscle_model::TrialInputs> {
     if let Some(k) = args.knee.knee_angle_deg {
         let (lo, hi) = experiment::KNEE_RANGE_DEG;
         if !(k.is_finite() && (lo..=hi).contains(&k)) {
-            return Err(Failure::bad(format!(
+            return Err(AppError::bad(format!(
                 "--knee-angle-deg: {k} is outside the knee's range [{lo}, {hi}] degrees"
             )));
         }
@@ -339,50 +335,9 @@ pub fn trial_inputs(
         let msg = e.to_string();
         // errors from a bundled trial are ours, not the user's
         if loaded.path.is_some() {
-            Failure::bad(msg)
+            AppError::bad(msg)
         } else {
-            Failure::internal(msg)
+            AppError::internal(msg)
         }
     })
-}
-
-/// How a command reports: a progress display and summary (unless `--quiet`),
-/// and the JSON result on standard output with `--json`.
-#[derive(clap::Args, Debug, Clone, Copy, Default)]
-pub struct ReportArgs {
-    /// No progress display and no summary.
-    #[arg(long)]
-    pub quiet: bool,
-    /// Print the JSON result to standard output (the summary goes to standard error).
-    #[arg(long)]
-    pub json: bool,
-}
-
-impl ReportArgs {
-    /// Whether progress and the summary are shown.
-    pub fn show(&self) -> bool {
-        !self.quiet
-    }
-
-    /// Prints the JSON result when `--json` was given.
-    pub fn print_json(&self, text: &str) {
-        if self.json {
-            print!("{text}");
-        }
-    }
-
-    /// Prints a summary line: on standard output, or on standard error when
-    /// standard output carries the JSON; nothing with `--quiet`.
-    pub fn say(&self, line: &str) {
-        if self.quiet {
-            return;
-        }
-        // a closed pipe (`surae inspect F | head`) ends the summary, not the program
-        use std::io::Write as _;
-        if self.json {
-            let _ = writeln!(std::io::stderr(), "{line}");
-        } else {
-            let _ = writeln!(std::io::stdout(), "{line}");
-        }
-    }
 }
