@@ -96,6 +96,7 @@ mod baseline;
 mod context;
 mod crosstalk;
 mod error;
+mod estimates;
 mod fit;
 pub mod flexible;
 pub mod lm;
@@ -452,7 +453,7 @@ fn diagnose_target(
         "profile-likelihood intervals".into(),
         evaluations,
     )?;
-    let intervals = assemble::profile_intervals(&ctx, &selection.model, nobs, &settings.profile)?;
+    let intervals = estimates::profile_intervals(&ctx, &selection.model, nobs, &settings.profile)?;
     evaluations += intervals
         .iter()
         .map(|(_, iv)| iv.evaluations)

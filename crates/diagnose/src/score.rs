@@ -132,22 +132,23 @@ pub(crate) fn variants(
     }
 }
 
-/// Whitened projection machinery of one fit.
-pub(crate) struct Projector {
+/// The projection of whitened candidate columns onto the orthogonal complement of one fit's
+/// whitened Jacobian span, where their score test against the fit's residual is taken.
+pub(crate) struct JacobianComplementProjector {
     q: DMatrix<f64>,
     r: DVector<f64>,
     s2: f64,
     n: usize,
 }
 
-impl Projector {
+impl JacobianComplementProjector {
     pub fn new(ctx: &Context, fit: &Fit) -> Self {
         let n = ctx.plan.n_obs();
         let m = fit.jac.ncols();
         let q = fit.jac.clone().qr().q();
         let r = DVector::from_column_slice(&fit.white);
         let s2 = (r.norm_squared() / (n - m).max(1) as f64).max(1e-12);
-        Projector { q, r, s2, n }
+        JacobianComplementProjector { q, r, s2, n }
     }
 
     /// The projector of a whitened Jacobian `jac` and residual `white` over `n` observed
@@ -157,7 +158,7 @@ impl Projector {
         let q = jac.clone().qr().q();
         let r = DVector::from_column_slice(white);
         let s2 = (r.norm_squared() / (n - m).max(1) as f64).max(1e-12);
-        Projector { q, r, s2, n }
+        JacobianComplementProjector { q, r, s2, n }
     }
 
     fn perp(&self, v: &DVector<f64>) -> DVector<f64> {
@@ -214,7 +215,7 @@ fn untested(fit: &Fit, eligible: &[EffectKind]) -> Vec<EffectKind> {
 
 /// Scores every eligible candidate not yet in `fit`.
 pub(crate) fn score_all(ctx: &Context, fit: &Fit, eligible: &[EffectKind]) -> Vec<Score> {
-    let proj = Projector::new(ctx, fit);
+    let proj = JacobianComplementProjector::new(ctx, fit);
     let n = proj.n;
     let todo = untested(fit, eligible);
     todo.par_iter()
@@ -379,7 +380,7 @@ pub(crate) fn detection_limits_with_shapes(
     max_delta_bic: f64,
     review_margin: Option<f64>,
 ) -> Vec<DetectionLimit> {
-    let proj = Projector::new(ctx, fit);
+    let proj = JacobianComplementProjector::new(ctx, fit);
     let n = proj.n;
     let todo = untested(fit, eligible);
     // λ₉₅ depends only on the number of parameters (1 or 2): found once per number

@@ -9,7 +9,7 @@ use std::ops::ControlFlow;
 use muscle_model::{EffectKind, ParamId};
 use rayon::prelude::*;
 
-use crate::assemble::effect_values;
+use crate::estimates::effect_values;
 use crate::fit::{Context, Fit};
 use crate::progress::{notify, DiagnosisProgress, DiagnosisStage};
 use crate::rules::{clear_of_null, generalises, judge, near_tie, replaces, simpler_tie, Refit};

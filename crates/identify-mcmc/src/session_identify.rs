@@ -1,5 +1,24 @@
-//! Bayesian identification over a session: several trials of one subject that share the
-//! muscle parameters.
+//! Bayesian identification of the muscle model (docs/results.md) over a session, several
+//! trials of one subject that share the muscle parameters: noise model, start points, chains,
+//! report.
+//!
+//! [`identify`] samples the posterior of a [`Problem`]'s free parameters:
+//!
+//! 1. the measured torque is corrected by the dynamometer's systematic error
+//!    ([`NoiseSpec::systematic`], e.g. the cycle-locked part estimated from the unloaded run);
+//! 2. the noise model is the one given, or (no unloaded run) fitted to the residual of a
+//!    Nelder–Mead fit of the sum of squares (`numerics::nelder_mead`; for a session, each
+//!    trial's noise to its own residual of one joint fit);
+//! 3. a multi-start search (module `modes`) finds the modes of the posterior of LST and α0 with
+//!    F0 integrated out; the best one centres the wall-free sampling coordinates (module
+//!    `sampling_coordinates`) and all of them make the jump mixture ([`crate::MixtureProposal`]);
+//! 4. `n_chains` chains start from draws of that mixture (`u ~ N(0, spread²)` for F0, from the
+//!    seed's stream 0) and run the adaptive Metropolis–Hastings sampler of this crate with mode
+//!    jumps (uniform prior on the bounds; a failed simulation is a rejected proposal) until
+//!    every R̂ < 1.01 and bulk ESS ≥ 400 on the model's parameters (which the chains store at
+//!    every step), or the cap;
+//! 5. the report names each parameter (`sol.lst_m`, …) with its summary, identifiability,
+//!    the posterior correlation matrix and the strongest correlations.
 //!
 //! Each trial keeps its own dynamometer correction ([`NoiseSpec::systematic`]), its own random
 //! noise model and its own constant-offset nuisance; the noises of different trials are
@@ -12,7 +31,7 @@
 //! `trial_term`), the mode search runs on the summed marginal, and the Laplace factor stacks the
 //! trials' whitened Jacobians. A trial whose noise comes from the residual
 //! ([`McmcNoiseSource::FromResidual`]) is fitted to its own residual of one joint Nelder–Mead
-//! fit of the summed squared errors. A session of one trial is exactly [`crate::identify()`].
+//! fit of the summed squared errors. A session of one trial is exactly [`identify`].
 
 use std::ops::ControlFlow;
 use std::time::Instant;
@@ -22,11 +41,10 @@ use numerics::{nelder_mead, FnObjective, NelderMeadSettings};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
-use serde::{Deserialize, Serialize};
 
 use crate::identify::{
-    mode_mixture, McmcIdentification, McmcIdentifySettings, McmcNoiseSource, NamedCorrelation,
-    NoiseSpec, ParamPosterior,
+    mode_mixture, McmcIdentification, McmcIdentifySettings, McmcNoiseSource, McmcTrialFit,
+    NamedCorrelation, NoiseSpec, ParamPosterior, SessionTrialLikelihood,
 };
 use crate::modes::{find_modes, Mode};
 use crate::noise::NoiseParams;
@@ -34,26 +52,27 @@ use crate::sampling_coordinates::Conditional;
 use crate::trial_term::TrialModel;
 use crate::{run_with_proposal, ChainProgress, LogDensity, McmcError, McmcSettings};
 
-/// One trial of a session: its problem on the torque as measured, and its noise side.
-#[derive(Clone, Copy, Debug)]
-pub struct SessionTrialLikelihood<'a> {
-    /// The trial's problem. Every trial of a session has the same free parameters and bounds.
-    pub problem: &'a Problem,
-    /// Its systematic correction, random noise model and offset nuisance.
-    pub noise: &'a NoiseSpec,
-}
-
-/// One trial's fit at the posterior mean.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct McmcTrialFit {
-    /// RMS torque error against the torque as measured (N·m).
-    pub rms_nm: f64,
-    /// RMS against the corrected torque (measured − systematic).
-    pub rms_corrected_nm: f64,
-    /// The trial's noise model.
-    pub noise: NoiseParams,
-    /// Whether a systematic correction was applied to this trial.
-    pub corrected: bool,
+/// Sample the posterior of `problem`'s free parameters (see the module documentation).
+///
+/// `observer` sees the sampler's [`ChainProgress`] after every block and may stop the run.
+///
+/// # Errors
+/// Invalid settings, a systematic correction of the wrong length, a Nelder–Mead start where the
+/// model fails, a noise fit that fails, or a start point without finite density.
+pub fn identify<F>(
+    problem: &Problem,
+    noise: &NoiseSpec,
+    settings: &McmcIdentifySettings,
+    observer: F,
+) -> Result<McmcIdentification, McmcError>
+where
+    F: FnMut(&ChainProgress) -> ControlFlow<()>,
+{
+    identify_session(
+        &[SessionTrialLikelihood { problem, noise }],
+        settings,
+        observer,
+    )
 }
 
 /// `problem` with its measured torque replaced by `measured` (everything else kept).
