@@ -63,10 +63,9 @@ impl WhitenedBasisProjector {
         n: usize,
     ) -> WhitenedBasisProjector {
         let mut wb = DMatrix::zeros(n, cols.len());
-        let mut w = vec![0.0; n];
         for (j, c) in cols.iter().enumerate() {
-            plan.whiten(c, &mut w);
-            wb.set_column(j, &DVector::from_column_slice(&w));
+            // a column of the column-major matrix is one contiguous run of samples
+            plan.whiten(c, wb.column_mut(j).as_mut_slice());
         }
         if cols.is_empty() {
             return WhitenedBasisProjector {
