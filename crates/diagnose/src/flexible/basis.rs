@@ -8,7 +8,7 @@ use muscle_model::Muscle;
 use crate::fit::Context;
 
 use super::report::SearchedValue;
-use super::StateVariable;
+use super::variable::StateVariable;
 
 /// The basis of one variable's flexible term: its columns, each centred on its mean over the
 /// compared samples except in time (a constant is a function of time only: the catalogued

@@ -14,11 +14,11 @@ use crate::fit::{Context, Fit};
 use crate::DiagnoseError;
 
 use super::basis::{basis, FlexBasis};
-use super::fit::{combine, cross_validate, fit_flexible, time_folds, FlexFit, Folds};
+use super::fit::{combine, cross_validate, fit_flexible, terms_of, time_folds, FlexFit, Folds};
 use super::forms::with_searched_forms;
-use super::report::{terms_of, FlexibleExtension, Replacement, Unexplained, VariableGain};
+use super::report::{FlexibleExtension, Replacement, Unexplained, VariableGain};
 use super::review::review;
-use super::StateVariable;
+use super::variable::StateVariable;
 
 /// Share of the velocity term's held-out gain the direction term must reach to be reported
 /// before it.

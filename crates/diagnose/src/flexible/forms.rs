@@ -9,7 +9,7 @@ use crate::fit::Context;
 
 use super::basis::{from_functions, observed_range, series, FlexBasis, Functions, STILL_FRACTION};
 use super::report::SearchedValue;
-use super::StateVariable;
+use super::variable::StateVariable;
 
 /// Shortest time (s) between a change point in time and either end of the trial.
 const STEP_MARGIN_S: f64 = 0.5;

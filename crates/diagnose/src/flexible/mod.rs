@@ -19,13 +19,11 @@
 //! normalised triceps surae envelope) and `activation_ta` (the normalised tibialis anterior
 //! envelope).
 //!
-//! The stages, a file each: `basis` (a variable's columns), `forms` (the searched forms of time
-//! and direction, and the simplest shape in time), `fit` (the fit by variable projection and
-//! its cross-validation), `review` (no false story), `characterise` (the ranking and the
-//! extension) and `report` (what the diagnosis reports of them).
-
-use muscle_model::EffectKind;
-use serde::Serialize;
+//! The stages, a file each: `variable` (the vocabulary), `basis` (a variable's columns),
+//! `forms` (the searched forms of time and direction, and the simplest shape in time), `fit`
+//! (the fit by variable projection, its cross-validation and the terms' bands), `review` (no
+//! false story), `characterise` (the ranking and the extension) and `report` (what the
+//! diagnosis reports of them).
 
 mod basis;
 mod characterise;
@@ -33,6 +31,7 @@ mod fit;
 mod forms;
 mod report;
 mod review;
+mod variable;
 
 pub(crate) use characterise::{characterise, Characterisation};
 pub(crate) use fit::without_effects;
@@ -41,87 +40,4 @@ pub use report::{
     FlexibleExtension, FlexibleTerm, Replacement, SearchedValue, Unexplained, VariableGain,
 };
 pub(crate) use review::review_causes;
-
-/// A state variable of the flexible terms' vocabulary.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum StateVariable {
-    /// Ankle angle (°).
-    Angle,
-    /// Angular velocity (°/s).
-    Velocity,
-    /// Sign of the angular velocity.
-    Direction,
-    /// Angular acceleration (°/s²).
-    Acceleration,
-    /// Time since the start of the trial (s).
-    Time,
-    /// Mean normalised triceps surae envelope.
-    Activation,
-    /// Normalised tibialis anterior envelope.
-    ActivationTa,
-}
-
-impl StateVariable {
-    /// The vocabulary, in report order.
-    pub const ALL: [StateVariable; 7] = [
-        StateVariable::Angle,
-        StateVariable::Velocity,
-        StateVariable::Direction,
-        StateVariable::Acceleration,
-        StateVariable::Time,
-        StateVariable::Activation,
-        StateVariable::ActivationTa,
-    ];
-
-    /// Name in `diagnosis.json`.
-    pub fn name(self) -> &'static str {
-        match self {
-            StateVariable::Angle => "angle",
-            StateVariable::Velocity => "velocity",
-            StateVariable::Direction => "direction",
-            StateVariable::Acceleration => "acceleration",
-            StateVariable::Time => "time",
-            StateVariable::Activation => "activation",
-            StateVariable::ActivationTa => "activation_ta",
-        }
-    }
-
-    /// Unit of the variable's values (empty: dimensionless).
-    pub fn unit(self) -> &'static str {
-        match self {
-            StateVariable::Angle => "°",
-            StateVariable::Velocity => "°/s",
-            StateVariable::Acceleration => "°/s²",
-            StateVariable::Time => "s",
-            StateVariable::Direction | StateVariable::Activation | StateVariable::ActivationTa => {
-                ""
-            }
-        }
-    }
-
-    /// The variables a catalogued effect's torque is a function of, which its flexible
-    /// alternatives are drawn from: an offset is a constant of time, fatigue a decay over time
-    /// that scales the active force, an antagonist term follows the TA, eccentric enhancement
-    /// and damping follow the velocity and its sign, inertia the acceleration, the passive
-    /// torque and gravity the angle, and a delay shifts the activation.
-    pub fn of_effect(kind: EffectKind) -> &'static [StateVariable] {
-        use StateVariable as V;
-        match kind {
-            EffectKind::TorqueOffset => &[V::Time],
-            EffectKind::PassiveJointTorque | EffectKind::Gravity => &[V::Angle],
-            EffectKind::ElectromechanicalDelay => &[V::Activation],
-            EffectKind::Fatigue => &[V::Time, V::Activation],
-            EffectKind::AntagonistCoactivation => &[V::ActivationTa],
-            EffectKind::EccentricEnhancement | EffectKind::ViscousDamping => {
-                &[V::Velocity, V::Direction]
-            }
-            EffectKind::Inertia => &[V::Acceleration],
-        }
-    }
-}
-
-impl Serialize for StateVariable {
-    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(self.name())
-    }
-}
+pub use variable::StateVariable;

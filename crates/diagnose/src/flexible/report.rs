@@ -3,8 +3,7 @@
 
 use serde::Serialize;
 
-use super::fit::FlexFit;
-use super::StateVariable;
+use super::variable::StateVariable;
 
 /// A variable's flexible term added to the final model.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -155,41 +154,4 @@ impl Unexplained {
         }
         l
     }
-}
-
-/// The shapes of a flexible fit's terms.
-pub(super) fn terms_of(ff: &FlexFit) -> Vec<FlexibleTerm> {
-    let mut out = Vec::new();
-    let mut j = 0;
-    for b in &ff.bases {
-        let m = b.cols.len();
-        let beta = &ff.beta[j..j + m];
-        let (value_nm, band_nm) = b
-            .rows
-            .iter()
-            .map(|row| {
-                let v: f64 = row.iter().zip(beta).map(|(a, c)| a * c).sum();
-                let var = ff.beta_cov.as_ref().map_or(f64::NAN, |cov| {
-                    let mut q = 0.0;
-                    for (r, a) in row.iter().enumerate() {
-                        for (c, bb) in row.iter().enumerate() {
-                            q += a * cov[(j + r, j + c)] * bb;
-                        }
-                    }
-                    q
-                });
-                (v, 1.96 * var.max(0.0).sqrt())
-            })
-            .unzip();
-        out.push(FlexibleTerm {
-            variable: b.variable,
-            unit: b.variable.unit().to_string(),
-            points: b.points.clone(),
-            value_nm,
-            band_nm,
-            searched: b.searched.clone(),
-        });
-        j += m;
-    }
-    out
 }

@@ -17,7 +17,7 @@ use super::basis::{basis, FlexBasis};
 use super::fit::{fit_flexible, without_effects, FlexFit};
 use super::forms::{simplest_in_time, with_searched_forms};
 use super::report::Replacement;
-use super::StateVariable;
+use super::variable::StateVariable;
 
 /// For each effect of `model` (or only those in `only`), the model without it plus a flexible
 /// term in each of `vars(effect)` (or `extra` added to every model, and `extra` alone as one

@@ -10,14 +10,14 @@ pub(super) struct Adaptation {
     /// Lower Cholesky factor of the proposal covariance, row-major d×d.
     pub(super) chol: Vec<f64>,
     pub(super) log_lambda: f64,
-    pub(super) rm_count: f64,
-    pub(super) window_len: usize,
-    pub(super) window_max: usize,
-    pub(super) win_n: usize,
-    pub(super) win_accepted: usize,
-    pub(super) win_mean: Vec<f64>,
-    pub(super) win_m2: Vec<f64>,
-    pub(super) cov: Vec<f64>,
+    rm_count: f64,
+    window_len: usize,
+    window_max: usize,
+    win_n: usize,
+    win_accepted: usize,
+    win_mean: Vec<f64>,
+    win_m2: Vec<f64>,
+    cov: Vec<f64>,
 }
 
 impl Adaptation {
@@ -75,7 +75,7 @@ impl Adaptation {
     }
 
     /// Close a window: shrink its covariance, refactor, restart the scale.
-    pub(super) fn end_window(&mut self, widths: &[f64]) {
+    fn end_window(&mut self, widths: &[f64]) {
         let d = widths.len();
         let n = self.win_n as f64;
         if self.win_accepted > 2 * d && self.win_n > 1 {

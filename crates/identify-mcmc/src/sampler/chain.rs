@@ -4,12 +4,24 @@
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
+use serde::{Deserialize, Serialize};
 
 use crate::mixture::MixtureProposal;
 use crate::{LogDensity, McmcError, McmcSettings, Proposal};
 
 use super::adaptation::Adaptation;
-use super::{ChainPhase, MAX_INIT_TRIES};
+
+/// Uniform draws from the bounds tried per chain to find a finite start.
+pub const MAX_INIT_TRIES: usize = 1_000;
+
+/// Which phase a [`ChainProgress`](super::ChainProgress) report comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ChainPhase {
+    /// Warm-up (adaptation on for [`Proposal::Adaptive`]); draws discarded.
+    Warmup,
+    /// Sampling with the frozen proposal; draws kept.
+    Sampling,
+}
 
 /// Read-only context shared by all chains.
 pub(super) struct Context<'a> {
@@ -38,18 +50,18 @@ impl Counters {
 
 /// One chain: RNG stream, state, proposal, stored draws and counters.
 pub(super) struct Chain {
-    pub(super) rng: ChaCha8Rng,
-    pub(super) x: Vec<f64>,
-    pub(super) lp: f64,
-    pub(super) y: Vec<f64>,
-    pub(super) z: Vec<f64>,
+    rng: ChaCha8Rng,
+    x: Vec<f64>,
+    lp: f64,
+    y: Vec<f64>,
+    z: Vec<f64>,
     /// Reported coordinates and stored log density of the current state / the proposal.
-    pub(super) rx: Vec<f64>,
-    pub(super) ry: Vec<f64>,
-    pub(super) stored: f64,
+    rx: Vec<f64>,
+    ry: Vec<f64>,
+    stored: f64,
     /// Largest `|x_i|` (sampler coordinates) over the sampling phase's states.
     pub(super) max_abs: f64,
-    pub(super) adapt: Adaptation,
+    adapt: Adaptation,
     /// Warm-up draws, `[parameter][draw]`.
     pub(super) warm: Vec<Vec<f64>>,
     /// Warm-up states in sampler coordinates, the mixture's coordinates only (kept when the
@@ -160,11 +172,7 @@ impl Chain {
     }
 
     /// One Metropolis–Hastings step; returns `(acceptance probability, accepted, mixture step)`.
-    pub(super) fn step<T: LogDensity + ?Sized>(
-        &mut self,
-        target: &T,
-        ctx: &Context<'_>,
-    ) -> (f64, bool, bool) {
+    fn step<T: LogDensity + ?Sized>(&mut self, target: &T, ctx: &Context<'_>) -> (f64, bool, bool) {
         // ln q(x) − ln q(y) of an independence step (0 for the symmetric random walk).
         let mut log_q_ratio = 0.0;
         let jump = match &ctx.mixture {
@@ -183,7 +191,7 @@ impl Chain {
     }
 
     /// Write the random-walk proposal into `y`.
-    pub(super) fn random_walk(&mut self, ctx: &Context<'_>) {
+    fn random_walk(&mut self, ctx: &Context<'_>) {
         let d = self.x.len();
         match ctx.settings.proposal {
             Proposal::Dissertation { scale } => {
@@ -207,7 +215,7 @@ impl Chain {
     }
 
     /// Accept or reject the proposal in `y` given `ln q(x) − ln q(y)`.
-    pub(super) fn accept<T: LogDensity + ?Sized>(
+    fn accept<T: LogDensity + ?Sized>(
         &mut self,
         target: &T,
         ctx: &Context<'_>,

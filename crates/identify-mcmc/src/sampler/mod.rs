@@ -17,19 +17,8 @@ mod chain;
 mod monitor;
 
 use chain::{Chain, Context};
+pub use chain::{ChainPhase, MAX_INIT_TRIES};
 use monitor::{check_interval, mean_rate, monitor, refit_mixture};
-
-/// Uniform draws from the bounds tried per chain to find a finite start.
-pub const MAX_INIT_TRIES: usize = 1_000;
-
-/// Which phase a [`ChainProgress`] report comes from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub enum ChainPhase {
-    /// Warm-up (adaptation on for [`Proposal::Adaptive`]); draws discarded.
-    Warmup,
-    /// Sampling with the frozen proposal; draws kept.
-    Sampling,
-}
 
 /// What the observer of [`run_with_observer`] sees after every block.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

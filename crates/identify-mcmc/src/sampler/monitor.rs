@@ -7,8 +7,7 @@ use rayon::prelude::*;
 
 use crate::diagnostics;
 
-use super::chain::{Chain, Context};
-use super::ChainPhase;
+use super::chain::{Chain, ChainPhase, Context};
 
 /// Largest R̂ and smallest bulk ESS over the parameters: during warm-up over
 /// the second half of the warm-up draws (R̂ only), during sampling over all
