@@ -64,72 +64,88 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .parse()?;
     }
     if args.iter().any(|a| a == "--limits") {
-        let sizes = limit_sizes();
-        let only: Option<Vec<String>> = args
-            .iter()
-            .position(|a| a == "--effects")
-            .and_then(|i| args.get(i + 1))
-            .map(|s| s.split(',').map(str::to_string).collect());
-        let protocol: Protocol = match args.iter().position(|a| a == "--protocol") {
-            Some(i) => args
-                .get(i + 1)
-                .ok_or("--protocol needs a protocol")?
-                .parse()?,
-            None => "relaxed+2".parse()?,
-        };
-        let diagnose_trial = |t: &diagnose::scenarios::HiddenTrial| {
-            run(
-                &t.synthetic.trial,
-                Some(&t.synthetic.unloaded),
-                &settings,
-                &mut no_observer,
-            )
-        };
-        if args.iter().any(|a| a == "--null") {
-            let mut alarms = 0;
-            for i in 0..n {
-                let seed = base + i;
-                let d = diagnose_trial(&hidden_trial_on(&[], i % 2 == 1, seed, protocol)?)?;
-                dump(seed, &[], &d)?;
-                if !d.causes.is_empty() {
-                    alarms += 1;
-                    eprintln!("seed {seed} none: named {:?}", d.causes);
-                }
-            }
-            println!("none, -, {alarms}/{n} with a cause named");
-        }
-        println!("effect, size, detected/N, other named");
-        for (kind, ss) in sizes {
-            for s in ss {
-                let wanted = only.as_ref().is_none_or(|o| {
-                    o.iter().any(|item| match item.split_once(':') {
-                        Some((name, size)) => {
-                            name == kind.name() && size.parse::<f64>().is_ok_and(|x| x == s)
-                        }
-                        None => item == kind.name(),
-                    })
-                });
-                if !wanted {
-                    continue;
-                }
-                let mut hit = 0;
-                let mut other = 0;
-                for i in 0..n {
-                    let seed = base + 1000 * (kind as u64) + i;
-                    let d = diagnose_trial(&hidden_trial_sized_on(kind, s, seed, protocol)?)?;
-                    dump(seed, &[kind], &d)?;
-                    if d.causes == vec![kind.name().to_string()] {
-                        hit += 1;
-                    } else if d.causes.iter().any(|c| c != kind.name()) {
-                        other += 1;
-                        eprintln!("seed {seed} {} {s}: named {:?}", kind.name(), d.causes);
-                    }
-                }
-                println!("{}, {s}, {hit}/{n}, {other}", kind.name());
-            }
-        }
-        return Ok(());
+        return limits(&args, n, base, &settings);
     }
+    confusion_table(n, base, &settings)
+}
+
+/// The detection rate per effect and size (`--limits`), after the no-effect trials with
+/// `--null`.
+fn limits(
+    args: &[String],
+    n: u64,
+    base: u64,
+    settings: &DiagnoseSettings,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let sizes = limit_sizes();
+    let only: Option<Vec<String>> = args
+        .iter()
+        .position(|a| a == "--effects")
+        .and_then(|i| args.get(i + 1))
+        .map(|s| s.split(',').map(str::to_string).collect());
+    let protocol: Protocol = match args.iter().position(|a| a == "--protocol") {
+        Some(i) => args
+            .get(i + 1)
+            .ok_or("--protocol needs a protocol")?
+            .parse()?,
+        None => "relaxed+2".parse()?,
+    };
+    let diagnose_trial = |t: &diagnose::scenarios::HiddenTrial| {
+        run(
+            &t.synthetic.trial,
+            Some(&t.synthetic.unloaded),
+            settings,
+            &mut no_observer,
+        )
+    };
+    if args.iter().any(|a| a == "--null") {
+        let mut alarms = 0;
+        for i in 0..n {
+            let seed = base + i;
+            let d = diagnose_trial(&hidden_trial_on(&[], i % 2 == 1, seed, protocol)?)?;
+            dump(seed, &[], &d)?;
+            if !d.causes.is_empty() {
+                alarms += 1;
+                eprintln!("seed {seed} none: named {:?}", d.causes);
+            }
+        }
+        println!("none, -, {alarms}/{n} with a cause named");
+    }
+    println!("effect, size, detected/N, other named");
+    for (kind, ss) in sizes {
+        for s in ss {
+            let wanted = only.as_ref().is_none_or(|o| {
+                o.iter().any(|item| match item.split_once(':') {
+                    Some((name, size)) => {
+                        name == kind.name() && size.parse::<f64>().is_ok_and(|x| x == s)
+                    }
+                    None => item == kind.name(),
+                })
+            });
+            if !wanted {
+                continue;
+            }
+            let mut hit = 0;
+            let mut other = 0;
+            for i in 0..n {
+                let seed = base + 1000 * (kind as u64) + i;
+                let d = diagnose_trial(&hidden_trial_sized_on(kind, s, seed, protocol)?)?;
+                dump(seed, &[kind], &d)?;
+                if d.causes == vec![kind.name().to_string()] {
+                    hit += 1;
+                } else if d.causes.iter().any(|c| c != kind.name()) {
+                    other += 1;
+                    eprintln!("seed {seed} {} {s}: named {:?}", kind.name(), d.causes);
+                }
+            }
+            println!("{}, {s}, {hit}/{n}, {other}", kind.name());
+        }
+    }
+    Ok(())
+}
+
+/// The scenarios of the confusion table: name, hidden effects, whether the trial has `emg_ta`.
+fn scenarios() -> Vec<(String, Vec<EffectKind>, bool)> {
     let mut scenarios: Vec<(String, Vec<EffectKind>, bool)> = vec![
         ("none".into(), vec![], false),
         ("none+ta".into(), vec![], true),
@@ -147,6 +163,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         vec![EffectKind::Fatigue, EffectKind::PassiveJointTorque],
         false,
     ));
+    scenarios
+}
+
+/// The confusion table: per scenario, the named causes against the hidden ones, the magnitude
+/// error, the time and the coverage of the reported intervals.
+fn confusion_table(
+    n: u64,
+    base: u64,
+    settings: &DiagnoseSettings,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let scenarios = scenarios();
     println!("scenario | correct/N | named instead (count) | mean |rel. err| of headline | held-out gain > 0 | max wall s | effect truth in 68 % profile interval | within ±1 Laplace SE | muscle truth in 68 % profile interval | within ±1 Laplace SE");
     for (si, (name, kinds, ta)) in scenarios.iter().enumerate() {
         let mut ok = 0;
@@ -163,7 +190,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let d = run(
                 &t.synthetic.trial,
                 Some(&t.synthetic.unloaded),
-                &settings,
+                settings,
                 &mut no_observer,
             )?;
             wall = wall.max(t0.elapsed().as_secs_f64());

@@ -96,6 +96,7 @@ mod baseline;
 mod context;
 mod crosstalk;
 mod error;
+mod estimates;
 mod fit;
 pub mod flexible;
 pub mod lm;
@@ -328,122 +329,42 @@ fn diagnose_target(
 
     // Beyond the catalogue: a named cause that a flexible term in its own variable explains
     // better is not named (no false story).
-    let mut replaced = Vec::new();
-    if settings.flexible_terms && !selection.model.kinds.is_empty() {
-        notify(
-            observer,
-            DiagnosisStage::Analysis,
-            "reviewing the named causes against flexible terms".into(),
-            evaluations,
-        )?;
-        // a review that cannot be fitted replaces nothing
-        let (r, ev) =
-            flexible::review_causes(&ctx, &selection.model, settings.flexible_margin_bic, nobs)
-                .unwrap_or_default();
-        evaluations += ev;
-        evaluations += drop_causes(&ctx, &mut selection, &r)?;
-        replaced = r;
-    }
+    let replaced = review_named_causes(&ctx, &mut selection, settings, observer, &mut evaluations)?;
 
-    // The structure left in the final residual, and what it depends on: the vocabulary's
-    // flexible terms ranked, the model extended with the best; a named cause the extension
-    // makes unnecessary is dropped and the smaller model characterised again.
-    notify(
-        observer,
-        DiagnosisStage::Analysis,
-        "residual analysis".into(),
-        evaluations,
-    )?;
-    let mut ra = analysis::analyse(
+    // The structure left in the final residual, and what it depends on.
+    let (ra, unexplained) = explain_structure(
         &ctx,
-        &selection.baseline,
-        &selection.model,
-        settings.structure_threshold,
-    );
-    let mut unexplained = None;
-    while settings.flexible_terms
-        && (ra.structure_evidence > settings.structure_threshold || !replaced.is_empty())
-    {
-        notify(
-            observer,
-            DiagnosisStage::Analysis,
-            "ranking flexible terms in the state variables".into(),
-            evaluations,
-        )?;
-        // an extension that cannot be fitted leaves the structure unexplained and unranked
-        let c = flexible::characterise(
-            &ctx,
-            &selection.model,
-            &eligible,
-            replaced.clone(),
-            settings.min_flexible_gain,
-            settings.flexible_margin_bic,
-            nobs,
-        )
-        .unwrap_or_else(|_| flexible::Characterisation {
-            unexplained: Unexplained {
-                depends_on: Vec::new(),
-                ranking: Vec::new(),
-                extension: None,
-                catalogued_shape: None,
-                replaced: replaced.clone(),
-            },
-            unneeded: Vec::new(),
-            evaluations: 0,
-        });
-        evaluations += c.evaluations;
-        if c.unneeded.is_empty() {
-            unexplained = Some(c.unexplained);
-            break;
-        }
-        evaluations += drop_causes(&ctx, &mut selection, &c.unneeded)?;
-        replaced.extend(c.unneeded);
-        ra = analysis::analyse(
-            &ctx,
-            &selection.baseline,
-            &selection.model,
-            settings.structure_threshold,
-        );
-    }
+        &mut selection,
+        &eligible,
+        replaced,
+        settings,
+        observer,
+        &mut evaluations,
+    )?;
 
     // What the crosstalk correction was worth: the final model on the uncorrected envelopes.
-    let mut emg_correction = None;
-    if let Some(raw) = emg.uncorrected {
-        notify(
+    let emg_correction = match emg.uncorrected {
+        Some(raw) => Some(correction_worth(
+            &ctx,
+            &selection.model,
+            raw,
+            &emg.checks,
+            settings,
             observer,
-            DiagnosisStage::Analysis,
-            "the final model on the EMG without the crosstalk correction".into(),
-            evaluations,
-        )?;
-        let (c, ev) =
-            crosstalk::correction_worth(&ctx, &selection.model, raw, &emg.checks, settings)?;
-        evaluations += ev;
-        emg_correction = Some(c);
-    }
+            &mut evaluations,
+        )?),
+        None => None,
+    };
 
     // The smallest detectable size of every effect not named.
-    notify(
-        observer,
-        DiagnosisStage::Analysis,
-        "detection limits of the effects not named".into(),
-        evaluations,
-    )?;
-    let limits = score::detection_limits_with_shapes(
+    detection_limits(
         &ctx,
-        &selection.model,
+        &mut selection,
         &eligible,
-        settings.max_delta_bic,
-        settings
-            .flexible_terms
-            .then_some(settings.flexible_margin_bic),
-    );
-    for l in limits {
-        evaluations += l.evaluations;
-        if let Some(rep) = selection.reports.get_mut(&l.kind) {
-            rep.detection_limit = Some(l.limit);
-            rep.detection_limit_shape = l.shape;
-        }
-    }
+        settings,
+        observer,
+        &mut evaluations,
+    )?;
 
     // Uncertainty: profile-likelihood intervals of the final model's parameters.
     notify(
@@ -452,7 +373,7 @@ fn diagnose_target(
         "profile-likelihood intervals".into(),
         evaluations,
     )?;
-    let intervals = assemble::profile_intervals(&ctx, &selection.model, nobs, &settings.profile)?;
+    let intervals = estimates::profile_intervals(&ctx, &selection.model, nobs, &settings.profile)?;
     evaluations += intervals
         .iter()
         .map(|(_, iv)| iv.evaluations)
@@ -475,24 +396,193 @@ fn diagnose_target(
             reason: NO_JOINT_ANGLE.to_string(),
         })
         .collect();
-    // A correction worth as much as a flexible term makes the recording's model deficient,
-    // and what it leaves lives in the triceps activation the model was given.
+    // A correction worth as much as a flexible term makes the recording's model deficient.
     if let Some(c) = &emg_correction {
-        if c.heldout_deviance_gain > settings.min_flexible_gain {
-            diagnosis.verdict = Verdict::Deficient;
-            let u = diagnosis.unexplained.get_or_insert_with(|| Unexplained {
-                depends_on: Vec::new(),
-                ranking: Vec::new(),
-                extension: None,
-                catalogued_shape: None,
-                replaced: Vec::new(),
-            });
-            u.depends_on.retain(|v| *v != StateVariable::Activation);
-            u.depends_on.insert(0, StateVariable::Activation);
-        }
+        mark_uncorrected_activation(&mut diagnosis, c, settings);
     }
     diagnosis.emg_crosstalk = emg.checks;
     diagnosis.emg_correction = emg_correction;
     diagnosis.wall_s = t0.elapsed().as_secs_f64();
     Ok(diagnosis)
+}
+
+/// The review of the named causes against flexible terms (no false story, module `flexible`):
+/// a cause that a flexible term in its own variable explains better is dropped from the
+/// selection; returns the causes replaced.
+fn review_named_causes(
+    ctx: &fit::Context,
+    selection: &mut selection::Selection,
+    settings: &DiagnoseSettings,
+    observer: &mut dyn FnMut(&DiagnosisProgress) -> ControlFlow<()>,
+    evaluations: &mut usize,
+) -> Result<Vec<Replacement>, DiagnoseError> {
+    if !settings.flexible_terms || selection.model.kinds.is_empty() {
+        return Ok(Vec::new());
+    }
+    notify(
+        observer,
+        DiagnosisStage::Analysis,
+        "reviewing the named causes against flexible terms".into(),
+        *evaluations,
+    )?;
+    // a review that cannot be fitted replaces nothing
+    let (replaced, ev) = flexible::review_causes(
+        ctx,
+        &selection.model,
+        settings.flexible_margin_bic,
+        ctx.plan.n_obs(),
+    )
+    .unwrap_or_default();
+    *evaluations += ev;
+    *evaluations += drop_causes(ctx, selection, &replaced)?;
+    Ok(replaced)
+}
+
+/// The residual analysis of the final model and what its structure depends on: the
+/// vocabulary's flexible terms ranked, the model extended with the best; a named cause the
+/// extension makes unnecessary is dropped and the smaller model characterised again.
+fn explain_structure(
+    ctx: &fit::Context,
+    selection: &mut selection::Selection,
+    eligible: &[muscle_model::EffectKind],
+    mut replaced: Vec<Replacement>,
+    settings: &DiagnoseSettings,
+    observer: &mut dyn FnMut(&DiagnosisProgress) -> ControlFlow<()>,
+    evaluations: &mut usize,
+) -> Result<(ResidualAnalysis, Option<Unexplained>), DiagnoseError> {
+    notify(
+        observer,
+        DiagnosisStage::Analysis,
+        "residual analysis".into(),
+        *evaluations,
+    )?;
+    let mut ra = analysis::analyse(
+        ctx,
+        &selection.baseline,
+        &selection.model,
+        settings.structure_threshold,
+    );
+    let mut unexplained = None;
+    while settings.flexible_terms
+        && (ra.structure_evidence > settings.structure_threshold || !replaced.is_empty())
+    {
+        notify(
+            observer,
+            DiagnosisStage::Analysis,
+            "ranking flexible terms in the state variables".into(),
+            *evaluations,
+        )?;
+        // an extension that cannot be fitted leaves the structure unexplained and unranked
+        let c = flexible::characterise(
+            ctx,
+            &selection.model,
+            eligible,
+            replaced.clone(),
+            settings.min_flexible_gain,
+            settings.flexible_margin_bic,
+            ctx.plan.n_obs(),
+        )
+        .unwrap_or_else(|_| flexible::Characterisation {
+            unexplained: Unexplained {
+                depends_on: Vec::new(),
+                ranking: Vec::new(),
+                extension: None,
+                catalogued_shape: None,
+                replaced: replaced.clone(),
+            },
+            unneeded: Vec::new(),
+            evaluations: 0,
+        });
+        *evaluations += c.evaluations;
+        if c.unneeded.is_empty() {
+            unexplained = Some(c.unexplained);
+            break;
+        }
+        *evaluations += drop_causes(ctx, selection, &c.unneeded)?;
+        replaced.extend(c.unneeded);
+        ra = analysis::analyse(
+            ctx,
+            &selection.baseline,
+            &selection.model,
+            settings.structure_threshold,
+        );
+    }
+    Ok((ra, unexplained))
+}
+
+/// The final model `model` on the EMG without the crosstalk correction (`raw`).
+fn correction_worth(
+    ctx: &fit::Context,
+    model: &fit::Fit,
+    raw: muscle_model::TrialInputs,
+    checks: &[CrosstalkCheck],
+    settings: &DiagnoseSettings,
+    observer: &mut dyn FnMut(&DiagnosisProgress) -> ControlFlow<()>,
+    evaluations: &mut usize,
+) -> Result<EmgCorrection, DiagnoseError> {
+    notify(
+        observer,
+        DiagnosisStage::Analysis,
+        "the final model on the EMG without the crosstalk correction".into(),
+        *evaluations,
+    )?;
+    let (c, ev) = crosstalk::correction_worth(ctx, model, raw, checks, settings)?;
+    *evaluations += ev;
+    Ok(c)
+}
+
+/// The detection limit, and its shape, of every effect not named, into the candidates'
+/// reports.
+fn detection_limits(
+    ctx: &fit::Context,
+    selection: &mut selection::Selection,
+    eligible: &[muscle_model::EffectKind],
+    settings: &DiagnoseSettings,
+    observer: &mut dyn FnMut(&DiagnosisProgress) -> ControlFlow<()>,
+    evaluations: &mut usize,
+) -> Result<(), DiagnoseError> {
+    notify(
+        observer,
+        DiagnosisStage::Analysis,
+        "detection limits of the effects not named".into(),
+        *evaluations,
+    )?;
+    let limits = score::detection_limits_with_shapes(
+        ctx,
+        &selection.model,
+        eligible,
+        settings.max_delta_bic,
+        settings
+            .flexible_terms
+            .then_some(settings.flexible_margin_bic),
+    );
+    for l in limits {
+        *evaluations += l.evaluations;
+        if let Some(rep) = selection.reports.get_mut(&l.kind) {
+            rep.detection_limit = Some(l.limit);
+            rep.detection_limit_shape = l.shape;
+        }
+    }
+    Ok(())
+}
+
+/// Marks the diagnosis deficient when the crosstalk correction `c` was worth as much as a
+/// flexible term: what it leaves lives in the triceps activation the model was given.
+fn mark_uncorrected_activation(
+    diagnosis: &mut Diagnosis,
+    c: &EmgCorrection,
+    settings: &DiagnoseSettings,
+) {
+    if c.heldout_deviance_gain > settings.min_flexible_gain {
+        diagnosis.verdict = Verdict::Deficient;
+        let u = diagnosis.unexplained.get_or_insert_with(|| Unexplained {
+            depends_on: Vec::new(),
+            ranking: Vec::new(),
+            extension: None,
+            catalogued_shape: None,
+            replaced: Vec::new(),
+        });
+        u.depends_on.retain(|v| *v != StateVariable::Activation);
+        u.depends_on.insert(0, StateVariable::Activation);
+    }
 }

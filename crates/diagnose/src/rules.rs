@@ -10,7 +10,7 @@ use std::collections::BTreeMap;
 
 use muscle_model::EffectKind;
 
-use crate::assemble::effect_significance;
+use crate::estimates::effect_significance;
 use crate::fit::Fit;
 use crate::{CandidateReport, DiagnoseSettings, NearTie};
 

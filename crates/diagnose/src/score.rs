@@ -132,22 +132,23 @@ pub(crate) fn variants(
     }
 }
 
-/// Whitened projection machinery of one fit.
-pub(crate) struct Projector {
+/// The projection of whitened candidate columns onto the orthogonal complement of one fit's
+/// whitened Jacobian span, where their score test against the fit's residual is taken.
+pub(crate) struct JacobianComplementProjector {
     q: DMatrix<f64>,
     r: DVector<f64>,
     s2: f64,
     n: usize,
 }
 
-impl Projector {
+impl JacobianComplementProjector {
     pub fn new(ctx: &Context, fit: &Fit) -> Self {
         let n = ctx.plan.n_obs();
         let m = fit.jac.ncols();
         let q = fit.jac.clone().qr().q();
         let r = DVector::from_column_slice(&fit.white);
         let s2 = (r.norm_squared() / (n - m).max(1) as f64).max(1e-12);
-        Projector { q, r, s2, n }
+        JacobianComplementProjector { q, r, s2, n }
     }
 
     /// The projector of a whitened Jacobian `jac` and residual `white` over `n` observed
@@ -157,7 +158,7 @@ impl Projector {
         let q = jac.clone().qr().q();
         let r = DVector::from_column_slice(white);
         let s2 = (r.norm_squared() / (n - m).max(1) as f64).max(1e-12);
-        Projector { q, r, s2, n }
+        JacobianComplementProjector { q, r, s2, n }
     }
 
     fn perp(&self, v: &DVector<f64>) -> DVector<f64> {
@@ -214,7 +215,7 @@ fn untested(fit: &Fit, eligible: &[EffectKind]) -> Vec<EffectKind> {
 
 /// Scores every eligible candidate not yet in `fit`.
 pub(crate) fn score_all(ctx: &Context, fit: &Fit, eligible: &[EffectKind]) -> Vec<Score> {
-    let proj = Projector::new(ctx, fit);
+    let proj = JacobianComplementProjector::new(ctx, fit);
     let n = proj.n;
     let todo = untested(fit, eligible);
     todo.par_iter()
@@ -379,17 +380,11 @@ pub(crate) fn detection_limits_with_shapes(
     max_delta_bic: f64,
     review_margin: Option<f64>,
 ) -> Vec<DetectionLimit> {
-    let proj = Projector::new(ctx, fit);
+    let proj = JacobianComplementProjector::new(ctx, fit);
     let n = proj.n;
     let todo = untested(fit, eligible);
     // λ₉₅ depends only on the number of parameters (1 or 2): found once per number
     let lambdas = [1, 2].map(|k| lambda_95(k, n, max_delta_bic));
-    let q = ctx.inputs.angle();
-    let passive_15 = |k: f64| (k * crate::scenarios::PASSIVE_REFERENCE_RAD).exp() - 1.0;
-    // every (effect, shape) pair: the raw column of that direction, the headline per unit of
-    // it, and the effect's parameters at a headline size
-    type Values = Box<dyn Fn(f64) -> [f64; 2] + Sync + Send>;
-    let mut jobs: Vec<(EffectKind, Option<f64>, Vec<f64>, f64, Values)> = Vec::new();
     let whitened_perp = |col: &[f64]| {
         let mut w = vec![0.0; col.len()];
         ctx.plan.whiten(col, &mut w);
@@ -400,65 +395,7 @@ pub(crate) fn detection_limits_with_shapes(
     let ramp = review_margin
         .and_then(|m| crate::flexible::ramp_column(ctx).map(|c| (m, whitened_perp(&c))))
         .filter(|(_, r)| r.norm() > 0.0);
-    for &kind in &todo {
-        match kind {
-            EffectKind::Gravity => {
-                // `m·sin(q − φ) = m·(cos φ·sin q − sin φ·cos q)`: the linearised information
-                // is the quadratic form `uᵀAu`, `u = (cos φ, −sin φ)`, `A` the Gram matrix of
-                // the whitened, projected `sin q` and `cos q`; its smallest eigenvector is the
-                // worst phase
-                let s = whitened_perp(&q.iter().map(|a| a.sin()).collect::<Vec<_>>());
-                let c = whitened_perp(&q.iter().map(|a| a.cos()).collect::<Vec<_>>());
-                let a = nalgebra::Matrix2::new(s.dot(&s), s.dot(&c), c.dot(&s), c.dot(&c));
-                let eig = a.symmetric_eigen();
-                let i = if eig.eigenvalues[0] <= eig.eigenvalues[1] {
-                    0
-                } else {
-                    1
-                };
-                let v = eig.eigenvectors.column(i);
-                let worst = wrap_phase((-v[1]).atan2(v[0]).to_degrees());
-                for d in GRAVITY_LIMIT_PHASE_OFFSETS_DEG {
-                    let phi = wrap_phase(worst + d);
-                    let r = phi.to_radians();
-                    let col = q.iter().map(|a| (a - r).sin()).collect();
-                    jobs.push((kind, Some(phi), col, 1.0, Box::new(move |m| [m, phi])));
-                }
-            }
-            EffectKind::PassiveJointTorque => {
-                // the linearised limit at every stiffness; the largest refitted
-                let mut linear: Vec<(f64, f64)> = passive_limit_stiffnesses()
-                    .into_iter()
-                    .map(|k| {
-                        let col: Vec<f64> = q.iter().map(|a| (k * a).exp() - 1.0).collect();
-                        let info = whitened_perp(&col).norm_squared();
-                        (k, passive_15(k) / info.sqrt())
-                    })
-                    .filter(|(_, l)| l.is_finite())
-                    .collect();
-                linear.sort_by(|x, y| y.1.total_cmp(&x.1));
-                for (k, _) in linear.into_iter().take(PASSIVE_REFITS) {
-                    let col = q.iter().map(|a| (k * a).exp() - 1.0).collect();
-                    let per = passive_15(k);
-                    jobs.push((kind, Some(k), col, per, Box::new(move |t| [t / per, k])));
-                }
-            }
-            _ => {
-                let Some(col) = variants(ctx, fit, kind)
-                    .into_iter()
-                    .next()
-                    .and_then(|v| v.0.into_iter().next())
-                else {
-                    continue;
-                };
-                let values: Values = match kind {
-                    EffectKind::EccentricEnhancement => Box::new(|x| [1.4 + x, 0.0]),
-                    _ => Box::new(|x| [x, 0.0]),
-                };
-                jobs.push((kind, None, col, 1.0, values));
-            }
-        }
-    }
+    let jobs = limit_jobs(ctx, fit, &todo, &whitened_perp);
     // (limit, job index, linear size, λ₉₅) of every shape
     let per_shape: Vec<(DetectionLimit, usize, f64, f64)> = jobs
         .par_iter()
@@ -527,6 +464,85 @@ pub(crate) fn detection_limits_with_shapes(
             }
         });
     out.into_iter().map(|o| o.0).collect()
+}
+
+/// The parameters of an effect at a headline size, for one shape.
+type ShapeValues = Box<dyn Fn(f64) -> [f64; 2] + Sync + Send>;
+
+/// One (effect, shape) pair of the detection limits: the effect, its shape (gravity's phase,
+/// the passive torque's stiffness), the raw column of that direction, the headline per unit of
+/// it, and the effect's parameters at a headline size.
+type LimitJob = (EffectKind, Option<f64>, Vec<f64>, f64, ShapeValues);
+
+/// Every (effect, shape) pair whose limit is refitted, for the effects `todo`; `whitened_perp`
+/// whitens a column and projects it off `fit`'s Jacobian.
+fn limit_jobs<W>(ctx: &Context, fit: &Fit, todo: &[EffectKind], whitened_perp: &W) -> Vec<LimitJob>
+where
+    W: Fn(&[f64]) -> DVector<f64>,
+{
+    let q = ctx.inputs.angle();
+    let passive_15 = |k: f64| (k * crate::scenarios::PASSIVE_REFERENCE_RAD).exp() - 1.0;
+    let mut jobs: Vec<LimitJob> = Vec::new();
+    for &kind in todo {
+        match kind {
+            EffectKind::Gravity => {
+                // `m·sin(q − φ) = m·(cos φ·sin q − sin φ·cos q)`: the linearised information
+                // is the quadratic form `uᵀAu`, `u = (cos φ, −sin φ)`, `A` the Gram matrix of
+                // the whitened, projected `sin q` and `cos q`; its smallest eigenvector is the
+                // worst phase
+                let s = whitened_perp(&q.iter().map(|a| a.sin()).collect::<Vec<_>>());
+                let c = whitened_perp(&q.iter().map(|a| a.cos()).collect::<Vec<_>>());
+                let a = nalgebra::Matrix2::new(s.dot(&s), s.dot(&c), c.dot(&s), c.dot(&c));
+                let eig = a.symmetric_eigen();
+                let i = if eig.eigenvalues[0] <= eig.eigenvalues[1] {
+                    0
+                } else {
+                    1
+                };
+                let v = eig.eigenvectors.column(i);
+                let worst = wrap_phase((-v[1]).atan2(v[0]).to_degrees());
+                for d in GRAVITY_LIMIT_PHASE_OFFSETS_DEG {
+                    let phi = wrap_phase(worst + d);
+                    let r = phi.to_radians();
+                    let col = q.iter().map(|a| (a - r).sin()).collect();
+                    jobs.push((kind, Some(phi), col, 1.0, Box::new(move |m| [m, phi])));
+                }
+            }
+            EffectKind::PassiveJointTorque => {
+                // the linearised limit at every stiffness; the largest refitted
+                let mut linear: Vec<(f64, f64)> = passive_limit_stiffnesses()
+                    .into_iter()
+                    .map(|k| {
+                        let col: Vec<f64> = q.iter().map(|a| (k * a).exp() - 1.0).collect();
+                        let info = whitened_perp(&col).norm_squared();
+                        (k, passive_15(k) / info.sqrt())
+                    })
+                    .filter(|(_, l)| l.is_finite())
+                    .collect();
+                linear.sort_by(|x, y| y.1.total_cmp(&x.1));
+                for (k, _) in linear.into_iter().take(PASSIVE_REFITS) {
+                    let col = q.iter().map(|a| (k * a).exp() - 1.0).collect();
+                    let per = passive_15(k);
+                    jobs.push((kind, Some(k), col, per, Box::new(move |t| [t / per, k])));
+                }
+            }
+            _ => {
+                let Some(col) = variants(ctx, fit, kind)
+                    .into_iter()
+                    .next()
+                    .and_then(|v| v.0.into_iter().next())
+                else {
+                    continue;
+                };
+                let values: ShapeValues = match kind {
+                    EffectKind::EccentricEnhancement => Box::new(|x| [1.4 + x, 0.0]),
+                    _ => Box::new(|x| [x, 0.0]),
+                };
+                jobs.push((kind, None, col, 1.0, values));
+            }
+        }
+    }
+    jobs
 }
 
 /// `φ` (degrees) as the same direction of `m·sin(q − φ)` in `[−90°, 90°)` (the moment of

@@ -9,7 +9,7 @@ use std::ops::ControlFlow;
 use muscle_model::{EffectKind, ParamId};
 use rayon::prelude::*;
 
-use crate::assemble::effect_values;
+use crate::estimates::effect_values;
 use crate::fit::{Context, Fit};
 use crate::progress::{notify, DiagnosisProgress, DiagnosisStage};
 use crate::rules::{clear_of_null, generalises, judge, near_tie, replaces, simpler_tie, Refit};
@@ -48,7 +48,6 @@ pub(crate) fn select(
 ) -> Result<Selection, DiagnoseError> {
     let mut current = baseline.clone();
     let mut reports: BTreeMap<EffectKind, CandidateReport> = BTreeMap::new();
-    let mut confounded: Vec<String> = Vec::new();
     // near ties of each cause, from the round that named it (replaced by the exchange pass's)
     let mut ties: BTreeMap<EffectKind, Vec<NearTie>> = BTreeMap::new();
     for round in 0..settings.max_effects {
@@ -61,30 +60,7 @@ pub(crate) fn select(
         let mut scores = score::score_all(ctx, &current, eligible);
         *evaluations += 4 * scores.len();
         scores.sort_by(|a, b| b.evidence.total_cmp(&a.evidence));
-        for s in &scores {
-            // nearly collinear with the model's parameters and still asked for by the
-            // residual: refitted like the others; reported as confounded unless accepted
-            let conf = s.cos_baseline > settings.confound_cos && s.lm >= settings.min_score_lm;
-            reports.insert(
-                s.kind,
-                CandidateReport {
-                    effect: s.kind.name().into(),
-                    evidence: s.evidence,
-                    score_lm: s.lm,
-                    heldout_rms_nm: None,
-                    delta_bic: None,
-                    heldout_gain_pct: None,
-                    heldout_dev_gain: None,
-                    cos_to_model: s.cos_baseline,
-                    round,
-                    accepted: false,
-                    confounded: conf,
-                    fitted: None,
-                    detection_limit: None,
-                    detection_limit_shape: None,
-                },
-            );
-        }
+        record_scores(&scores, round, settings, &mut reports);
         let leaders = leaders(&scores, settings);
         if leaders.is_empty() {
             break;
@@ -101,32 +77,7 @@ pub(crate) fn select(
         let mut rechecked = false;
         let best = loop {
             let judged: Vec<Refit> = fits.iter().map(|f| judge(f, &current, nobs)).collect();
-            let mut passing: Vec<&Refit> = Vec::new();
-            for r in &judged {
-                if let Some(rep) = reports.get_mut(&r.kind) {
-                    rep.heldout_rms_nm = Some(r.fit.heldout_rms);
-                    rep.delta_bic = Some(r.delta_bic);
-                    rep.heldout_gain_pct = Some(r.gain_pct);
-                    rep.heldout_dev_gain = Some(r.dev_gain);
-                    rep.fitted = Some(effect_values(r.fit, r.kind));
-                }
-                let clear = clear_of_null(r.fit, r.kind, &reports, settings, nobs);
-                if generalises(r, settings) && r.delta_bic < settings.max_delta_bic && clear {
-                    passing.push(r);
-                }
-            }
-            passing.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
-            // Parsimony: a passing candidate with fewer parameters that the data cannot tell
-            // from the best one leads instead (the fewest parameters, then the lowest BIC).
-            if let Some(first) = passing.first().copied() {
-                if let Some(i) = (1..passing.len())
-                    .filter(|&i| simpler_tie(passing[i].fit, first.fit, settings, nobs))
-                    .min_by_key(|&i| (passing[i].fit.k(), i))
-                {
-                    let r = passing.remove(i);
-                    passing.insert(0, r);
-                }
-            }
+            let passing = passing(&judged, &mut reports, settings, nobs);
             let Some(lead) = passing.first() else {
                 break None;
             };
@@ -211,6 +162,90 @@ pub(crate) fn select(
         *evaluations += ev;
         current = fit;
     }
+    let confounded = confounded_of(&mut reports);
+    Ok(Selection {
+        baseline,
+        model: current,
+        reports,
+        confounded,
+        ties,
+    })
+}
+
+/// Enters the round's score tests into the candidates' reports; a candidate nearly collinear
+/// with the model's parameters and still asked for by the residual is refitted like the
+/// others, and reported as confounded unless accepted.
+fn record_scores(
+    scores: &[score::Score],
+    round: usize,
+    settings: &DiagnoseSettings,
+    reports: &mut BTreeMap<EffectKind, CandidateReport>,
+) {
+    for s in scores {
+        let conf = s.cos_baseline > settings.confound_cos && s.lm >= settings.min_score_lm;
+        reports.insert(
+            s.kind,
+            CandidateReport {
+                effect: s.kind.name().into(),
+                evidence: s.evidence,
+                score_lm: s.lm,
+                heldout_rms_nm: None,
+                delta_bic: None,
+                heldout_gain_pct: None,
+                heldout_dev_gain: None,
+                cos_to_model: s.cos_baseline,
+                round,
+                accepted: false,
+                confounded: conf,
+                fitted: None,
+                detection_limit: None,
+                detection_limit_shape: None,
+            },
+        );
+    }
+}
+
+/// The refits that pass the held-out, ΔBIC and null rules against the current model, best
+/// first (their judgements also enter the candidates' reports).
+fn passing<'a>(
+    judged: &'a [Refit<'a>],
+    reports: &mut BTreeMap<EffectKind, CandidateReport>,
+    settings: &DiagnoseSettings,
+    nobs: usize,
+) -> Vec<&'a Refit<'a>> {
+    let mut passing: Vec<&Refit> = Vec::new();
+    for r in judged {
+        if let Some(rep) = reports.get_mut(&r.kind) {
+            rep.heldout_rms_nm = Some(r.fit.heldout_rms);
+            rep.delta_bic = Some(r.delta_bic);
+            rep.heldout_gain_pct = Some(r.gain_pct);
+            rep.heldout_dev_gain = Some(r.dev_gain);
+            rep.fitted = Some(effect_values(r.fit, r.kind));
+        }
+        let clear = clear_of_null(r.fit, r.kind, reports, settings, nobs);
+        if generalises(r, settings) && r.delta_bic < settings.max_delta_bic && clear {
+            passing.push(r);
+        }
+    }
+    passing.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
+    // Parsimony: a passing candidate with fewer parameters that the data cannot tell
+    // from the best one leads instead (the fewest parameters, then the lowest BIC).
+    if let Some(first) = passing.first().copied() {
+        if let Some(i) = (1..passing.len())
+            .filter(|&i| simpler_tie(passing[i].fit, first.fit, settings, nobs))
+            .min_by_key(|&i| (passing[i].fit.k(), i))
+        {
+            let r = passing.remove(i);
+            passing.insert(0, r);
+        }
+    }
+    passing
+}
+
+/// The confounded candidates not accepted, by name; an accepted candidate is no longer
+/// reported as confounded.
+fn confounded_of(reports: &mut BTreeMap<EffectKind, CandidateReport>) -> Vec<String> {
+    let mut confounded: Vec<String> = Vec::new();
     for rep in reports.values_mut() {
         if rep.confounded && !rep.accepted && !confounded.contains(&rep.effect) {
             confounded.push(rep.effect.clone());
@@ -219,13 +254,7 @@ pub(crate) fn select(
             rep.confounded = false;
         }
     }
-    Ok(Selection {
-        baseline,
-        model: current,
-        reports,
-        confounded,
-        ties,
-    })
+    confounded
 }
 
 /// The joint fit of the two refits of a round with the lowest ΔBIC below the margin (when no

@@ -1,27 +1,9 @@
-//! Bayesian identification of the muscle model (docs/results.md): noise model, start points, chains, report.
-//!
-//! [`identify`] samples the posterior of a [`Problem`]'s free parameters:
-//!
-//! 1. the measured torque is corrected by the dynamometer's systematic error
-//!    ([`NoiseSpec::systematic`], e.g. the cycle-locked part estimated from the unloaded run);
-//! 2. the noise model is the one given, or (no unloaded run) fitted to the residual of a
-//!    Nelder–Mead fit of the sum of squares (`numerics::nelder_mead`; for a session, each
-//!    trial's noise to its own residual of one joint fit);
-//! 3. a multi-start search (module `modes`) finds the modes of the posterior of LST and α0 with
-//!    F0 integrated out; the best one centres the wall-free sampling coordinates (module
-//!    `sampling_coordinates`) and all of them make the jump mixture ([`crate::MixtureProposal`]);
-//! 4. `n_chains` chains start from draws of that mixture (`u ~ N(0, spread²)` for F0, from the
-//!    seed's stream 0) and run the adaptive Metropolis–Hastings sampler of this crate with mode
-//!    jumps (uniform prior on the bounds; a failed simulation is a rejected proposal) until
-//!    every R̂ < 1.01 and bulk ESS ≥ 400 on the model's parameters (which the chains store at
-//!    every step), or the cap;
-//! 5. the report names each parameter (`sol.lst_m`, …) with its summary, identifiability,
-//!    the posterior correlation matrix and the strongest correlations.
-//!
-//! [`identify`] is a session of one trial ([`crate::identify_session`]).
+//! What the Bayesian identification of the muscle model (docs/results.md) takes and gives: where
+//! the noise model comes from ([`NoiseSpec`]), the settings, the mode mixture of the jump
+//! proposal, and the report ([`McmcIdentification`]). The procedure, for a session and for one
+//! trial ([`crate::identify()`]), is in module `session_identify`.
 
 use std::io::Write;
-use std::ops::ControlFlow;
 
 use muscle_model::Problem;
 use numerics::cholesky::solve_lower_in_place;
@@ -31,8 +13,7 @@ use crate::mixture::{ComponentSpec, MixtureProposal};
 use crate::modes::Mode;
 use crate::noise::{NoiseKind, NoiseParams};
 use crate::sampling_coordinates::Conditional;
-use crate::session_identify::{McmcTrialFit, SessionTrialLikelihood};
-use crate::{ChainProgress, ChainStopReason, McmcError, McmcSettings, RunResult};
+use crate::{ChainStopReason, McmcError, McmcSettings, RunResult};
 
 /// Where the likelihood's noise model comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -188,7 +169,16 @@ impl NoiseSpec {
     }
 }
 
-/// Settings of [`identify`].
+/// One trial of a session: its problem on the torque as measured, and its noise side.
+#[derive(Clone, Copy, Debug)]
+pub struct SessionTrialLikelihood<'a> {
+    /// The trial's problem. Every trial of a session has the same free parameters and bounds.
+    pub problem: &'a Problem,
+    /// Its systematic correction, random noise model and offset nuisance.
+    pub noise: &'a NoiseSpec,
+}
+
+/// Settings of [`crate::identify()`].
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct McmcIdentifySettings {
@@ -233,7 +223,7 @@ pub struct McmcIdentifySettings {
     /// `R̂ < 1 + (rhat_target − 1)/margin` (≥ 1; 1 by default: the monitored numbers are the
     /// reported ones), and `converged` is decided with the targets of `mcmc`.
     pub monitor_margin: f64,
-    /// Half-width `K` of the sampling box in whitened coordinates `z` (see [`identify`]). The
+    /// Half-width `K` of the sampling box in whitened coordinates `z` (see [`crate::identify()`]). The
     /// coordinates have no walls, so this box is the only truncation left: with the Laplace
     /// factor fitted at the best mode, a weakly identified parameter (gl LST on fixtures/seed)
     /// reaches |z| ≈ 18, hence 50.
@@ -445,7 +435,20 @@ pub(crate) fn mode_mixture(
     Ok((mixture, info))
 }
 
-/// What [`identify`] found.
+/// One trial's fit at the posterior mean.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct McmcTrialFit {
+    /// RMS torque error against the torque as measured (N·m).
+    pub rms_nm: f64,
+    /// RMS against the corrected torque (measured − systematic).
+    pub rms_corrected_nm: f64,
+    /// The trial's noise model.
+    pub noise: NoiseParams,
+    /// Whether a systematic correction was applied to this trial.
+    pub corrected: bool,
+}
+
+/// What [`crate::identify()`] found.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct McmcIdentification {
     /// Parameter names in vector order.
@@ -552,27 +555,4 @@ impl McmcIdentification {
         }
         Ok(())
     }
-}
-
-/// Sample the posterior of `problem`'s free parameters (see the module documentation).
-///
-/// `observer` sees the sampler's [`ChainProgress`] after every block and may stop the run.
-///
-/// # Errors
-/// Invalid settings, a systematic correction of the wrong length, a Nelder–Mead start where the
-/// model fails, a noise fit that fails, or a start point without finite density.
-pub fn identify<F>(
-    problem: &Problem,
-    noise: &NoiseSpec,
-    settings: &McmcIdentifySettings,
-    observer: F,
-) -> Result<McmcIdentification, McmcError>
-where
-    F: FnMut(&ChainProgress) -> ControlFlow<()>,
-{
-    crate::identify_session(
-        &[SessionTrialLikelihood { problem, noise }],
-        settings,
-        observer,
-    )
 }

@@ -139,12 +139,12 @@ pub use summary::{correlation_matrix, strongest_correlations, CorrelationPair, S
 pub use target::{FnLogDensity, LogDensity};
 
 pub use identify::{
-    identify, McmcIdentification, McmcIdentifySettings, McmcNoiseSource, ModeInfo,
-    NamedCorrelation, NoiseSpec, ParamPosterior, DEFAULT_MAX_LAG, NO_UNLOADED_OFFSET_SD_NM,
-    UNLOADED_OFFSET_SD_NM,
+    McmcIdentification, McmcIdentifySettings, McmcNoiseSource, ModeInfo, NamedCorrelation,
+    NoiseSpec, ParamPosterior, DEFAULT_MAX_LAG, NO_UNLOADED_OFFSET_SD_NM, UNLOADED_OFFSET_SD_NM,
 };
+pub use identify::{McmcTrialFit, SessionTrialLikelihood};
 pub use noise::{Ar1White, Noise, NoiseKind, NoiseParams};
-pub use session_identify::{identify_session, McmcTrialFit, SessionTrialLikelihood};
+pub use session_identify::{identify, identify_session};
 
 /// Everything that can go wrong before sampling starts.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

@@ -1,5 +1,24 @@
-//! Bayesian identification over a session: several trials of one subject that share the
-//! muscle parameters.
+//! Bayesian identification of the muscle model (docs/results.md) over a session, several
+//! trials of one subject that share the muscle parameters: noise model, start points, chains,
+//! report.
+//!
+//! [`identify`] samples the posterior of a [`Problem`]'s free parameters:
+//!
+//! 1. the measured torque is corrected by the dynamometer's systematic error
+//!    ([`NoiseSpec::systematic`], e.g. the cycle-locked part estimated from the unloaded run);
+//! 2. the noise model is the one given, or (no unloaded run) fitted to the residual of a
+//!    Nelder–Mead fit of the sum of squares (`numerics::nelder_mead`; for a session, each
+//!    trial's noise to its own residual of one joint fit);
+//! 3. a multi-start search (module `modes`) finds the modes of the posterior of LST and α0 with
+//!    F0 integrated out; the best one centres the wall-free sampling coordinates (module
+//!    `sampling_coordinates`) and all of them make the jump mixture ([`crate::MixtureProposal`]);
+//! 4. `n_chains` chains start from draws of that mixture (`u ~ N(0, spread²)` for F0, from the
+//!    seed's stream 0) and run the adaptive Metropolis–Hastings sampler of this crate with mode
+//!    jumps (uniform prior on the bounds; a failed simulation is a rejected proposal) until
+//!    every R̂ < 1.01 and bulk ESS ≥ 400 on the model's parameters (which the chains store at
+//!    every step), or the cap;
+//! 5. the report names each parameter (`sol.lst_m`, …) with its summary, identifiability,
+//!    the posterior correlation matrix and the strongest correlations.
 //!
 //! Each trial keeps its own dynamometer correction ([`NoiseSpec::systematic`]), its own random
 //! noise model and its own constant-offset nuisance; the noises of different trials are
@@ -12,7 +31,7 @@
 //! `trial_term`), the mode search runs on the summed marginal, and the Laplace factor stacks the
 //! trials' whitened Jacobians. A trial whose noise comes from the residual
 //! ([`McmcNoiseSource::FromResidual`]) is fitted to its own residual of one joint Nelder–Mead
-//! fit of the summed squared errors. A session of one trial is exactly [`crate::identify()`].
+//! fit of the summed squared errors. A session of one trial is exactly [`identify`].
 
 use std::ops::ControlFlow;
 use std::time::Instant;
@@ -22,38 +41,39 @@ use numerics::{nelder_mead, FnObjective, NelderMeadSettings};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
-use serde::{Deserialize, Serialize};
 
 use crate::identify::{
-    mode_mixture, McmcIdentification, McmcIdentifySettings, McmcNoiseSource, NamedCorrelation,
-    NoiseSpec, ParamPosterior,
+    mode_mixture, McmcIdentification, McmcIdentifySettings, McmcNoiseSource, McmcTrialFit,
+    NamedCorrelation, NoiseSpec, ParamPosterior, SessionTrialLikelihood,
 };
+use crate::mixture::MixtureProposal;
 use crate::modes::{find_modes, Mode};
 use crate::noise::NoiseParams;
 use crate::sampling_coordinates::Conditional;
 use crate::trial_term::TrialModel;
-use crate::{run_with_proposal, ChainProgress, LogDensity, McmcError, McmcSettings};
+use crate::{run_with_proposal, ChainProgress, LogDensity, McmcError, McmcSettings, RunResult};
 
-/// One trial of a session: its problem on the torque as measured, and its noise side.
-#[derive(Clone, Copy, Debug)]
-pub struct SessionTrialLikelihood<'a> {
-    /// The trial's problem. Every trial of a session has the same free parameters and bounds.
-    pub problem: &'a Problem,
-    /// Its systematic correction, random noise model and offset nuisance.
-    pub noise: &'a NoiseSpec,
-}
-
-/// One trial's fit at the posterior mean.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct McmcTrialFit {
-    /// RMS torque error against the torque as measured (N·m).
-    pub rms_nm: f64,
-    /// RMS against the corrected torque (measured − systematic).
-    pub rms_corrected_nm: f64,
-    /// The trial's noise model.
-    pub noise: NoiseParams,
-    /// Whether a systematic correction was applied to this trial.
-    pub corrected: bool,
+/// Sample the posterior of `problem`'s free parameters (see the module documentation).
+///
+/// `observer` sees the sampler's [`ChainProgress`] after every block and may stop the run.
+///
+/// # Errors
+/// Invalid settings, a systematic correction of the wrong length, a Nelder–Mead start where the
+/// model fails, a noise fit that fails, or a start point without finite density.
+pub fn identify<F>(
+    problem: &Problem,
+    noise: &NoiseSpec,
+    settings: &McmcIdentifySettings,
+    observer: F,
+) -> Result<McmcIdentification, McmcError>
+where
+    F: FnMut(&ChainProgress) -> ControlFlow<()>,
+{
+    identify_session(
+        &[SessionTrialLikelihood { problem, noise }],
+        settings,
+        observer,
+    )
 }
 
 /// `problem` with its measured torque replaced by `measured` (everything else kept).
@@ -233,34 +253,15 @@ where
         })
         .collect::<Result<_, McmcError>>()?;
 
-    // Modes of the marginal posterior of the nonlinear parameters.
     let k = settings.z_half_width;
-    let modes = if settings.mode_starts > 0 {
-        let search = find_modes(
-            &models,
-            settings.mode_starts,
-            settings.nelder_mead_evaluations.max(1),
-            settings.mcmc.seed,
-            settings.mode_gap,
-        );
-        evaluations += search.evaluations;
-        failed += search.failed;
-        search.modes
-    } else {
-        let x0: Vec<f64> = first
-            .base_vector()
-            .iter()
-            .zip(&bounds)
-            .map(|(v, (lo, hi))| v.clamp(*lo, *hi))
-            .collect();
-        let (t, sims) = Conditional::new(&models, &x0, k);
-        evaluations += sims;
-        vec![Mode {
-            x: x0,
-            log_density: f64::NAN,
-            chol_nl: t.chol_nl().to_vec(),
-        }]
-    };
+    let modes = marginal_modes(
+        &models,
+        first,
+        &bounds,
+        settings,
+        &mut evaluations,
+        &mut failed,
+    );
     let best = &modes[0];
     let optimum = best.x.clone();
 
@@ -269,45 +270,15 @@ where
     let target = Conditional::with_chol_logit(&models, &best.x, &best.chol_nl, k);
     let (mixture, mode_info) = mode_mixture(&target, &modes, settings)?;
 
-    // Dispersed starts: chain c from mixture component c (mod the number of modes), u ~
-    // N(0, spread²) (seed's stream 0; chains use streams 1..).
-    let mut rng = ChaCha8Rng::seed_from_u64(settings.mcmc.seed);
-    rng.set_stream(0);
-    let nl = target.nl().to_vec();
-    let mut inits = Vec::with_capacity(settings.mcmc.n_chains);
-    // Fallback start: the best mode itself (u = 0).
-    let mut at_best = vec![0.0; d];
-    for (&i, z) in nl.iter().zip(target.z_of(&best.x)) {
-        at_best[i] = z.clamp(-k, k);
-    }
-    for c in 0..settings.mcmc.n_chains {
-        let mut chosen = at_best.clone();
-        for _ in 0..50 {
-            let mut cand: Vec<f64> = (0..d)
-                .map(|_| {
-                    let z: f64 = StandardNormal.sample(&mut rng);
-                    settings.start_spread * z
-                })
-                .collect();
-            if settings.start_spread > 0.0 {
-                mixture.sample_component(c, &mut rng, &mut cand);
-            } else {
-                for &i in &nl {
-                    cand[i] = 0.0;
-                }
-            }
-            for v in cand.iter_mut() {
-                *v = v.clamp(-k, k);
-            }
-            evaluations += 1;
-            if target.log_density(&cand).is_some_and(f64::is_finite) {
-                chosen = cand;
-                break;
-            }
-            failed += 1;
-        }
-        inits.push(chosen);
-    }
+    let inits = dispersed_starts(
+        &target,
+        &mixture,
+        &best.x,
+        d,
+        settings,
+        &mut evaluations,
+        &mut failed,
+    );
 
     let margin = settings.monitor_margin;
     if !(margin.is_finite() && margin >= 1.0) {
@@ -338,65 +309,19 @@ where
         .all(|s| s.rhat < settings.mcmc.rhat_target && s.ess_bulk >= settings.mcmc.ess_target);
 
     let names = first.names().to_vec();
-    let posterior: Vec<ParamPosterior> = run
-        .summary
-        .iter()
-        .zip(&names)
-        .map(|(s, n)| ParamPosterior {
-            name: n.clone(),
-            mean: s.mean,
-            sd: s.sd,
-            q05: s.q05,
-            q95: s.q95,
-            rhat: s.rhat,
-            ess_bulk: s.ess_bulk,
-            ess_tail: s.ess_tail,
-            identifiable: s.identifiable,
-            prior_sd: s.prior_sd,
-            prior_sd_ratio: s.prior_sd_ratio,
-        })
-        .collect();
-    let correlations = run
-        .strongest_correlations
-        .iter()
-        .take(settings.correlations)
-        .map(|c| NamedCorrelation {
-            a: names[c.i].clone(),
-            b: names[c.j].clone(),
-            r: c.r,
-        })
-        .collect();
+    let posterior = posteriors(&run, &names);
+    let correlations = named_correlations(&run, &names, settings.correlations);
     let mean: Vec<f64> = posterior.iter().map(|p| p.mean).collect();
-    let trial_fits: Vec<McmcTrialFit> = trials
-        .iter()
-        .zip(&corrected)
-        .zip(&noise_params)
-        .map(|((t, c), n)| McmcTrialFit {
-            rms_nm: t.problem.rms(&mean).unwrap_or(f64::NAN),
-            rms_corrected_nm: c.rms(&mean).unwrap_or(f64::NAN),
-            noise: *n,
-            corrected: t.noise.systematic.is_some(),
-        })
-        .collect();
+    let trial_fits = trial_fits(trials, &corrected, &noise_params, &mean);
     evaluations += 2 * trials.len() as u64;
     let (rms_nm, rms_corrected_nm) = pooled_rms(trials, &corrected, &mean, &trial_fits);
     if trials.len() > 1 {
         evaluations += 2 * trials.len() as u64;
     }
-    let acc: Vec<f64> = run
-        .acceptance_rate
-        .iter()
-        .copied()
-        .filter(|v| v.is_finite())
-        .collect();
+    let acc = finite(&run.acceptance_rate);
     let acceptance_rate = acc.iter().sum::<f64>() / acc.len().max(1) as f64;
     debug_assert_eq!(d, posterior.len());
-    let jump: Vec<f64> = run
-        .jump_acceptance_rate
-        .iter()
-        .copied()
-        .filter(|v| v.is_finite())
-        .collect();
+    let jump = finite(&run.jump_acceptance_rate);
     Ok(McmcIdentification {
         names,
         bounds,
@@ -427,6 +352,158 @@ where
         wall_s: started.elapsed().as_secs_f64(),
         run,
     })
+}
+
+/// The modes of the marginal posterior of the nonlinear parameters, best first: the
+/// multi-start search, or (no starts) the base point clamped to the bounds alone.
+fn marginal_modes(
+    models: &[TrialModel<'_>],
+    first: &Problem,
+    bounds: &[(f64, f64)],
+    settings: &McmcIdentifySettings,
+    evaluations: &mut u64,
+    failed: &mut u64,
+) -> Vec<Mode> {
+    let k = settings.z_half_width;
+    if settings.mode_starts > 0 {
+        let search = find_modes(
+            models,
+            settings.mode_starts,
+            settings.nelder_mead_evaluations.max(1),
+            settings.mcmc.seed,
+            settings.mode_gap,
+        );
+        *evaluations += search.evaluations;
+        *failed += search.failed;
+        search.modes
+    } else {
+        let x0: Vec<f64> = first
+            .base_vector()
+            .iter()
+            .zip(bounds)
+            .map(|(v, (lo, hi))| v.clamp(*lo, *hi))
+            .collect();
+        let (t, sims) = Conditional::new(models, &x0, k);
+        *evaluations += sims;
+        vec![Mode {
+            x: x0,
+            log_density: f64::NAN,
+            chol_nl: t.chol_nl().to_vec(),
+        }]
+    }
+}
+
+/// One start point per chain in the sampling coordinates: chain `c` from mixture component `c`
+/// (mod the number of modes), `u ~ N(0, spread²)`, drawn from the seed's stream 0 (the chains
+/// use streams 1..) until the density is finite (50 tries, else the best mode itself).
+fn dispersed_starts(
+    target: &Conditional<'_>,
+    mixture: &MixtureProposal,
+    best: &[f64],
+    d: usize,
+    settings: &McmcIdentifySettings,
+    evaluations: &mut u64,
+    failed: &mut u64,
+) -> Vec<Vec<f64>> {
+    let k = settings.z_half_width;
+    let mut rng = ChaCha8Rng::seed_from_u64(settings.mcmc.seed);
+    rng.set_stream(0);
+    let nl = target.nl().to_vec();
+    let mut inits = Vec::with_capacity(settings.mcmc.n_chains);
+    // Fallback start: the best mode itself (u = 0).
+    let mut at_best = vec![0.0; d];
+    for (&i, z) in nl.iter().zip(target.z_of(best)) {
+        at_best[i] = z.clamp(-k, k);
+    }
+    for c in 0..settings.mcmc.n_chains {
+        let mut chosen = at_best.clone();
+        for _ in 0..50 {
+            let mut cand: Vec<f64> = (0..d)
+                .map(|_| {
+                    let z: f64 = StandardNormal.sample(&mut rng);
+                    settings.start_spread * z
+                })
+                .collect();
+            if settings.start_spread > 0.0 {
+                mixture.sample_component(c, &mut rng, &mut cand);
+            } else {
+                for &i in &nl {
+                    cand[i] = 0.0;
+                }
+            }
+            for v in cand.iter_mut() {
+                *v = v.clamp(-k, k);
+            }
+            *evaluations += 1;
+            if target.log_density(&cand).is_some_and(f64::is_finite) {
+                chosen = cand;
+                break;
+            }
+            *failed += 1;
+        }
+        inits.push(chosen);
+    }
+    inits
+}
+
+/// Each parameter's posterior summary under its name.
+fn posteriors(run: &RunResult, names: &[String]) -> Vec<ParamPosterior> {
+    run.summary
+        .iter()
+        .zip(names)
+        .map(|(s, n)| ParamPosterior {
+            name: n.clone(),
+            mean: s.mean,
+            sd: s.sd,
+            q05: s.q05,
+            q95: s.q95,
+            rhat: s.rhat,
+            ess_bulk: s.ess_bulk,
+            ess_tail: s.ess_tail,
+            identifiable: s.identifiable,
+            prior_sd: s.prior_sd,
+            prior_sd_ratio: s.prior_sd_ratio,
+        })
+        .collect()
+}
+
+/// The `count` strongest posterior correlations, by parameter name.
+fn named_correlations(run: &RunResult, names: &[String], count: usize) -> Vec<NamedCorrelation> {
+    run.strongest_correlations
+        .iter()
+        .take(count)
+        .map(|c| NamedCorrelation {
+            a: names[c.i].clone(),
+            b: names[c.j].clone(),
+            r: c.r,
+        })
+        .collect()
+}
+
+/// Each trial's fit at the posterior mean `mean`, against its torque as measured and as
+/// corrected.
+fn trial_fits(
+    trials: &[SessionTrialLikelihood<'_>],
+    corrected: &[Problem],
+    noise_params: &[NoiseParams],
+    mean: &[f64],
+) -> Vec<McmcTrialFit> {
+    trials
+        .iter()
+        .zip(corrected)
+        .zip(noise_params)
+        .map(|((t, c), n)| McmcTrialFit {
+            rms_nm: t.problem.rms(mean).unwrap_or(f64::NAN),
+            rms_corrected_nm: c.rms(mean).unwrap_or(f64::NAN),
+            noise: *n,
+            corrected: t.noise.systematic.is_some(),
+        })
+        .collect()
+}
+
+/// The finite values of `rates` (a chain without such steps reports NaN).
+fn finite(rates: &[f64]) -> Vec<f64> {
+    rates.iter().copied().filter(|v| v.is_finite()).collect()
 }
 
 /// The RMS over every sample of the session (measured, corrected): the trial's own for a

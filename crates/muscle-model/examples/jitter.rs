@@ -144,6 +144,97 @@ fn fd_table(
     Ok(())
 }
 
+/// (b') `POINTS` random points of the bounds box with the angle (`angle_moved`) and each
+/// identified parameter moved by 1e-12; returns the point whose parameter jump is largest.
+fn random_points(
+    inputs: &TrialInputs,
+    angle_moved: &TrialInputs,
+    nominal: &ModelParams,
+    fast: &SimSettings,
+) -> Res<ModelParams> {
+    let points = env("POINTS", 16) as usize;
+    let seed = env("SEED", 2016);
+    let ids = ParamId::identified();
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    println!(
+        "\n(b') {points} random points of the box (ChaCha8 seed {seed}), default settings: \
+         max and RMS |Δτ| (N·m) over the samples; for the parameters the largest of the nine \
+         and how many of them jump (max |Δτ| > {JUMP:.0e} N·m)"
+    );
+    println!(
+        "{:>5} {:>9} {:>9}   {:>9} {:>9} {:>13} {:>5}",
+        "point", "angle max", "RMS", "param max", "RMS", "which", "jumps"
+    );
+    let (mut worst_angle, mut worst_param) = (0.0_f64, 0.0_f64);
+    let (mut worst_point, mut worst_k) = (*nominal, 0);
+    let (mut angle_jumps, mut param_jumps) = (0, 0);
+    for k in 0..points {
+        let mut p = *nominal;
+        for id in ids {
+            let (lo, hi) = id.default_bounds(nominal, &Effects::none());
+            id.set(&mut p, &mut Effects::none(), rng.random_range(lo..hi));
+        }
+        let b = torque(inputs, &p, fast)?;
+        let (a_mx, a_rms) = dev(&torque(angle_moved, &p, fast)?, &b);
+        let (mut p_mx, mut p_rms, mut which, mut jumps) = (0.0_f64, 0.0, String::new(), 0);
+        for id in ids {
+            let q = with(&p, id, get(&p, id) * (1.0 + 1e-12));
+            let (mx, r) = dev(&torque(inputs, &q, fast)?, &b);
+            jumps += usize::from(mx > JUMP);
+            if mx > p_mx {
+                (p_mx, p_rms, which) = (mx, r, id.name());
+            }
+        }
+        angle_jumps += usize::from(a_mx > JUMP);
+        param_jumps += jumps;
+        worst_angle = worst_angle.max(a_mx);
+        if p_mx > worst_param {
+            worst_param = p_mx;
+            worst_point = p;
+            worst_k = k;
+        }
+        println!(
+            "{k:>5} {a_mx:>9.2e} {a_rms:>9.2e}   {p_mx:>9.2e} {p_rms:>9.2e} {which:>13} {jumps:>5}"
+        );
+    }
+    println!(
+        "jumps: angle at {angle_jumps} of {points} points, parameters {param_jumps} of {}; \
+         worst: angle {worst_angle:.2e} N·m, parameter {worst_param:.2e} N·m (point {worst_k})",
+        9 * points
+    );
+    Ok(worst_point)
+}
+
+/// RHS calls and time (median of 5) of one simulation at the nominal point under each scheme's
+/// settings but the forward difference's (the same as the central one's).
+fn simulation_times(
+    inputs: &TrialInputs,
+    nominal: &ModelParams,
+    schemes: &[(&str, SimSettings, bool)],
+) -> Res<()> {
+    println!("\nOne simulation (nominal, 3 muscles): RHS calls, time (median of 5, this machine)");
+    for (label, s, _) in schemes {
+        if label.ends_with("forward, default") {
+            continue;
+        }
+        let out = simulate(inputs, nominal, &Effects::none(), s)?;
+        let mut times: Vec<f64> = (0..5)
+            .map(|_| {
+                let t0 = Instant::now();
+                simulate(inputs, nominal, &Effects::none(), s).map(|_| t0.elapsed().as_secs_f64())
+            })
+            .collect::<Result<_, _>>()?;
+        times.sort_by(f64::total_cmp);
+        println!(
+            "  {:22} {:>6} {:>8.2} ms",
+            label.trim_start_matches("central, "),
+            out.total_stats().rhs_calls,
+            1e3 * times[2]
+        );
+    }
+    Ok(())
+}
+
 fn main() -> Res<()> {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/seed/trial.csv");
     let trial = experiment::read_trial(path)?;
@@ -222,57 +313,7 @@ fn main() -> Res<()> {
     }
 
     // random points of the box: angle and each parameter moved by 1e-12
-    let points = env("POINTS", 16) as usize;
-    let seed = env("SEED", 2016);
-    let ids = ParamId::identified();
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    println!(
-        "\n(b') {points} random points of the box (ChaCha8 seed {seed}), default settings: \
-         max and RMS |Δτ| (N·m) over the samples; for the parameters the largest of the nine \
-         and how many of them jump (max |Δτ| > {JUMP:.0e} N·m)"
-    );
-    println!(
-        "{:>5} {:>9} {:>9}   {:>9} {:>9} {:>13} {:>5}",
-        "point", "angle max", "RMS", "param max", "RMS", "which", "jumps"
-    );
-    let angle_moved = shifted(1e-12)?;
-    let (mut worst_angle, mut worst_param) = (0.0_f64, 0.0_f64);
-    let (mut worst_point, mut worst_k) = (nominal, 0);
-    let (mut angle_jumps, mut param_jumps) = (0, 0);
-    for k in 0..points {
-        let mut p = nominal;
-        for id in ids {
-            let (lo, hi) = id.default_bounds(&nominal, &Effects::none());
-            id.set(&mut p, &mut Effects::none(), rng.random_range(lo..hi));
-        }
-        let b = torque(&inputs, &p, &fast)?;
-        let (a_mx, a_rms) = dev(&torque(&angle_moved, &p, &fast)?, &b);
-        let (mut p_mx, mut p_rms, mut which, mut jumps) = (0.0_f64, 0.0, String::new(), 0);
-        for id in ids {
-            let q = with(&p, id, get(&p, id) * (1.0 + 1e-12));
-            let (mx, r) = dev(&torque(&inputs, &q, &fast)?, &b);
-            jumps += usize::from(mx > JUMP);
-            if mx > p_mx {
-                (p_mx, p_rms, which) = (mx, r, id.name());
-            }
-        }
-        angle_jumps += usize::from(a_mx > JUMP);
-        param_jumps += jumps;
-        worst_angle = worst_angle.max(a_mx);
-        if p_mx > worst_param {
-            worst_param = p_mx;
-            worst_point = p;
-            worst_k = k;
-        }
-        println!(
-            "{k:>5} {a_mx:>9.2e} {a_rms:>9.2e}   {p_mx:>9.2e} {p_rms:>9.2e} {which:>13} {jumps:>5}"
-        );
-    }
-    println!(
-        "jumps: angle at {angle_jumps} of {points} points, parameters {param_jumps} of {}; \
-         worst: angle {worst_angle:.2e} N·m, parameter {worst_param:.2e} N·m (point {worst_k})",
-        9 * points
-    );
+    let worst_point = random_points(&inputs, &shifted(1e-12)?, &nominal, &fast)?;
 
     // 3. finite-difference columns, at the nominal point and at the random point with the
     // largest jump
@@ -299,26 +340,7 @@ fn main() -> Res<()> {
             true,
         ),
     ];
-    println!("\nOne simulation (nominal, 3 muscles): RHS calls, time (median of 5, this machine)");
-    for (label, s, _) in &schemes[..] {
-        if label.ends_with("forward, default") {
-            continue;
-        }
-        let out = simulate(&inputs, &nominal, &Effects::none(), s)?;
-        let mut times: Vec<f64> = (0..5)
-            .map(|_| {
-                let t0 = Instant::now();
-                simulate(&inputs, &nominal, &Effects::none(), s).map(|_| t0.elapsed().as_secs_f64())
-            })
-            .collect::<Result<_, _>>()?;
-        times.sort_by(f64::total_cmp);
-        println!(
-            "  {:22} {:>6} {:>8.2} ms",
-            label.trim_start_matches("central, "),
-            out.total_stats().rhs_calls,
-            1e3 * times[2]
-        );
-    }
+    simulation_times(&inputs, &nominal, &schemes)?;
     for (label, p) in [("nominal point", nominal), ("random point", worst_point)] {
         fd_table(&inputs, label, &p, &schemes)?;
     }

@@ -15,7 +15,38 @@ use crate::path::MusclePath;
 use crate::settings::{Formulation, SimSettings};
 use crate::stats::SimStats;
 use ode::OdeSystem;
+use serde::Serialize;
 use std::sync::Arc;
+
+/// One muscle's part of a simulation.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct MuscleOutput {
+    /// The muscle (`sol`, `gm`, `gl` or a fixed muscle's name).
+    pub name: &'static str,
+    /// Its torque `F̃T·F0·r` at the samples (N·m; negative for a dorsiflexor).
+    pub torque: Vec<f64>,
+    /// Its state `[a, F̃T, LM, LMT, ∫â]` at the samples (with
+    /// [`SimSettings::record_states`]).
+    pub states: Option<Vec<[f64; STATE_DIM]>>,
+    /// Its integrator statistics.
+    pub stats: SimStats,
+}
+
+/// `Σ_k torques[k]` sample by sample, in order, into `out` (the fixed muscles' sum: one
+/// definition for every path, so that they agree bit for bit).
+pub(crate) fn sum_torques<'a>(
+    torques: impl Iterator<Item = &'a [f64]>,
+    n: usize,
+    out: &mut Vec<f64>,
+) {
+    out.clear();
+    out.resize(n, 0.0);
+    for t in torques {
+        for (o, v) in out.iter_mut().zip(t) {
+            *o += v;
+        }
+    }
+}
 
 /// The envelope channel that drives `unit` (its own name's); an error naming the muscle and
 /// the channel when the trial does not have it.

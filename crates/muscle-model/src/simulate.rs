@@ -14,27 +14,14 @@ use crate::effects::Effects;
 use crate::error::ModelError;
 use crate::inputs::TrialInputs;
 use crate::joint_effects::{add_joint_effects, needs_ta, run_ta};
-use crate::muscle_torque::run_muscle;
+pub use crate::muscle_torque::MuscleOutput;
+use crate::muscle_torque::{run_muscle, sum_torques};
 use crate::musculotendon::{MuscleUnit, STATE_DIM};
 use crate::params::{ModelParams, Muscle};
 use crate::settings::{Formulation, SimSettings};
 use crate::stats::SimStats;
 use crate::workspace::{update_muscles, Workspace};
 use serde::Serialize;
-
-/// One muscle's part of a simulation.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct MuscleOutput {
-    /// The muscle (`sol`, `gm`, `gl` or a fixed muscle's name).
-    pub name: &'static str,
-    /// Its torque `F̃T·F0·r` at the samples (N·m; negative for a dorsiflexor).
-    pub torque: Vec<f64>,
-    /// Its state `[a, F̃T, LM, LMT, ∫â]` at the samples (with
-    /// [`SimSettings::record_states`]).
-    pub states: Option<Vec<[f64; STATE_DIM]>>,
-    /// Its integrator statistics.
-    pub stats: SimStats,
-}
 
 /// Result of a simulation, one value per input sample.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -76,22 +63,6 @@ impl SimOutput {
     /// The muscle called `name`, if the model has it.
     pub fn muscle_named(&self, name: &str) -> Option<&MuscleOutput> {
         self.muscles.iter().find(|m| m.name == name)
-    }
-}
-
-/// `Σ_k torques[k]` sample by sample, in order, into `out` (the fixed muscles' sum: one
-/// definition for every path, so that they agree bit for bit).
-pub(crate) fn sum_torques<'a>(
-    torques: impl Iterator<Item = &'a [f64]>,
-    n: usize,
-    out: &mut Vec<f64>,
-) {
-    out.clear();
-    out.resize(n, 0.0);
-    for t in torques {
-        for (o, v) in out.iter_mut().zip(t) {
-            *o += v;
-        }
     }
 }
 

@@ -17,11 +17,12 @@ use crate::error::ModelError;
 use crate::fast_simulation::{self, Channel, Fibre};
 use crate::inputs::TrialInputs;
 use crate::joint_effects::{add_joint_effects, delay_s, needs_ta, run_ta};
-use crate::muscle_torque::{fast_prepare, fast_unit_torque, integration_error, run_muscle};
+use crate::muscle_torque::{
+    fast_prepare, fast_unit_torque, integration_error, run_muscle, sum_torques, MuscleOutput,
+};
 use crate::musculotendon::MuscleUnit;
 use crate::params::{ModelParams, Muscle};
 use crate::settings::{Formulation, SimSettings};
-use crate::simulate::{sum_torques, MuscleOutput};
 use crate::stats::SimStats;
 use std::sync::Arc;
 

@@ -24,7 +24,7 @@ use super::joint::{Joint, JointFit, Layout, Term};
 use super::scope::{effect_scope, EffectScope};
 use crate::fit::{latin_hypercube, Fit};
 use crate::progress::{notify, DiagnosisProgress, DiagnosisStage};
-use crate::score::{one_sided, variants, Projector};
+use crate::score::{one_sided, variants, JacobianComplementProjector};
 use crate::{DiagnoseError, DiagnoseSettings};
 
 /// A term scored (and, for the leaders, refitted) in a round.
@@ -238,7 +238,7 @@ fn open_terms(joint: &Joint<'_>, layout: &Layout, settings: &DiagnoseSettings) -
 /// The score test of each term on the stacked residual of `fit` (in parallel).
 fn score_terms(joint: &Joint<'_>, fit: &JointFit, todo: &[Term]) -> Vec<Scored> {
     let n = joint.n_obs();
-    let proj = Projector::from_parts(&fit.jac, &fit.white, n);
+    let proj = JacobianComplementProjector::from_parts(&fit.jac, &fit.white, n);
     let views: Vec<Fit> = (0..joint.members.len())
         .map(|m| joint.member_view(fit, m))
         .collect();

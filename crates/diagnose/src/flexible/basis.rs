@@ -1,0 +1,254 @@
+//! The basis of one variable's flexible term (module `flexible`): piecewise-linear hats on
+//! knots spread uniformly over the observed range of the variable (five; four for the TA;
+//! about every 2 s in time), or `sign(q̇)` for direction, each column centred on its mean over
+//! the compared samples except in time.
+
+use muscle_model::Muscle;
+
+use crate::fit::Context;
+
+use super::report::SearchedValue;
+use super::variable::StateVariable;
+
+/// The basis of one variable's flexible term: its columns, each centred on its mean over the
+/// compared samples except in time (a constant is a function of time only: the catalogued
+/// offset lives there), and the points at which its shape is reported with the basis row at
+/// each.
+#[derive(Clone, Debug)]
+pub(crate) struct FlexBasis {
+    pub variable: StateVariable,
+    /// Points of the reported shape (variable units).
+    pub points: Vec<f64>,
+    /// Basis row (centred) at each point.
+    pub rows: Vec<Vec<f64>>,
+    /// Columns, one value per sample.
+    pub cols: Vec<Vec<f64>>,
+    /// Values found by searching the data rather than fitted as coefficients (a step's
+    /// change point, a change of direction's width), each counted as a parameter in the BIC.
+    pub searched: Vec<SearchedValue>,
+}
+
+/// Fraction of the largest speed below which the joint counts as still for `direction`.
+pub(super) const STILL_FRACTION: f64 = 0.05;
+
+/// Spacing of the time knots (s).
+const TIME_KNOT_S: f64 = 2.0;
+
+/// Knots of the hat bases (the TA's range is narrower: four).
+fn knot_count(v: StateVariable) -> usize {
+    match v {
+        StateVariable::ActivationTa => 4,
+        _ => 5,
+    }
+}
+
+/// The variable per sample, `None` when the recording has no such variable (no TA channel)
+/// or it does not change over the compared samples (no joint angle).
+pub(super) fn series(ctx: &Context, v: StateVariable) -> Option<Vec<f64>> {
+    let inp = &ctx.inputs;
+    let n = inp.len();
+    let deg = |x: &[f64]| x.iter().map(|a| a.to_degrees()).collect::<Vec<f64>>();
+    let s = match v {
+        StateVariable::Angle => deg(inp.angle()),
+        StateVariable::Velocity | StateVariable::Direction => deg(inp.velocity()),
+        StateVariable::Acceleration => deg(inp.acceleration()),
+        StateVariable::Time => inp.times().to_vec(),
+        StateVariable::Activation => (0..n)
+            .map(|i| Muscle::ALL.iter().map(|m| inp.envelope(*m)[i]).sum::<f64>() / 3.0)
+            .collect(),
+        StateVariable::ActivationTa => inp.envelope_ta()?.to_vec(),
+    };
+    let (lo, hi) = observed_range(ctx, &s)?;
+    (hi - lo > 1e-9 * (1.0 + hi.abs().max(lo.abs()))).then_some(s)
+}
+
+/// Smallest and largest value over the compared samples.
+pub(super) fn observed_range(ctx: &Context, x: &[f64]) -> Option<(f64, f64)> {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for (i, v) in x.iter().enumerate() {
+        if ctx.is_observed(i) && v.is_finite() {
+            lo = lo.min(*v);
+            hi = hi.max(*v);
+        }
+    }
+    (lo <= hi).then_some((lo, hi))
+}
+
+/// The uncentred basis functions of a variable at value `v`.
+pub(super) enum Functions {
+    /// Hat functions on uniform knots, constant beyond the ends.
+    Hats(Vec<f64>),
+    /// `sign(v)` outside `±still`, 0 inside: Coulomb friction's shape, one level for both
+    /// directions (as parsimonious as viscous damping's `b·q̇`, which it is compared with).
+    Sign { still: f64 },
+    /// `tanh(v/width)`: the same shape with a transition `width` wide through zero speed.
+    Tanh { width: f64 },
+}
+
+impl Functions {
+    fn len(&self) -> usize {
+        match self {
+            Functions::Hats(knots) => knots.len(),
+            Functions::Sign { .. } | Functions::Tanh { .. } => 1,
+        }
+    }
+
+    pub(super) fn eval(&self, v: f64) -> Vec<f64> {
+        if !v.is_finite() {
+            // a sample without the variable gets no term
+            return vec![0.0; self.len()];
+        }
+        match self {
+            Functions::Hats(knots) => {
+                let k = knots.len();
+                let (lo, hi) = (knots[0], knots[k - 1]);
+                let h = (hi - lo) / (k - 1) as f64;
+                let u = ((v.clamp(lo, hi) - lo) / h).min((k - 1) as f64);
+                let j = (u.floor() as usize).min(k - 2);
+                let f = u - j as f64;
+                let mut row = vec![0.0; k];
+                row[j] = 1.0 - f;
+                row[j + 1] = f;
+                row
+            }
+            Functions::Sign { still } => vec![if v > *still {
+                1.0
+            } else if v < -*still {
+                -1.0
+            } else {
+                0.0
+            }],
+            Functions::Tanh { width } => vec![(v / width).tanh()],
+        }
+    }
+}
+
+/// The flexible basis of `v` on this recording (module docs), `None` when it has no such
+/// variable: hats for angle, velocity, acceleration and the activations, `sign(q̇)` for
+/// direction, and hats about every 2 s for time (cross-validated on 0.5 s blocks, so a hat
+/// is predicted from its neighbours; [`with_step`](super::forms::with_step) adds a step).
+pub(crate) fn basis(ctx: &Context, v: StateVariable) -> Option<FlexBasis> {
+    let s = series(ctx, v)?;
+    let (lo, hi) = observed_range(ctx, &s)?;
+    let (funcs, points) = match v {
+        StateVariable::Direction => {
+            let still = STILL_FRACTION * lo.abs().max(hi.abs());
+            (Functions::Sign { still }, vec![-1.0, 1.0])
+        }
+        StateVariable::Time => {
+            // a knot every 2 s or so: local enough for a step, smooth over a 0.5 s block
+            let k = (((hi - lo) / TIME_KNOT_S).round() as usize + 1).clamp(3, 12);
+            let knots: Vec<f64> = (0..k)
+                .map(|j| lo + (hi - lo) * j as f64 / (k - 1) as f64)
+                .collect();
+            (Functions::Hats(knots.clone()), knots)
+        }
+        _ => {
+            let k = knot_count(v);
+            let knots: Vec<f64> = (0..k)
+                .map(|j| lo + (hi - lo) * j as f64 / (k - 1) as f64)
+                .collect();
+            (Functions::Hats(knots.clone()), knots)
+        }
+    };
+    Some(from_functions(
+        ctx,
+        v,
+        &s,
+        &funcs,
+        points,
+        lo.abs().max(hi.abs()),
+    ))
+}
+
+/// The basis of `v` (series `s`, largest magnitude `amax`) made of `funcs`, its shape reported
+/// at `points` (for direction the two signs).
+pub(super) fn from_functions(
+    ctx: &Context,
+    v: StateVariable,
+    s: &[f64],
+    funcs: &Functions,
+    points: Vec<f64>,
+    amax: f64,
+) -> FlexBasis {
+    let m = funcs.len();
+    let mut cols = vec![vec![0.0; s.len()]; m];
+    let (mut mean, mut cnt) = (vec![0.0; m], 0usize);
+    for (i, x) in s.iter().enumerate() {
+        let row = funcs.eval(*x);
+        for j in 0..m {
+            cols[j][i] = row[j];
+        }
+        if ctx.is_observed(i) {
+            for j in 0..m {
+                mean[j] += row[j];
+            }
+            cnt += 1;
+        }
+    }
+    // centred, except in time: a constant is a function of time (the catalogued offset lives
+    // there), and of no other variable
+    for j in 0..m {
+        mean[j] = if v == StateVariable::Time {
+            0.0
+        } else {
+            mean[j] / cnt.max(1) as f64
+        };
+        cols[j].iter_mut().for_each(|c| *c -= mean[j]);
+    }
+    let rows = points
+        .iter()
+        .map(|p| {
+            // for direction the points are the two signs themselves
+            let at = if v == StateVariable::Direction {
+                p * (1.0 + amax)
+            } else {
+                *p
+            };
+            funcs
+                .eval(at)
+                .iter()
+                .zip(&mean)
+                .map(|(a, b)| a - b)
+                .collect()
+        })
+        .collect();
+    FlexBasis {
+        variable: v,
+        points,
+        rows,
+        cols,
+        searched: Vec::new(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Functions;
+
+    #[test]
+    fn hats_interpolate_their_knot_values() {
+        let f = Functions::Hats(vec![0.0, 1.0, 2.0, 3.0]);
+        let beta = [2.0, -1.0, 4.0, 0.5];
+        let want = |v: f64| {
+            // the piecewise-linear interpolant of beta, constant beyond the ends
+            let u = v.clamp(0.0, 3.0);
+            let j = (u.floor() as usize).min(2);
+            beta[j] + (beta[j + 1] - beta[j]) * (u - j as f64)
+        };
+        for v in [-1.0, 0.0, 0.25, 1.5, 3.0, 4.0] {
+            let row = f.eval(v);
+            let s: f64 = row.iter().zip(beta).map(|(a, b)| a * b).sum();
+            assert!((s - want(v)).abs() < 1e-12, "at {v}: {s} vs {}", want(v));
+            assert!((row.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn sign_rows() {
+        let s = Functions::Sign { still: 1.5 };
+        assert_eq!(s.eval(30.0), vec![1.0]);
+        assert_eq!(s.eval(-2.0), vec![-1.0]);
+        assert_eq!(s.eval(1.0), vec![0.0]);
+    }
+}

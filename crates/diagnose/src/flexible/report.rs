@@ -1,0 +1,157 @@
+//! What a diagnosis reports of its flexible terms: the ranking of the vocabulary, the
+//! extension with its terms' shapes and bands, and the named causes a flexible term replaced.
+
+use serde::Serialize;
+
+use super::variable::StateVariable;
+
+/// A variable's flexible term added to the final model.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct VariableGain {
+    /// State variable.
+    pub variable: StateVariable,
+    /// Held-out deviance of the final model minus that of the model with the term (χ² units;
+    /// positive: the term predicts held-out data better).
+    pub heldout_deviance_gain: f64,
+    /// Pooled held-out RMS with the term (N·m).
+    pub heldout_rms_nm: f64,
+    /// BIC with the term minus the final model's.
+    pub delta_bic: f64,
+    /// Independent coefficients of the term.
+    pub parameters: usize,
+}
+
+/// The fitted shape of one flexible term: its value at points of its variable with a 95 %
+/// band. The term is centred: its mean over the trial is zero.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FlexibleTerm {
+    /// State variable.
+    pub variable: StateVariable,
+    /// Unit of `points` (empty: dimensionless).
+    pub unit: String,
+    /// Points of the variable (for `direction`: −1 and +1, the sign of the velocity).
+    pub points: Vec<f64>,
+    /// Term at each point (N·m).
+    pub value_nm: Vec<f64>,
+    /// Half-width of the 95 % band at each point (N·m; NaN when not computed).
+    pub band_nm: Vec<f64>,
+    /// The term's values searched on the data rather than fitted: a step's `change_point`
+    /// (s) in time, the `transition_width` (°/s) of `tanh(q̇/w)` in direction, the speed at
+    /// which the term reaches 76 % of its level.
+    pub searched: Vec<SearchedValue>,
+}
+
+/// A value of a flexible term's shape searched on the data (a grid or a scan), not fitted as
+/// a coefficient; it counts as one parameter in the BIC.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SearchedValue {
+    /// `change_point` or `transition_width`.
+    pub name: String,
+    /// The value found.
+    pub value: f64,
+    /// Its unit.
+    pub unit: String,
+}
+
+/// The final model extended with the flexible terms of `depends_on`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FlexibleExtension {
+    /// The variables of its terms.
+    pub variables: Vec<StateVariable>,
+    /// Pooled held-out RMS (N·m).
+    pub heldout_rms_nm: f64,
+    /// Reduction of the held-out RMS against the final catalogued model (%).
+    pub heldout_rms_reduction_pct: f64,
+    /// Held-out deviance gain against the final catalogued model.
+    pub heldout_deviance_gain: f64,
+    /// In-sample RMS (N·m).
+    pub rms_nm: f64,
+    /// BIC against the final catalogued model.
+    pub delta_bic: f64,
+    /// The terms' shapes.
+    pub terms: Vec<FlexibleTerm>,
+    /// Per-sample torque of the terms (N·m; not serialised; for the figures).
+    #[serde(skip)]
+    pub term_nm: Vec<f64>,
+}
+
+/// A catalogued effect the selection found that a flexible term in its own variable explains
+/// better: not named.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Replacement {
+    /// Effect.
+    pub effect: String,
+    /// The variable whose flexible term explains its share better.
+    pub variable: StateVariable,
+    /// BIC of the model with the effect minus that with the flexible term instead (above
+    /// `−margin`: not named).
+    pub delta_bic: f64,
+}
+
+/// What the unexplained structure depends on (`unexplained` in `diagnosis.json`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Unexplained {
+    /// The best one or two variables (empty: none of the vocabulary explains it).
+    pub depends_on: Vec<StateVariable>,
+    /// Every variable's term added to the final model, best held-out gain first.
+    pub ranking: Vec<VariableGain>,
+    /// The model extended with the terms of `depends_on`.
+    pub extension: Option<FlexibleExtension>,
+    /// A catalogued effect not named whose shape, added to the final model, explains the
+    /// structure as well as the flexible term in the best variable (by the margin).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub catalogued_shape: Option<String>,
+    /// Catalogued effects the selection found that a flexible term explains better.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub replaced: Vec<Replacement>,
+}
+
+impl Unexplained {
+    /// Lines of the terminal summary.
+    pub fn summary_lines(&self) -> Vec<String> {
+        let mut l = Vec::new();
+        for r in &self.replaced {
+            l.push(format!(
+                "not named    {}: a flexible term in {} explains its share better (ΔBIC {:+.1})",
+                r.effect,
+                r.variable.name(),
+                -r.delta_bic
+            ));
+        }
+        match (&self.depends_on[..], &self.extension) {
+            ([], _) | (_, None) => l.push(
+                "depends on   none of angle, velocity, direction, acceleration, time, \
+                 activation, activation_ta"
+                    .to_string(),
+            ),
+            (vars, Some(e)) => {
+                let names: Vec<&str> = vars.iter().map(|v| v.name()).collect();
+                l.push(format!(
+                    "depends on   {}: a flexible term lowers the held-out RMS to {:.2} N·m \
+                     (−{:.1} %, held-out deviance −{:.0})",
+                    names.join(" and "),
+                    e.heldout_rms_nm,
+                    e.heldout_rms_reduction_pct,
+                    e.heldout_deviance_gain
+                ));
+            }
+        }
+        for t in self.extension.iter().flat_map(|e| &e.terms) {
+            for v in &t.searched {
+                l.push(format!(
+                    "searched     {}: {} {:.3} {}",
+                    t.variable.name(),
+                    v.name.replace('_', " "),
+                    v.value,
+                    v.unit
+                ));
+            }
+        }
+        if let Some(k) = &self.catalogued_shape {
+            l.push(format!(
+                "shape        that of {k} after all (its term explains the structure as well)"
+            ));
+        }
+        l
+    }
+}
