@@ -103,7 +103,7 @@ impl<'m> Files<'m> {
                 header_line: self.map.header_line,
                 decimal_comma: self.map.decimal_comma,
             };
-            let t = crate::open_table(path, &opts)?;
+            let t = crate::kind::open_table(path, &opts)?;
             self.tables.insert(path.to_path_buf(), t);
         }
         Ok(&self.tables[path])
@@ -114,7 +114,7 @@ impl<'m> Files<'m> {
 fn column_error(path: String, column: &str, reason: impl Into<String>) -> RecordingError {
     RecordingError::Column {
         path,
-        name: crate::printable(column),
+        name: crate::read::printable(column),
         reason: reason.into(),
     }
 }
@@ -125,7 +125,7 @@ fn checked_clock(table: &RecordingTable, label: &str, t: Vec<f64>) -> Result<(Ve
     let name = table.name();
     let err = |i: usize, reason: String| RecordingError::Column {
         path: name.clone(),
-        name: crate::printable(label),
+        name: crate::read::printable(label),
         reason: format!("{}: {reason}", table.locate(i)),
     };
     if t.len() < 2 {
@@ -493,7 +493,7 @@ fn common_grid(
             |(_, r)| {
                 format!(
                     "{target} ('{}' in {})",
-                    crate::printable(&r.column),
+                    crate::read::printable(&r.column),
                     r.file.display()
                 )
             },
@@ -530,6 +530,9 @@ fn common_grid(
     })
 }
 
+/// The channels on the grid by target, and where each came from.
+type OnGrid = (BTreeMap<String, Vec<f64>>, Vec<ChannelSource>);
+
 /// Every channel on the grid: one on the grid's own clock is cut to it, any other is
 /// interpolated linearly onto it; an all-zero EMG channel is an error.
 fn onto_grid(
@@ -537,7 +540,7 @@ fn onto_grid(
     reads: Vec<(String, Read)>,
     grid: &Grid,
     notes: &mut Vec<String>,
-) -> Result<(BTreeMap<String, Vec<f64>>, Vec<ChannelSource>)> {
+) -> Result<OnGrid> {
     let (grid_clock, first, last) = (&grid.clock, grid.first, grid.last);
     let grid = &grid.times;
     let grid_rate = rate_of(grid);
@@ -569,12 +572,9 @@ fn onto_grid(
                 + 1)
             .min(r.values.len());
             check_finite(table, &r, &target, a, b)?;
-            let v = numerics::interpolate::resample_linear(
-                &r.clock.times[a..b],
-                &r.values[a..b],
-                &grid,
-            )
-            .map_err(|e| column_error(table.name(), &r.column, e.to_string()))?;
+            let v =
+                numerics::interpolate::resample_linear(&r.clock.times[a..b], &r.values[a..b], grid)
+                    .map_err(|e| column_error(table.name(), &r.column, e.to_string()))?;
             notes.push(format!(
                 "{target}: {} ({}, {:.1} Hz) interpolated linearly onto the {:.1} Hz grid",
                 r.column,

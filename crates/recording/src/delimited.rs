@@ -56,7 +56,7 @@ pub(crate) fn decode_text(bytes: &[u8]) -> String {
 /// # Errors
 /// As [`parse_delimited`], and a file that cannot be read.
 pub fn read_delimited(path: &Path, opts: &DelimitedOptions) -> Result<RecordingTable> {
-    let bytes = crate::read_bytes(path)?;
+    let bytes = crate::read::read_bytes(path)?;
     parse_delimited(&bytes, path, opts)
 }
 
@@ -132,9 +132,9 @@ fn quote(cell: &str) -> String {
     const MAX: usize = 40;
     if cell.chars().count() > MAX {
         let head: String = cell.chars().take(MAX).collect();
-        format!("'{}…'", crate::printable(&head))
+        format!("'{}…'", crate::read::printable(&head))
     } else {
-        format!("'{}'", crate::printable(cell))
+        format!("'{}'", crate::read::printable(cell))
     }
 }
 
@@ -304,7 +304,7 @@ fn check_labels(labels: &[String], name: &str, header_line: usize) -> Result<()>
                 path: name.to_string(),
                 line: header_line,
                 column: j + 1,
-                name: crate::printable(l),
+                name: crate::read::printable(l),
                 reason: "a control character (a line break inside quotes?) in the label".into(),
             });
         }

@@ -312,7 +312,7 @@ pub fn inspect(paths: &[PathBuf], map_dir: &Path) -> Result<Inspection> {
                 )],
             });
         }
-        let t = crate::open_table(p, &crate::DelimitedOptions::default())?;
+        let t = crate::kind::open_table(p, &crate::delimited::DelimitedOptions::default())?;
         files.push(FileSummary::of(&t));
         tables.push((p.clone(), t));
     }

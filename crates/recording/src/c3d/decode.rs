@@ -1,10 +1,7 @@
-//! The c3dio call on the checked bytes, and the table from what it decoded.
-//!
-//! section is caught, since c3dio silently reads the frames that are there. As a last guard
-//! the c3dio call runs under [`std::panic::catch_unwind`]: c3dio was found to panic on inputs
-//! the checks above do not rule out (for instance a `FORCE_PLATFORM` group without its
-//! `CHANNEL` parameter: c3dio unwraps the missing parameter); such a panic becomes an error here
-//! (the default panic hook still prints its message to stderr).
+//! The c3dio call on bytes that the layout checks accepted, run under
+//! [`std::panic::catch_unwind`] as the last guard, and the table built from what c3dio decoded
+//! (the parent module's "What is read": labels, units, the unsigned-integer correction and the
+//! clock).
 
 use std::collections::HashMap;
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -40,7 +37,7 @@ pub(super) fn decode(bytes: &[u8], layout: &Layout, name: &str) -> Result<Record
             )));
         }
     };
-    table_from(&c3d, &layout, name)
+    table_from(&c3d, layout, name)
 }
 
 /// The table from what c3dio decoded.

@@ -1,12 +1,6 @@
-//! The checks before c3dio: the header, the parameter section and the data section's length.
-//!
-//! c3dio 0.8 trusts the file: on malformed input it indexes past slices, overflows integer
-//! arithmetic (a panic in debug builds) and can size its sample grids from unchecked counts (an
-//! allocation too large to succeed aborts the process, which no unwinding can catch). Before
-//! calling it this reader therefore checks the header, walks the parameter section the way
-//! c3dio will (every length and count bounds-checked), works out the number of frames c3dio
-//! will read and checks that the data section holds them — which is also how a truncated data
-//! section is caught, since c3dio silently reads the frames that are there. As a last guard
+//! The checks before c3dio (the parent module's "Errors, and no panics" says why they are
+//! needed): the header, the parameter section walked record by record as c3dio walks it, the
+//! frame count c3dio will work out, and that the data section holds those frames.
 
 use std::borrow::Cow;
 use std::collections::{HashMap, HashSet};

@@ -1,10 +1,14 @@
 //! C3D files: the ANALOG channels, by label, as a [`RecordingTable`]; and a writer of
 //! analog-only C3D files.
 //!
+//! The reading is in stages, each a file of its own: `layout` checks the file before c3dio sees
+//! it, `decode` runs c3dio and builds the table; `write` holds the writer and `blocks` the
+//! format's block and byte-order basics that both sides share.
+//!
 //! # What is read
 //!
 //! [`parse_c3d`] (bytes) and [`read_c3d`] (a path) decode the file with the [`c3dio`] crate
-//! (0.8) and return one [`RecordingChannel`] per analog channel, in file order:
+//! (0.8) and return one [`RecordingChannel`](crate::RecordingChannel) per analog channel, in file order:
 //!
 //! * `label`: the channel's `ANALOG:LABELS` entry with its blanks removed (c3dio trims both
 //!   ends; trailing NUL padding is removed here too). A blank label, fewer labels than
@@ -35,9 +39,6 @@
 //! same `f32` (a stored 1111.11 reads as 1111.11, not 1111.1099853515625).
 //!
 //! # Errors, and no panics
-//!
-//! The file is checked before c3dio sees it ([`layout`](self#errors-and-no-panics)), then decoded
-//! by c3dio into the table; [`format_c3d_analog`] writes one.
 //!
 //! Every failure is a one-line [`RecordingError`] whose message starts with the file name: an
 //! empty, non-C3D (a text file, say) or truncated file, a malformed header or parameter section,
@@ -92,7 +93,7 @@ use layout::check_layout;
 ///
 /// The file cannot be read, or any error of [`parse_c3d`]; the message starts with `path`.
 pub fn read_c3d(path: &Path) -> Result<RecordingTable> {
-    let bytes = crate::read_bytes(path)?;
+    let bytes = crate::read::read_bytes(path)?;
     parse_c3d(&bytes, &display(path))
 }
 

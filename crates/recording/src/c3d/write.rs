@@ -1,11 +1,5 @@
-//! The writer of analog-only C3D files.
-//!
-//! [`format_c3d_analog`] writes an analog-only C3D: Intel byte order, floating-point data, no 3D
-//! points, one analog sample per channel per frame (so the point rate is the analog rate),
-//! `ANALOG:SCALE` 1, `ANALOG:OFFSET` 0 and `ANALOG:GEN_SCALE` 1 so that every value is carried
-//! as the `f32` nearest to it: a value exactly representable as an `f32` reads back bit for bit.
-//! Trials longer than 65535 samples are written with `POINT:LONG_FRAMES`. The bytes are this
-//! module's own (c3dio 0.8 writes only to a path with a `.c3d` extension).
+//! The writer of analog-only C3D files (the parent module's "Writing" gives the layout). The
+//! bytes are made here, block by block, because c3dio 0.8 writes only to a path.
 
 use std::collections::HashSet;
 
@@ -16,7 +10,7 @@ use crate::error::{RecordingError, Result};
 const WRITER: &str = "C3D writer";
 
 /// Formats an analog-only C3D file: `rate_hz` is the sampling rate of every channel; each
-/// channel is `(label, unit, values)`, all of the same length (see the [module docs](self) for
+/// channel is `(label, unit, values)`, all of the same length (see the [module docs](super) for
 /// the layout). Values are stored as `f32` (the nearest one); NaN and infinities are kept.
 ///
 /// # Errors

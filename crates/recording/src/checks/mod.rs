@@ -6,11 +6,13 @@
 //! is an error: an empty, single-sample or NaN-holding trial yields `null` fields and
 //! warnings.
 //!
-//! All thresholds live in [`CheckSettings`] (its `Default` holds the values below); the
+//! All thresholds live in [`CheckSettings`] (its `Default` holds the documented values); the
 //! result repeats them under `settings`, so a JSON report says what it was judged against.
-//!//! Each check is a stage of its own file: [`angle`](AngleCheck), [`motion`](MotionCheck),
-//! [`saturation`](SaturationCheck), [`emg`](EmgCheck) and [`sign`](SignCheck); this module
-//! runs them in that order and gathers their findings and warnings.
+//!
+//! Each check is a stage in a file of its own, whose documentation gives its method and its
+//! thresholds: `angle` ([`AngleCheck`]), `motion` ([`MotionCheck`], [`Plateau`]), `saturation`
+//! ([`SaturationCheck`]), `emg` ([`EmgCheck`]) and `sign` ([`SignCheck`]). This module runs
+//! them in that order and gathers their findings and warnings.
 //!
 //! # Also reported
 //!
