@@ -128,8 +128,8 @@ fn trial_arg(obj: Option<&Bound<'_, PyAny>>, staging: &mut Staging) -> PyResult<
     let mut c = columns(
         d,
         "trial",
-        &experiment::files::TRIAL_REQUIRED,
-        &experiment::files::TRIAL_OPTIONAL,
+        &experiment::TRIAL_REQUIRED,
+        &experiment::TRIAL_OPTIONAL,
     )?
     .into_iter();
     let mut next = || c.next().flatten();
@@ -160,7 +160,7 @@ fn unloaded_arg(
     let Ok(d) = obj.cast::<PyDict>() else {
         return path_arg(obj, "unloaded").map(Some);
     };
-    let mut c = columns(d, "unloaded", &experiment::files::UNLOADED_REQUIRED, &[])?.into_iter();
+    let mut c = columns(d, "unloaded", &experiment::UNLOADED_REQUIRED, &[])?.into_iter();
     let mut next = || c.next().flatten().unwrap_or_default();
     let run = experiment::Unloaded {
         time_s: next(),

@@ -45,8 +45,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .with_effects(effects);
     let s = synthesize(&cfg)?;
     std::fs::create_dir_all(out)?;
-    experiment::files::write_trial(out.join("trial.csv"), &s.trial)?;
-    experiment::files::write_unloaded(out.join("unloaded.csv"), &s.unloaded)?;
+    experiment::write_trial(out.join("trial.csv"), &s.trial)?;
+    experiment::write_unloaded(out.join("unloaded.csv"), &s.unloaded)?;
     println!(
         "wrote {} and {} ({} samples, {:.1} s)",
         out.join("trial.csv").display(),

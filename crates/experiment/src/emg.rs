@@ -21,7 +21,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{ErrorKind, ExperimentError, Result};
 use crate::files::Trial;
-use crate::protocol::{MotionPhase, ProtocolTrace, Segment};
+use crate::protocol::{MotionPhase, ProtocolTrace, Segment, KNEE_RANGE_DEG};
 use crate::seeds::{rng, Stream};
 
 /// An EMG channel of the trial file.
@@ -447,7 +447,7 @@ pub fn synthetic_emg(
 /// result is [`synthetic_emg`]'s, bit for bit.
 ///
 /// # Errors
-/// As [`synthetic_emg`], and a knee angle outside [`crate::KNEE_RANGE_DEG`].
+/// As [`synthetic_emg`], and a knee angle outside [`KNEE_RANGE_DEG`].
 pub fn synthetic_emg_at_knee(
     trace: &ProtocolTrace,
     settings: &EmgSettings,
@@ -455,7 +455,7 @@ pub fn synthetic_emg_at_knee(
     knee_angle_deg: f64,
 ) -> Result<SyntheticEmg> {
     settings.validate(trace.sample_rate_hz)?;
-    let (lo, hi) = crate::KNEE_RANGE_DEG;
+    let (lo, hi) = KNEE_RANGE_DEG;
     if !(knee_angle_deg.is_finite() && (lo..=hi).contains(&knee_angle_deg)) {
         return Err(ExperimentError::invalid(
             "knee angle",

@@ -1,29 +1,29 @@
 //! The isokinetic experiment (docs/formats.md, docs/dynamometer.md): trial files, protocols, dynamometer error
 //! and synthetic EMG.
 //!
-//! * [`files`]: trial / unloaded CSV reading with validation (every error is one line naming
+//! * [`read_trial`], [`write_trial`] and the like: trial / unloaded CSV reading with validation (every error is one line naming
 //!   the file, the line and the column) and round-trip-exact, atomic writing.
-//! * [`protocol`]: `seed`, `relaxed+N`, `cycles+N` sampled at 2048 Hz; a synthetic trial's
+//! * [`Protocol`]: `seed`, `relaxed+N`, `cycles+N` sampled at 2048 Hz; a synthetic trial's
 //!   protocol may hold the knee flexed ([`SynthProtocol`]: `knee90`, `relaxed+2@knee90`). A sweep of range
 //!   `D = 35°` at speed `v = 30 °/s` with ramps of `t_r = 0.05 s` (acceleration `a = v/t_r`)
 //!   lasts `T = D/v + t_r`; its displacement at time `τ` is `½aτ²` (τ < t_r),
 //!   `½a t_r² + v(τ − t_r)` (cruise) and `D − ½a(T − τ)²` (last ramp).
-//! * [`dynamometer`]: the error
+//! * [`dynamometer_error`]: the error
 //!   `ε(t) = offset + Σ_e A·e^{−(t−e)/τr}·sin(2πf(t−e)) + x_t + w_t`, the sum over every
 //!   motion start, reversal and stop `e ≤ t`, `x_t = φx_{t−1} + σ√(1−φ²)ξ_t` with
 //!   `φ = e^{−dt/τc}` (stationary start), `w_t ~ N(0, σ_w²)`; then the 12-bit ADC
 //!   `step·round(x/step)`, `step = 1356/4096 N·m`, clamped to the codes −2048…2047.
-//! * [`events`]: motion starts, reversals and stops detected from a measured angle.
-//! * [`transient`] and [`correction`]: the dynamometer correction estimated from an unloaded
+//! * [`detect_events`]: motion starts, reversals and stops detected from a measured angle.
+//! * [`Transient`] and [`DynamometerCorrection`]: the dynamometer correction estimated from an unloaded
 //!   run (offset, damped-sinusoid transient, AR(1)+white random part) and subtracted from a
 //!   trial at its own events (`docs/dynamometer.md`).
-//! * [`emg`]: raw EMG `x_c(t) = g_c·d_c(t)·c_c(t)`, `c_c` unit-RMS Gaussian noise
+//! * [`synthetic_emg`]: raw EMG `x_c(t) = g_c·d_c(t)·c_c(t)`, `c_c` unit-RMS Gaussian noise
 //!   band-limited to 20–450 Hz, `d_c ∈ [rest, 1]` the drive; with the knee flexed by `k` the
 //!   gastrocnemii's active drive is `f(k) = 1 − 0.3·(1 − cos k)` times the extended knee's.
-//! * [`seeds`]: every random part is a `ChaCha8Rng` on its own stream of one seed.
-//! * [`mod@model_inputs`]: a trial → the model's inputs (angle in rad, envelopes of docs/model.md, section 1).
-//! * [`synth`]: a whole synthetic experiment (trial, unloaded run, truth) from one seed.
-//! * [`ceinms`]: a CEINMS trial folder and subject XML as the model's inputs and parameters
+//! * [`rng`]: every random part is a `ChaCha8Rng` on its own stream of one seed.
+//! * [`model_inputs()`]: a trial → the model's inputs (angle in rad, envelopes of docs/model.md, section 1).
+//! * [`synthesize`]: a whole synthetic experiment (trial, unloaded run, truth) from one seed.
+//! * [`read_ceinms_trial`] and [`ceinms_model_params`]: a CEINMS trial folder and subject XML as the model's inputs and parameters
 //!   (docs/real-data.md).
 //!
 //! ```
@@ -48,19 +48,19 @@
 //! # Ok::<(), experiment::ExperimentError>(())
 //! ```
 
-pub mod ceinms;
-pub mod correction;
-pub mod dynamometer;
-pub mod emg;
-pub mod error;
-pub mod events;
-pub mod files;
-pub mod model_inputs;
-pub mod protocol;
-pub mod seeds;
-pub mod synth;
+mod ceinms;
+mod correction;
+mod dynamometer;
+mod emg;
+mod error;
+mod events;
+mod files;
+mod model_inputs;
+mod protocol;
+mod seeds;
+mod synth;
 pub mod synth_session;
-pub mod transient;
+mod transient;
 
 pub use ceinms::{
     ceinms_model_params, ceinms_model_trial, ceinms_trial_dirs, least_squares, moment_fit,
@@ -83,15 +83,16 @@ pub use events::{detect_events, detect_events_with, EventSettings};
 pub use files::{
     format_f64, format_trial, format_unloaded, parse_trial, parse_trial_bytes, parse_trial_with,
     parse_unloaded, parse_unloaded_bytes, parse_unloaded_with, read_trial, read_unloaded,
-    write_f64, write_trial, write_unloaded, ReadOptions, Trial, Unloaded,
+    write_f64, write_trial, write_unloaded, ReadOptions, Trial, Unloaded, DEFAULT_MIN_DURATION_S,
+    DEFAULT_TIME_TOLERANCE, EMG_PREFIX, TRIAL_OPTIONAL, TRIAL_REQUIRED, UNLOADED_REQUIRED,
 };
 pub use model_inputs::{
     envelope_peaks, model_inputs, model_inputs_named, model_inputs_referenced, EmgReferences,
-    InputOptions, KNEE_AGREEMENT_DEG, KNEE_RANGE_DEG,
+    InputOptions, KNEE_AGREEMENT_DEG,
 };
 pub use protocol::{
     Events, MotionPhase, MotionSettings, Protocol, ProtocolTrace, Segment, SynthProtocol,
-    NOMINAL_SPEED_DEG_S, SPEED_RANGE_DEG_S,
+    KNEE_RANGE_DEG, NOMINAL_SPEED_DEG_S, SPEED_RANGE_DEG_S,
 };
 pub use seeds::{rng, Stream};
 pub use synth::{

@@ -24,6 +24,7 @@ use signal::{normalise, EnvelopeFilter, EnvelopeSettings, Normalisation, SignalE
 use crate::emg::EmgMuscle;
 use crate::error::{ErrorKind, ExperimentError, Result};
 use crate::files::{Trial, EMG_PREFIX};
+use crate::protocol::KNEE_RANGE_DEG;
 
 /// How to turn the EMG columns into normalised envelopes. `Default`: raw EMG, every channel
 /// normalised by its trial maximum.
@@ -39,9 +40,6 @@ pub struct InputOptions {
     /// `knee_angle_deg` column; within [`KNEE_RANGE_DEG`].
     pub knee_angle_deg: Option<f64>,
 }
-
-/// The knee angles accepted (degrees), the same range the trial reader accepts in the column.
-pub const KNEE_RANGE_DEG: (f64, f64) = (-30.0, 180.0);
 
 /// How far a trial's knee-angle column may be from a constant knee angle given with it
 /// (degrees): a column that holds the same constant, written with fewer digits, agrees.

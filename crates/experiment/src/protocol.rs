@@ -401,6 +401,9 @@ pub const SPEED_RANGE_DEG_S: (f64, f64) = (5.0, 300.0);
 /// The nominal cruise speed (°/s) of [`MotionSettings::default`].
 pub const NOMINAL_SPEED_DEG_S: f64 = 30.0;
 
+/// The knee angles accepted (degrees), the same range the trial reader accepts in the column.
+pub const KNEE_RANGE_DEG: (f64, f64) = (-30.0, 180.0);
+
 /// The protocol of a synthetic trial: a motion ([`Protocol`]) at a cruise speed with the knee
 /// held at a constant flexion (degrees; 0 extended).
 ///
@@ -574,7 +577,7 @@ fn parse_knee(k: &str, whole: &str) -> Result<f64> {
                 "'{whole}': the knee angle is written 'knee<degrees>', e.g. 'knee90' or 'seed@knee90'"
             ))
         })?;
-    let (lo, hi) = crate::KNEE_RANGE_DEG;
+    let (lo, hi) = KNEE_RANGE_DEG;
     if !(deg.is_finite() && (lo..=hi).contains(&deg)) {
         return Err(bad(format!(
             "'{whole}': the knee angle must be within [{lo}, {hi}] degrees"

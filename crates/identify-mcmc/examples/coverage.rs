@@ -45,7 +45,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mut noise = NoiseSpec::from_unloaded(&syn.trial, &syn.unloaded, kind)?;
         if exact {
             let events = experiment::detect_events(&syn.trial.time_s, &syn.trial.ankle_angle_deg)?;
-            noise.systematic = Some(experiment::dynamometer::systematic_error(
+            noise.systematic = Some(experiment::systematic_error(
                 &syn.trial.time_s,
                 &events.all(),
                 &cfg.dynamometer,

@@ -14,9 +14,8 @@ use std::hint::black_box;
 
 fn seed_inputs() -> (TrialInputs, Vec<f64>) {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/seed/trial.csv");
-    let trial = experiment::files::read_trial(path).expect("fixtures/seed/trial.csv");
-    let inputs =
-        experiment::model_inputs::model_inputs(&trial, &Default::default()).expect("model inputs");
+    let trial = experiment::read_trial(path).expect("fixtures/seed/trial.csv");
+    let inputs = experiment::model_inputs(&trial, &Default::default()).expect("model inputs");
     let torque = trial.torque_nm.clone();
     (inputs, torque)
 }

@@ -55,8 +55,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut worst: f64 = 0.0;
     if std::env::var("NO_ACC").is_err() {
         for fx in ["seed", "relaxed2"] {
-            let trial = experiment::files::read_trial(format!("{root}/{fx}/trial.csv"))?;
-            let inputs = experiment::model_inputs::model_inputs(&trial, &Default::default())?;
+            let trial = experiment::read_trial(format!("{root}/{fx}/trial.csv"))?;
+            let inputs = experiment::model_inputs(&trial, &Default::default())?;
             for (name, e) in &effects {
                 let tight = simulate(&inputs, &p, e, &SimSettings::tight())?;
                 let fast = simulate(&inputs, &p, e, &s)?;
@@ -71,8 +71,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         println!("worst {worst:.3e} N·m");
     }
 
-    let trial = experiment::files::read_trial(format!("{root}/seed/trial.csv"))?;
-    let inputs = experiment::model_inputs::model_inputs(&trial, &Default::default())?;
+    let trial = experiment::read_trial(format!("{root}/seed/trial.csv"))?;
+    let inputs = experiment::model_inputs(&trial, &Default::default())?;
     let e = Effects::none();
     // forward simulation, all three muscles integrated
     let sets: Vec<ModelParams> = (0..3)

@@ -13,8 +13,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let path = std::env::args().nth(1).unwrap_or_else(|| {
         concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/seed/trial.csv").into()
     });
-    let trial = experiment::files::read_trial(&path)?;
-    let inputs = experiment::model_inputs::model_inputs(&trial, &Default::default())?;
+    let trial = experiment::read_trial(&path)?;
+    let inputs = experiment::model_inputs(&trial, &Default::default())?;
     let p = ModelParams::nominal();
     let e = Effects::none();
     let tight = simulate(&inputs, &p, &e, &SimSettings::tight())?;

@@ -103,7 +103,7 @@ impl<'m> Files<'m> {
                 header_line: self.map.header_line,
                 decimal_comma: self.map.decimal_comma,
             };
-            let t = crate::open_table(path, &opts)?;
+            let t = crate::kind::open_table(path, &opts)?;
             self.tables.insert(path.to_path_buf(), t);
         }
         Ok(&self.tables[path])
@@ -114,7 +114,7 @@ impl<'m> Files<'m> {
 fn column_error(path: String, column: &str, reason: impl Into<String>) -> RecordingError {
     RecordingError::Column {
         path,
-        name: crate::printable(column),
+        name: crate::read::printable(column),
         reason: reason.into(),
     }
 }
@@ -125,7 +125,7 @@ fn checked_clock(table: &RecordingTable, label: &str, t: Vec<f64>) -> Result<(Ve
     let name = table.name();
     let err = |i: usize, reason: String| RecordingError::Column {
         path: name.clone(),
-        name: crate::printable(label),
+        name: crate::read::printable(label),
         reason: format!("{}: {reason}", table.locate(i)),
     };
     if t.len() < 2 {
@@ -298,8 +298,28 @@ struct Read {
     column: String,
 }
 
-#[allow(clippy::too_many_lines)]
+/// The mapped channels of `map` on one grid: the clock of `grid_of`, cut to the time every
+/// channel covers, every other channel interpolated onto it.
 fn assemble(map: &RecordingMap, required: &[&str], grid_of: &str) -> Result<Assembled> {
+    check_required(map, required, grid_of)?;
+    let mut files = Files {
+        map,
+        tables: BTreeMap::new(),
+    };
+    let mut notes = Vec::new();
+    let reads = read_channels(map, &mut files, &mut notes)?;
+    let grid = common_grid(map, &reads, grid_of, &mut notes)?;
+    let (channels, sources) = onto_grid(&files, reads, &grid, &mut notes)?;
+    Ok(Assembled {
+        time: grid.times,
+        channels,
+        sources,
+        notes,
+    })
+}
+
+/// That the map names every channel the kind of recording needs.
+fn check_required(map: &RecordingMap, required: &[&str], grid_of: &str) -> Result<()> {
     for r in required {
         if !map.channels.contains_key(*r) {
             return Err(map.key_error(
@@ -316,11 +336,16 @@ fn assemble(map: &RecordingMap, required: &[&str], grid_of: &str) -> Result<Asse
             ));
         }
     }
-    let mut files = Files {
-        map,
-        tables: BTreeMap::new(),
-    };
-    let mut notes = Vec::new();
+    Ok(())
+}
+
+/// Every mapped channel but `time_s`, read from its file on its own clock (each file's clock
+/// worked out once).
+fn read_channels(
+    map: &RecordingMap,
+    files: &mut Files<'_>,
+    notes: &mut Vec<String>,
+) -> Result<Vec<(String, Read)>> {
     // each file's clock: its mapped time_s channel, its time column, its stated rate
     let time_map = map.channels.get("time_s");
     let time_file = match time_map {
@@ -397,7 +422,7 @@ fn assemble(map: &RecordingMap, required: &[&str], grid_of: &str) -> Result<Asse
             Some(c) => c,
             None => {
                 if !clocks.contains_key(&file) {
-                    let c = file_clock(map, table, &file, &time_file, time_map, &mut notes)?;
+                    let c = file_clock(map, table, &file, &time_file, time_map, notes)?;
                     clocks.insert(file.clone(), c);
                 }
                 clocks[&file].clone()
@@ -425,8 +450,26 @@ fn assemble(map: &RecordingMap, required: &[&str], grid_of: &str) -> Result<Asse
             },
         ));
     }
+    Ok(reads)
+}
 
-    // the grid: the clock of `grid_of`, cut to what every channel covers
+/// The grid the channels are put on, and where it lies on the clock it was cut from.
+struct Grid {
+    /// The clock of the channel that sets the grid, whole.
+    clock: Vec<f64>,
+    /// The grid is `clock[first..last]`.
+    first: usize,
+    last: usize,
+    times: Vec<f64>,
+}
+
+/// The grid: the clock of `grid_of`, cut to what every channel covers (at least 1 s).
+fn common_grid(
+    map: &RecordingMap,
+    reads: &[(String, Read)],
+    grid_of: &str,
+    notes: &mut Vec<String>,
+) -> Result<Grid> {
     let grid_clock = reads
         .iter()
         .find(|(t, _)| t == grid_of)
@@ -435,7 +478,7 @@ fn assemble(map: &RecordingMap, required: &[&str], grid_of: &str) -> Result<Asse
     let (mut lo, mut hi) = (grid_clock[0], grid_clock[grid_clock.len() - 1]);
     // the channels that start last and end first, for the message
     let (mut lo_by, mut hi_by) = (grid_of, grid_of);
-    for (t, r) in &reads {
+    for (t, r) in reads {
         let (a, b) = (r.clock.times[0], r.clock.times[r.clock.times.len() - 1]);
         if a > lo {
             (lo, lo_by) = (a, t.as_str());
@@ -450,7 +493,7 @@ fn assemble(map: &RecordingMap, required: &[&str], grid_of: &str) -> Result<Asse
             |(_, r)| {
                 format!(
                     "{target} ('{}' in {})",
-                    crate::printable(&r.column),
+                    crate::read::printable(&r.column),
                     r.file.display()
                 )
             },
@@ -479,7 +522,28 @@ fn assemble(map: &RecordingMap, required: &[&str], grid_of: &str) -> Result<Asse
         ));
     }
     let grid = grid_clock[first..last].to_vec();
-    let grid_rate = rate_of(&grid);
+    Ok(Grid {
+        clock: grid_clock,
+        first,
+        last,
+        times: grid,
+    })
+}
+
+/// The channels on the grid by target, and where each came from.
+type OnGrid = (BTreeMap<String, Vec<f64>>, Vec<ChannelSource>);
+
+/// Every channel on the grid: one on the grid's own clock is cut to it, any other is
+/// interpolated linearly onto it; an all-zero EMG channel is an error.
+fn onto_grid(
+    files: &Files<'_>,
+    reads: Vec<(String, Read)>,
+    grid: &Grid,
+    notes: &mut Vec<String>,
+) -> Result<OnGrid> {
+    let (grid_clock, first, last) = (&grid.clock, grid.first, grid.last);
+    let grid = &grid.times;
+    let grid_rate = rate_of(grid);
 
     let mut channels = BTreeMap::new();
     let mut sources = Vec::new();
@@ -488,7 +552,7 @@ fn assemble(map: &RecordingMap, required: &[&str], grid_of: &str) -> Result<Asse
         let same_clock = r.clock.times.len() >= last
             && r.clock.times[first..last]
                 .iter()
-                .zip(&grid)
+                .zip(grid)
                 .all(|(a, b)| a.to_bits() == b.to_bits())
             && r.clock.times.len() == grid_clock.len();
         let (values, resampled) = if same_clock {
@@ -508,12 +572,9 @@ fn assemble(map: &RecordingMap, required: &[&str], grid_of: &str) -> Result<Asse
                 + 1)
             .min(r.values.len());
             check_finite(table, &r, &target, a, b)?;
-            let v = numerics::interpolate::resample_linear(
-                &r.clock.times[a..b],
-                &r.values[a..b],
-                &grid,
-            )
-            .map_err(|e| column_error(table.name(), &r.column, e.to_string()))?;
+            let v =
+                numerics::interpolate::resample_linear(&r.clock.times[a..b], &r.values[a..b], grid)
+                    .map_err(|e| column_error(table.name(), &r.column, e.to_string()))?;
             notes.push(format!(
                 "{target}: {} ({}, {:.1} Hz) interpolated linearly onto the {:.1} Hz grid",
                 r.column,
@@ -539,12 +600,7 @@ fn assemble(map: &RecordingMap, required: &[&str], grid_of: &str) -> Result<Asse
         });
         channels.insert(target, values);
     }
-    Ok(Assembled {
-        time: grid,
-        channels,
-        sources,
-        notes,
-    })
+    Ok((channels, sources))
 }
 
 /// A missing sample (NaN) where a channel is used is an error naming where it is.

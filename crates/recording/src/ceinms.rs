@@ -1,7 +1,7 @@
 //! A CEINMS trial folder (`emg.txt`, `lmt.txt`, `<joint>Ma.txt`, `<joint>Torque.txt`) as
 //! recording tables, one per file, for `surae inspect`. Its channels are named by muscle and
 //! joint, so it needs no map: `simulate`, `identify` and `diagnose` read it as a session of one
-//! (`--trial FOLDER`) or as a session trial's `recording` (`experiment::ceinms`).
+//! (`--trial FOLDER`) or as a session trial's `recording` (`experiment::read_ceinms_trial`).
 
 use std::path::Path;
 

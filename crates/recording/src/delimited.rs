@@ -56,7 +56,7 @@ pub(crate) fn decode_text(bytes: &[u8]) -> String {
 /// # Errors
 /// As [`parse_delimited`], and a file that cannot be read.
 pub fn read_delimited(path: &Path, opts: &DelimitedOptions) -> Result<RecordingTable> {
-    let bytes = crate::read_bytes(path)?;
+    let bytes = crate::read::read_bytes(path)?;
     parse_delimited(&bytes, path, opts)
 }
 
@@ -132,9 +132,9 @@ fn quote(cell: &str) -> String {
     const MAX: usize = 40;
     if cell.chars().count() > MAX {
         let head: String = cell.chars().take(MAX).collect();
-        format!("'{}…'", crate::printable(&head))
+        format!("'{}…'", crate::read::printable(&head))
     } else {
-        format!("'{}'", crate::printable(cell))
+        format!("'{}'", crate::read::printable(cell))
     }
 }
 
@@ -144,7 +144,6 @@ fn quote(cell: &str) -> String {
 /// An empty file, a header with an empty or repeated label, a row with a different number of
 /// fields than the header, a cell that is not a number, and a control character (binary data),
 /// each naming the line (and column).
-#[allow(clippy::too_many_lines)]
 pub fn parse_delimited(
     bytes: &[u8],
     path: &Path,
@@ -152,40 +151,7 @@ pub fn parse_delimited(
 ) -> Result<RecordingTable> {
     let name = crate::table::display(path);
     let text = decode_text(bytes);
-    // the header: the named line, or the first line that is neither blank nor a comment
-    let mut header_at: Option<(usize, usize)> = None; // (1-based line, byte offset)
-    let mut offset = 0usize;
-    for (i, line) in text.split_inclusive('\n').enumerate() {
-        let lineno = i + 1;
-        let body = line.trim_end_matches(['\n', '\r']);
-        if let Some(c) = body.chars().find(|&c| c.is_control() && c != '\t') {
-            return Err(RecordingError::Line {
-                path: name,
-                line: lineno,
-                reason: format!(
-                    "control character U+{:04X} in the text: not a delimited text file (binary data?)",
-                    c as u32
-                ),
-            });
-        }
-        let is_header = match opts.header_line {
-            Some(h) => lineno == h,
-            None => !body.trim().is_empty() && !body.trim_start().starts_with('#'),
-        };
-        if is_header {
-            header_at = Some((lineno, offset));
-            break;
-        }
-        offset += line.len();
-    }
-    let Some((header_line, start)) = header_at else {
-        return Err(match opts.header_line {
-            Some(h) => {
-                RecordingError::file(name, format!("header_line {h}: the file has fewer lines"))
-            }
-            None => RecordingError::file(name, "empty file: no header and no data"),
-        });
-    };
+    let (header_line, start) = find_header(&text, opts, &name)?;
     let rest = &text[start..];
     let header_text = rest.lines().next().unwrap_or("");
     // tab before ';' before ',' (module docs)
@@ -232,39 +198,7 @@ pub fn parse_delimited(
         None => return Err(RecordingError::file(name, "empty file: no header")),
     };
     let labels: Vec<String> = header.iter().map(|s| s.trim().to_string()).collect();
-    for (j, l) in labels.iter().enumerate() {
-        if l.chars().any(|c| c.is_control() && c != '\t') {
-            return Err(RecordingError::Cell {
-                path: name,
-                line: header_line,
-                column: j + 1,
-                name: crate::printable(l),
-                reason: "a control character (a line break inside quotes?) in the label".into(),
-            });
-        }
-        if l.is_empty() {
-            // a trailing delimiter after the last label is common in exports
-            if j + 1 == labels.len() && j > 0 {
-                continue;
-            }
-            return Err(RecordingError::Cell {
-                path: name,
-                line: header_line,
-                column: j + 1,
-                name: String::new(),
-                reason: "empty column label in the header".into(),
-            });
-        }
-        if let Some(k) = labels[..j].iter().position(|m| m == l) {
-            return Err(RecordingError::Cell {
-                path: name,
-                line: header_line,
-                column: j + 1,
-                name: l.clone(),
-                reason: format!("label '{l}' appears twice (also column {})", k + 1),
-            });
-        }
-    }
+    check_labels(&labels, &name, header_line)?;
     let width = if labels.last().is_some_and(String::is_empty) {
         labels.len() - 1
     } else {
@@ -291,47 +225,14 @@ pub fn parse_delimited(
         delimiter != ',' && rows.iter().any(|(_, r)| r.iter().any(looks_decimal_comma))
     });
 
-    let mut columns: Vec<Vec<f64>> = vec![Vec::with_capacity(rows.len()); width];
-    for (line, r) in &rows {
-        // a trailing empty field (a delimiter at the end of the line) is not a value
-        let mut n = r.len();
-        while n > width && r.get(n - 1).is_some_and(|f| f.trim().is_empty()) {
-            n -= 1;
-        }
-        if n != width {
-            let what = if n < width { "too few" } else { "too many" };
-            return Err(RecordingError::Line {
-                path: name,
-                line: *line,
-                reason: format!(
-                    "{what} fields: expected {width} as in the header (line {header_line}), found {n}"
-                ),
-            });
-        }
-        for (j, col) in columns.iter_mut().enumerate() {
-            let cell = r.get(j).unwrap_or("");
-            let v = cell_number(cell, decimal_comma).ok_or_else(|| {
-                let hint = match (decimal_comma, delimiter) {
-                    (false, ',') if looks_decimal_comma(cell) => {
-                        " (a decimal comma in a comma-separated file: use ';' or tabs between \
-                         fields)"
-                    }
-                    (false, _) if looks_decimal_comma(cell) => {
-                        " (a decimal comma, but the map says \"decimal_comma\": false)"
-                    }
-                    _ => "",
-                };
-                RecordingError::Cell {
-                    path: name.clone(),
-                    line: *line,
-                    column: j + 1,
-                    name: labels[j].clone(),
-                    reason: format!("{} is not a number{hint}", quote(cell.trim())),
-                }
-            })?;
-            col.push(v);
-        }
-    }
+    let columns = fill_columns(
+        &rows,
+        &labels,
+        width,
+        (delimiter, decimal_comma),
+        &name,
+        header_line,
+    )?;
     let channels: Vec<RecordingChannel> = labels
         .iter()
         .take(width)
@@ -359,4 +260,131 @@ pub fn parse_delimited(
         channels,
         row_lines: rows.iter().map(|(l, _)| *l).collect(),
     })
+}
+
+/// The header: the line `opts.header_line` names, or the first line that is neither blank nor
+/// a comment, as (1-based line, byte offset); a control character before it is an error.
+fn find_header(text: &str, opts: &DelimitedOptions, name: &str) -> Result<(usize, usize)> {
+    let mut header_at: Option<(usize, usize)> = None; // (1-based line, byte offset)
+    let mut offset = 0usize;
+    for (i, line) in text.split_inclusive('\n').enumerate() {
+        let lineno = i + 1;
+        let body = line.trim_end_matches(['\n', '\r']);
+        if let Some(c) = body.chars().find(|&c| c.is_control() && c != '\t') {
+            return Err(RecordingError::Line {
+                path: name.to_string(),
+                line: lineno,
+                reason: format!(
+                    "control character U+{:04X} in the text: not a delimited text file (binary data?)",
+                    c as u32
+                ),
+            });
+        }
+        let is_header = match opts.header_line {
+            Some(h) => lineno == h,
+            None => !body.trim().is_empty() && !body.trim_start().starts_with('#'),
+        };
+        if is_header {
+            header_at = Some((lineno, offset));
+            break;
+        }
+        offset += line.len();
+    }
+    header_at.ok_or_else(|| match opts.header_line {
+        Some(h) => RecordingError::file(name, format!("header_line {h}: the file has fewer lines")),
+        None => RecordingError::file(name, "empty file: no header and no data"),
+    })
+}
+
+/// That every label is printable, not empty (but for a trailing one) and not repeated.
+fn check_labels(labels: &[String], name: &str, header_line: usize) -> Result<()> {
+    for (j, l) in labels.iter().enumerate() {
+        if l.chars().any(|c| c.is_control() && c != '\t') {
+            return Err(RecordingError::Cell {
+                path: name.to_string(),
+                line: header_line,
+                column: j + 1,
+                name: crate::read::printable(l),
+                reason: "a control character (a line break inside quotes?) in the label".into(),
+            });
+        }
+        if l.is_empty() {
+            // a trailing delimiter after the last label is common in exports
+            if j + 1 == labels.len() && j > 0 {
+                continue;
+            }
+            return Err(RecordingError::Cell {
+                path: name.to_string(),
+                line: header_line,
+                column: j + 1,
+                name: String::new(),
+                reason: "empty column label in the header".into(),
+            });
+        }
+        if let Some(k) = labels[..j].iter().position(|m| m == l) {
+            return Err(RecordingError::Cell {
+                path: name.to_string(),
+                line: header_line,
+                column: j + 1,
+                name: l.clone(),
+                reason: format!("label '{l}' appears twice (also column {})", k + 1),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The rows' numbers, column by column; a row of another width than the header, or a cell that
+/// is not a number, is an error naming its line (and column).
+fn fill_columns(
+    rows: &[(usize, csv::StringRecord)],
+    labels: &[String],
+    width: usize,
+    format: (char, bool),
+    name: &str,
+    header_line: usize,
+) -> Result<Vec<Vec<f64>>> {
+    let (delimiter, decimal_comma) = format;
+    let mut columns: Vec<Vec<f64>> = vec![Vec::with_capacity(rows.len()); width];
+    for (line, r) in rows {
+        // a trailing empty field (a delimiter at the end of the line) is not a value
+        let mut n = r.len();
+        while n > width && r.get(n - 1).is_some_and(|f| f.trim().is_empty()) {
+            n -= 1;
+        }
+        if n != width {
+            let what = if n < width { "too few" } else { "too many" };
+            return Err(RecordingError::Line {
+                path: name.to_string(),
+                line: *line,
+                reason: format!(
+                    "{what} fields: expected {width} as in the header (line {header_line}), found {n}"
+                ),
+            });
+        }
+        for (j, col) in columns.iter_mut().enumerate() {
+            let cell = r.get(j).unwrap_or("");
+            let v = cell_number(cell, decimal_comma).ok_or_else(|| {
+                let hint = match (decimal_comma, delimiter) {
+                    (false, ',') if looks_decimal_comma(cell) => {
+                        " (a decimal comma in a comma-separated file: use ';' or tabs between \
+                         fields)"
+                    }
+                    (false, _) if looks_decimal_comma(cell) => {
+                        " (a decimal comma, but the map says \"decimal_comma\": false)"
+                    }
+                    _ => "",
+                };
+                RecordingError::Cell {
+                    path: name.to_string(),
+                    line: *line,
+                    column: j + 1,
+                    name: labels[j].clone(),
+                    reason: format!("{} is not a number{hint}", quote(cell.trim())),
+                }
+            })?;
+            col.push(v);
+        }
+    }
+    Ok(columns)
 }

@@ -11,6 +11,7 @@
 //! first side found is taken and the others are listed. A channel in volts or millivolts gets
 //! scale 1 and a note: its calibration (N·m or degrees per mV) is the lab's to fill in.
 
+use std::collections::BTreeMap;
 use std::path::{Component, Path, PathBuf};
 
 use serde::Serialize;
@@ -311,80 +312,18 @@ pub fn inspect(paths: &[PathBuf], map_dir: &Path) -> Result<Inspection> {
                 )],
             });
         }
-        let t = crate::open_table(p, &crate::DelimitedOptions::default())?;
+        let t = crate::kind::open_table(p, &crate::delimited::DelimitedOptions::default())?;
         files.push(FileSummary::of(&t));
         tables.push((p.clone(), t));
     }
-    let mut notes = Vec::new();
-    let mut channels = std::collections::BTreeMap::<String, ChannelMap>::new();
-    let mut side: Option<char> = None;
-    let mut others: Vec<String> = Vec::new();
     let single = tables.len() == 1;
-    let mut need_rate = None;
-    for (p, t) in &tables {
-        let rel = relative_path(p, map_dir).display().to_string();
-        if t.time_label.is_none() && t.rate_hz.is_none() {
-            need_rate = Some(rel.clone());
-        }
-        for c in &t.channels {
-            if t.time_label.as_deref() == Some(c.label.as_str()) {
-                let u = c.unit.as_deref().unwrap_or("").to_ascii_lowercase();
-                if u == "ms" {
-                    let mut ch = ChannelMap::column(&c.label);
-                    ch.scale = 1e-3;
-                    ch.file = (!single).then(|| rel.clone());
-                    channels.insert("time_s".into(), ch);
-                    notes.push(format!("'{}' is in ms: time_s takes scale 0.001", c.label));
-                }
-                continue;
-            }
-            let Some((target, sign)) = guess(&c.label, &t.format) else {
-                continue;
-            };
-            if let Some(s) = side_of(&c.label) {
-                if target.starts_with("emg_") || target.ends_with("_deg") {
-                    match side {
-                        None => side = Some(s),
-                        Some(x) if x != s => {
-                            others.push(c.label.clone());
-                            continue;
-                        }
-                        _ => {}
-                    }
-                }
-            }
-            if channels.contains_key(&target) {
-                others.push(c.label.clone());
-                continue;
-            }
-            let mut ch = ChannelMap::column(&c.label);
-            ch.sign = sign;
-            ch.file = (!single).then(|| rel.clone());
-            let unit = c.unit.as_deref().unwrap_or("").to_ascii_lowercase();
-            if !target.starts_with("emg_") && (unit == "mv" || unit == "v") {
-                notes.push(format!(
-                    "{target} ← '{}' is in {}: set its scale (and offset) to the lab's \
-                     calibration, {} per {}",
-                    c.label,
-                    c.unit.as_deref().unwrap_or(""),
-                    if target == "torque_nm" {
-                        "N·m"
-                    } else {
-                        "degrees"
-                    },
-                    c.unit.as_deref().unwrap_or("")
-                ));
-            }
-            if sign < 0.0 {
-                notes.push(format!(
-                    "torque_nm ← '{}' takes sign -1: OpenSim's moment is positive towards \
-                     dorsiflexion, surae's torque towards plantarflexion",
-                    c.label
-                ));
-            }
-            channels.insert(target, ch);
-        }
-    }
+    let Guesses {
+        channels,
+        mut notes,
+        side,
+        others,
+        need_rate,
+    } = guess_channels(&tables, map_dir, single);
     if let Some(s) = side {
         notes.push(format!(
             "the {} leg's channels were taken{}",
@@ -448,4 +387,97 @@ pub fn inspect(paths: &[PathBuf], map_dir: &Path) -> Result<Inspection> {
         unassigned,
         notes,
     })
+}
+
+/// What [`guess_channels`] made of the files' columns.
+struct Guesses {
+    channels: BTreeMap<String, ChannelMap>,
+    notes: Vec<String>,
+    /// The leg (`'l'` or `'r'`) whose channels were taken, when a label names one.
+    side: Option<char>,
+    /// Candidate columns left unmapped (the other leg's, or a second candidate for a target).
+    others: Vec<String>,
+    /// A file without a time column or a rate, relative to the map's folder.
+    need_rate: Option<String>,
+}
+
+/// A target for every column whose label suggests one (one leg's channels only), with the
+/// notes a lab needs to finish the map.
+fn guess_channels(tables: &[(PathBuf, RecordingTable)], map_dir: &Path, single: bool) -> Guesses {
+    let mut notes = Vec::new();
+    let mut channels = BTreeMap::<String, ChannelMap>::new();
+    let mut side: Option<char> = None;
+    let mut others: Vec<String> = Vec::new();
+    let mut need_rate = None;
+    for (p, t) in tables {
+        let rel = relative_path(p, map_dir).display().to_string();
+        if t.time_label.is_none() && t.rate_hz.is_none() {
+            need_rate = Some(rel.clone());
+        }
+        for c in &t.channels {
+            if t.time_label.as_deref() == Some(c.label.as_str()) {
+                let u = c.unit.as_deref().unwrap_or("").to_ascii_lowercase();
+                if u == "ms" {
+                    let mut ch = ChannelMap::column(&c.label);
+                    ch.scale = 1e-3;
+                    ch.file = (!single).then(|| rel.clone());
+                    channels.insert("time_s".into(), ch);
+                    notes.push(format!("'{}' is in ms: time_s takes scale 0.001", c.label));
+                }
+                continue;
+            }
+            let Some((target, sign)) = guess(&c.label, &t.format) else {
+                continue;
+            };
+            if let Some(s) = side_of(&c.label) {
+                if target.starts_with("emg_") || target.ends_with("_deg") {
+                    match side {
+                        None => side = Some(s),
+                        Some(x) if x != s => {
+                            others.push(c.label.clone());
+                            continue;
+                        }
+                        _ => {}
+                    }
+                }
+            }
+            if channels.contains_key(&target) {
+                others.push(c.label.clone());
+                continue;
+            }
+            let mut ch = ChannelMap::column(&c.label);
+            ch.sign = sign;
+            ch.file = (!single).then(|| rel.clone());
+            let unit = c.unit.as_deref().unwrap_or("").to_ascii_lowercase();
+            if !target.starts_with("emg_") && (unit == "mv" || unit == "v") {
+                notes.push(format!(
+                    "{target} ← '{}' is in {}: set its scale (and offset) to the lab's \
+                     calibration, {} per {}",
+                    c.label,
+                    c.unit.as_deref().unwrap_or(""),
+                    if target == "torque_nm" {
+                        "N·m"
+                    } else {
+                        "degrees"
+                    },
+                    c.unit.as_deref().unwrap_or("")
+                ));
+            }
+            if sign < 0.0 {
+                notes.push(format!(
+                    "torque_nm ← '{}' takes sign -1: OpenSim's moment is positive towards \
+                     dorsiflexion, surae's torque towards plantarflexion",
+                    c.label
+                ));
+            }
+            channels.insert(target, ch);
+        }
+    }
+    Guesses {
+        channels,
+        notes,
+        side,
+        others,
+        need_rate,
+    }
 }

@@ -2,13 +2,16 @@
 //! through a recording map into the [`experiment::Trial`] every surae command takes, and the
 //! checks a lab needs before trusting a file.
 //!
-//! * [`delimited`]: comma / semicolon / tab separated text with quoted headers, units in the
-//!   header and decimal commas (the `csv` crate splits the fields);
-//! * [`storage`]: OpenSim `.sto` / `.mot` (header versions 1 and 2, `inDegrees`);
+//! * [`parse_delimited`] / [`read_delimited`]: comma / semicolon / tab separated text with
+//!   quoted headers, units in the header and decimal commas (the `csv` crate splits the fields);
+//! * [`parse_storage`] / [`read_storage`]: OpenSim `.sto` / `.mot` (header versions 1 and 2,
+//!   `inDegrees`);
 //! * [`c3d`]: a C3D file's analog channels by label (the `c3dio` crate);
 //! * [`ceinms`]: a CEINMS trial folder's files, for `surae inspect`;
-//! * [`map`]: the recording map, `channel = sign·(scale·raw + offset)`;
-//! * [`assemble`]: the mapped channels on one clock (the EMG's), files joined on time;
+//! * [`file_kind`] / [`open_table`]: which of these readers a file needs;
+//! * [`RecordingMap`]: the recording map, `channel = sign·(scale·raw + offset)`;
+//! * [`read_trial_recording`] / [`read_unloaded_recording`]: the mapped channels on one clock
+//!   (the EMG's), files joined on time;
 //! * [`inspect`]: what a file holds and a starter map for it;
 //! * [`checks`]: angle range and velocity plateaus, saturation, flat or power-line EMG, a
 //!   flipped torque.
@@ -42,123 +45,25 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-pub mod assemble;
+mod assemble;
 pub mod c3d;
 pub mod ceinms;
 pub mod checks;
-pub mod delimited;
-pub mod error;
+mod delimited;
+mod error;
 pub mod inspect;
-pub mod map;
-pub mod storage;
-pub mod table;
-
-use std::path::Path;
+mod kind;
+mod map;
+mod read;
+mod storage;
+mod table;
 
 pub use assemble::{
     read_trial_recording, read_unloaded_recording, ChannelSource, MappedGeometry, MappedRecording,
 };
-pub use delimited::{parse_delimited, read_delimited, DelimitedOptions};
+pub use delimited::{parse_delimited, read_delimited, unit_of_label, DelimitedOptions};
 pub use error::{RecordingError, Result};
+pub use kind::{file_kind, open_table, FileKind};
 pub use map::{parse_map, read_map, ChannelMap, RecordingMap, Target};
 pub use storage::{parse_storage, read_storage};
 pub use table::{RecordingChannel, RecordingFormat, RecordingTable};
-
-/// The kinds of file a recording may be.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum FileKind {
-    /// surae's own trial CSV or any delimited text.
-    Delimited,
-    /// OpenSim `.sto` / `.mot`.
-    Storage,
-    /// C3D.
-    C3d,
-    /// A recording map (`.json`).
-    Map,
-    /// A CEINMS trial folder.
-    CeinmsFolder,
-}
-
-/// What kind of file `path` is: a folder is a CEINMS trial folder; otherwise the extension
-/// decides (`.c3d`, `.sto`/`.mot`, `.json`), and any other file is sniffed: a C3D's second
-/// byte is 0x50, a storage file has an `endheader` line; the rest is delimited text.
-#[must_use]
-pub fn file_kind(path: &Path) -> FileKind {
-    if path.is_dir() {
-        return FileKind::CeinmsFolder;
-    }
-    let ext = path
-        .extension()
-        .map(|e| e.to_string_lossy().to_ascii_lowercase())
-        .unwrap_or_default();
-    match ext.as_str() {
-        "c3d" => FileKind::C3d,
-        "sto" | "mot" => FileKind::Storage,
-        "json" => FileKind::Map,
-        _ => {
-            let Ok(bytes) = std::fs::read(path) else {
-                return FileKind::Delimited;
-            };
-            if bytes.len() >= 512 && bytes[1] == 0x50 {
-                FileKind::C3d
-            } else if bytes
-                .split(|&b| b == b'\n')
-                .take(200)
-                .any(|l| l.trim_ascii().eq_ignore_ascii_case(b"endheader"))
-            {
-                FileKind::Storage
-            } else {
-                FileKind::Delimited
-            }
-        }
-    }
-}
-
-/// Reads one data file (not a map, not a folder) with the reader its kind needs.
-///
-/// # Errors
-/// The reader's; a map or a folder given where a data file is expected.
-pub fn open_table(path: &Path, opts: &DelimitedOptions) -> Result<RecordingTable> {
-    match file_kind(path) {
-        FileKind::C3d => c3d::read_c3d(path),
-        FileKind::Storage => read_storage(path),
-        FileKind::Delimited => read_delimited(path, opts),
-        FileKind::Map => Err(RecordingError::file(
-            path.display().to_string(),
-            "a recording map cannot name another map as its data file",
-        )),
-        FileKind::CeinmsFolder => Err(RecordingError::file(
-            path.display().to_string(),
-            "a folder: a CEINMS trial folder is read as a recording itself, without a map",
-        )),
-    }
-}
-
-/// `text` with every control character written as its escape (`\n`, `\r`, `\u{0}`), so that
-/// a label, a key or a cell quoted in a message keeps the message on one line.
-pub(crate) fn printable(text: &str) -> String {
-    if !text.chars().any(char::is_control) {
-        return text.to_string();
-    }
-    text.chars()
-        .map(|c| {
-            if c.is_control() {
-                c.escape_default().to_string()
-            } else {
-                c.to_string()
-            }
-        })
-        .collect()
-}
-
-/// The bytes of a file; a missing file, a folder or a read failure is an error naming it.
-pub(crate) fn read_bytes(path: &Path) -> Result<Vec<u8>> {
-    std::fs::read(path).map_err(|e| {
-        let reason = match e.kind() {
-            std::io::ErrorKind::NotFound => "no such file".to_string(),
-            _ if path.is_dir() => "is a folder, not a file".to_string(),
-            _ => format!("cannot read: {e}"),
-        };
-        RecordingError::file(path.display().to_string(), reason)
-    })
-}

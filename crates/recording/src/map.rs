@@ -219,8 +219,8 @@ impl RecordingMap {
     pub(crate) fn key_error(&self, key: &str, reason: impl Into<String>) -> RecordingError {
         RecordingError::Map {
             path: self.name(),
-            key: crate::printable(key),
-            reason: crate::printable(&reason.into()),
+            key: crate::read::printable(key),
+            reason: crate::read::printable(&reason.into()),
         }
     }
 
@@ -283,7 +283,7 @@ pub fn parse_map(text: &str, path: &Path) -> Result<RecordingMap> {
     let mut map: RecordingMap = serde_json::from_str(text).map_err(|e| RecordingError::Line {
         path: name.clone(),
         line: e.line(),
-        reason: crate::printable(&format!("column {}: not a recording map: {e}", e.column())),
+        reason: crate::read::printable(&format!("column {}: not a recording map: {e}", e.column())),
     })?;
     map.path = path.to_path_buf();
     map.validate()?;
@@ -295,7 +295,7 @@ pub fn parse_map(text: &str, path: &Path) -> Result<RecordingMap> {
 /// # Errors
 /// An unreadable file and every error of [`parse_map`].
 pub fn read_map(path: &Path) -> Result<RecordingMap> {
-    let bytes = crate::read_bytes(path)?;
+    let bytes = crate::read::read_bytes(path)?;
     let text = std::str::from_utf8(&bytes)
         .map_err(|_| RecordingError::file(path.display().to_string(), "not UTF-8 text"))?;
     parse_map(text, path)

@@ -14,7 +14,7 @@ use crate::table::{RecordingChannel, RecordingFormat, RecordingTable};
 /// # Errors
 /// An unreadable file, and every error of [`parse_storage`].
 pub fn read_storage(path: &Path) -> Result<RecordingTable> {
-    let bytes = crate::read_bytes(path)?;
+    let bytes = crate::read::read_bytes(path)?;
     parse_storage(&bytes, path)
 }
 

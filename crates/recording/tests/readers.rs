@@ -207,11 +207,8 @@ fn units_are_read_from_the_label_tail() {
     );
     // the label stays the whole cell
     assert_eq!(labels(&t)[2], "ankle angle [deg]");
-    assert_eq!(
-        recording::delimited::unit_of_label("GM (mV)"),
-        Some("mV".into())
-    );
-    assert_eq!(recording::delimited::unit_of_label("GM"), None);
+    assert_eq!(recording::unit_of_label("GM (mV)"), Some("mV".into()));
+    assert_eq!(recording::unit_of_label("GM"), None);
 }
 
 #[test]

@@ -13,7 +13,7 @@
 use super::{read_json, read_text, ModelSettings};
 use crate::error::{AppError, AppResult};
 use crate::Reporter;
-use experiment::ceinms::CeinmsModelTrial;
+use experiment::CeinmsModelTrial;
 use muscle_model::{Effects, ModelParams, ParamId, Problem, ProblemSet};
 use serde_json::{json, Value};
 use session::{SessionManifest, TrialSource};
@@ -62,7 +62,7 @@ impl SessionTrial {
     /// RMS error (N·m) and R² of `prediction` where the fit is judged.
     pub fn fit_of(&self, prediction: &[f64]) -> AppResult<(f64, f64)> {
         let (m, p) = self.judged(prediction)?;
-        Ok(experiment::ceinms::moment_fit(&m, &p))
+        Ok(experiment::moment_fit(&m, &p))
     }
 
     /// The trial's dynamometer report (`null` without an unloaded run).
@@ -180,8 +180,7 @@ pub fn load_params_file(
         }
         "xml" => {
             let subject = ceinms_files::read_subject(path).map_err(AppError::bad)?;
-            let p =
-                experiment::ceinms::ceinms_model_params(&subject, fixed).map_err(AppError::bad)?;
+            let p = experiment::ceinms_model_params(&subject, fixed).map_err(AppError::bad)?;
             Ok((p.params, None))
         }
         _ => {
@@ -278,7 +277,7 @@ pub fn load_session(
                         t.name
                     )));
                 }
-                let c = experiment::ceinms::read_ceinms_trial(p, ceinms_files::DEFAULT_JOINT)
+                let c = experiment::read_ceinms_trial(p, ceinms_files::DEFAULT_JOINT)
                     .map_err(AppError::bad)?;
                 for m in &c.muscles {
                     if !ceinms_muscles.contains(m) {

@@ -87,7 +87,6 @@ pub(super) fn is_channel_name(s: &str) -> bool {
 /// Reads a table whose columns are `required`, then `optional`, then, when `extra_prefix` is
 /// given, any number of further columns named `<extra_prefix><name>` ([`is_channel_name`]);
 /// every other column is ignored.
-#[allow(clippy::too_many_lines)]
 pub(super) fn parse_table(
     text: &str,
     path: &str,
@@ -98,19 +97,19 @@ pub(super) fn parse_table(
 ) -> Result<Table> {
     let text = text.strip_prefix('\u{FEFF}').unwrap_or(text);
     let known: Vec<&str> = required.iter().chain(optional.iter()).copied().collect();
-    // names of every read column: the known ones, then the extra ones in header order
-    let mut all: Vec<String> = known.iter().map(|k| (*k).to_string()).collect();
+    let spec = Spec {
+        path,
+        known: &known,
+        required,
+        extra_prefix,
+    };
     let time_idx = known.iter().position(|&k| k == "time_s");
     let p = || path.to_string();
 
     let mut comments = Vec::new();
     let mut header: Option<(usize, Vec<String>)> = None;
-    // For each header field: Some(known index) or None (ignored).
-    let mut field_map: Vec<Option<usize>> = Vec::new();
-    let mut field_of = vec![0usize; known.len()];
-    let mut values: Vec<Vec<f64>> = vec![Vec::new(); known.len()];
+    let mut cols = Columns::of_known(&known);
     let mut row_lines: Vec<usize> = Vec::new();
-    let mut ignored = Vec::new();
 
     let with_newline;
     let text = if text.is_empty() || text.ends_with('\n') {
@@ -127,17 +126,7 @@ pub(super) fn parse_table(
         spans_lines,
     }) = lines.next(path)?
     {
-        if let Some(c) = line.chars().find(|&c| c.is_control() && c != '\t') {
-            return Err(ExperimentError::Line {
-                path: p(),
-                line: lineno,
-                kind: ErrorKind::Binary,
-                reason: format!(
-                    "control character {} in the text: not a CSV file (binary data?)",
-                    describe_control(c)
-                ),
-            });
-        }
+        check_no_control(line, lineno, path)?;
         let trimmed = line.trim();
         if trimmed.is_empty() || trimmed.starts_with('#') {
             if let Some(rest) = trimmed.strip_prefix('#') {
@@ -151,206 +140,15 @@ pub(super) fn parse_table(
         }
         let record = &lines.record;
         if spans_lines {
-            let col = record
-                .iter()
-                .position(|f| f.contains(&b'\n'))
-                .map_or(record.len(), |j| j + 1);
-            return Err(ExperimentError::Line {
-                path: p(),
-                line: lineno,
-                kind: ErrorKind::FieldCount,
-                reason: format!(
-                    "unbalanced quote: the quoted field in column {col} does not end on this \
-                     line (a '\"' without its closing '\"'?)"
-                ),
-            });
+            return Err(unbalanced_quote(record, lineno, path));
         }
         match &header {
             None => {
-                if !line.contains(',') {
-                    let delim = if line.contains(';') {
-                        Some("';'")
-                    } else if line.contains('\t') {
-                        Some("a tab")
-                    } else {
-                        None
-                    };
-                    if let Some(d) = delim {
-                        return Err(ExperimentError::Line {
-                            path: p(),
-                            line: lineno,
-                            kind: ErrorKind::WrongDelimiter,
-                            reason: format!(
-                                "wrong delimiter: the header is separated by {d}; fields must be separated by ','"
-                            ),
-                        });
-                    }
-                }
-                let names: Vec<String> = record.iter().map(|f| field(f).into_owned()).collect();
-                for (j, name) in names.iter().enumerate() {
-                    let col = j + 1;
-                    if name.is_empty() {
-                        return Err(ExperimentError::Cell {
-                            path: p(),
-                            line: lineno,
-                            column: col,
-                            name: String::new(),
-                            kind: ErrorKind::EmptyColumnName,
-                            reason: "empty column name in the header".into(),
-                        });
-                    }
-                    let extra = extra_prefix
-                        .and_then(|pre| name.strip_prefix(pre))
-                        .is_some_and(is_channel_name);
-                    if let Some(k) = all.iter().position(|k| k == name) {
-                        if field_of[k] != 0 {
-                            return Err(ExperimentError::Cell {
-                                path: p(),
-                                line: lineno,
-                                column: col,
-                                name: name.clone(),
-                                kind: ErrorKind::DuplicateColumn,
-                                reason: format!(
-                                    "column '{name}' appears twice (also column {})",
-                                    field_of[k]
-                                ),
-                            });
-                        }
-                        field_of[k] = col;
-                        field_map.push(Some(k));
-                    } else if let Some(&k) = known
-                        .iter()
-                        .find(|&&k| normalise_name(name) == normalise_name(k))
-                    {
-                        return Err(ExperimentError::Cell {
-                            path: p(),
-                            line: lineno,
-                            column: col,
-                            name: name.clone(),
-                            kind: ErrorKind::MisspelledColumn,
-                            reason: format!(
-                                "column {} looks like '{k}'; column names are exact and lower case",
-                                quote(name)
-                            ),
-                        });
-                    } else if extra {
-                        all.push(name.clone());
-                        field_of.push(col);
-                        values.push(Vec::new());
-                        field_map.push(Some(all.len() - 1));
-                    } else if let Some(prefix) = extra_prefix.filter(|pre| {
-                        let n = normalise_name(name);
-                        n.starts_with(pre) && n.len() > pre.len()
-                    }) {
-                        // a channel the user meant to supply, misnamed: ignoring it would
-                        // quietly drop it
-                        return Err(ExperimentError::Cell {
-                            path: p(),
-                            line: lineno,
-                            column: col,
-                            name: name.clone(),
-                            kind: ErrorKind::MisspelledColumn,
-                            reason: format!(
-                                "column {} looks like a channel '{prefix}<name>'; the name after \
-                                 '{prefix}' is lower case: letters, digits and '_', starting with a letter",
-                                quote(name)
-                            ),
-                        });
-                    } else {
-                        ignored.push(name.clone());
-                        field_map.push(None);
-                    }
-                }
-                let missing: Vec<&str> = required
-                    .iter()
-                    .enumerate()
-                    .filter(|(k, _)| field_of[*k] == 0)
-                    .map(|(_, &n)| n)
-                    .collect();
-                if !missing.is_empty() {
-                    let list = missing
-                        .iter()
-                        .map(|m| format!("'{m}'"))
-                        .collect::<Vec<_>>()
-                        .join(", ");
-                    let plural = if missing.len() > 1 { "s" } else { "" };
-                    return Err(ExperimentError::Line {
-                        path: p(),
-                        line: lineno,
-                        kind: ErrorKind::MissingColumn,
-                        reason: format!(
-                            "missing required column{plural} {list} (the header has: {})",
-                            names.join(", ")
-                        ),
-                    });
-                }
+                let names = read_header(&spec, record, line, lineno, &mut cols)?;
                 header = Some((lineno, names));
             }
             Some((_, names)) => {
-                let nfields = record.len();
-                if nfields != names.len() {
-                    let hint = if line.contains(';') {
-                        " (the line contains ';': fields must be separated by ',' and decimals written with '.')"
-                    } else if line.contains('\t') {
-                        " (the line contains a tab: fields must be separated by ',')"
-                    } else {
-                        ""
-                    };
-                    let what = if nfields < names.len() {
-                        "too few"
-                    } else {
-                        "too many"
-                    };
-                    return Err(ExperimentError::Line {
-                        path: p(),
-                        line: lineno,
-                        kind: ErrorKind::FieldCount,
-                        reason: format!(
-                            "{what} fields: expected {}, found {nfields}{hint}",
-                            names.len()
-                        ),
-                    });
-                }
-                for (j, cell) in record.iter().enumerate() {
-                    let Some(k) = field_map[j] else { continue };
-                    let cell = field(cell);
-                    let cell = cell.as_ref();
-                    let cell_err = |kind, reason| ExperimentError::Cell {
-                        path: p(),
-                        line: lineno,
-                        column: j + 1,
-                        name: all[k].clone(),
-                        kind,
-                        reason,
-                    };
-                    if cell.is_empty() {
-                        return Err(cell_err(ErrorKind::EmptyCell, "empty cell".into()));
-                    }
-                    let v: f64 = cell.parse().map_err(|_| {
-                        cell_err(
-                            ErrorKind::NotANumber,
-                            format!("{} is not a number", quote(cell)),
-                        )
-                    })?;
-                    if !v.is_finite() {
-                        return Err(cell_err(
-                            ErrorKind::NotFinite,
-                            format!("{} is not a finite number", quote(cell)),
-                        ));
-                    }
-                    if let Some((lo, hi)) = plausible_range(&all[k]) {
-                        if !(lo..=hi).contains(&v) {
-                            return Err(cell_err(
-                                ErrorKind::OutOfRange,
-                                format!(
-                                    "{} degrees is outside the joint's range [{lo}, {hi}]",
-                                    quote(cell)
-                                ),
-                            ));
-                        }
-                    }
-                    values[k].push(v);
-                }
+                read_row(path, record, line, lineno, names.len(), &mut cols)?;
                 row_lines.push(lineno);
             }
         }
@@ -376,108 +174,405 @@ pub(super) fn parse_table(
             reason: "header only: the file has no data rows".into(),
         });
     }
-
-    // Time: strictly increasing, uniform, long enough.
     if let Some(ti) = time_idx {
-        let t = &values[ti];
-        let tcol = field_of[ti];
-        let terr = |row: usize, kind, reason| ExperimentError::Cell {
+        check_time(&cols.values[ti], cols.field_of[ti], &row_lines, opts, path)?;
+    }
+    Ok(cols.into_table(known.len(), comments))
+}
+
+/// What [`parse_table`] reads: the file's name and the columns it knows.
+struct Spec<'a> {
+    path: &'a str,
+    /// The required columns, then the optional ones.
+    known: &'a [&'a str],
+    required: &'a [&'a str],
+    extra_prefix: Option<&'a str>,
+}
+
+/// The columns read so far: the known ones, then the extra ones in header order.
+struct Columns {
+    /// Names of every read column.
+    all: Vec<String>,
+    /// The 1-based header column of each read column; 0 for a known column not in the header.
+    field_of: Vec<usize>,
+    values: Vec<Vec<f64>>,
+    /// For each header field: Some(read column index) or None (ignored).
+    field_map: Vec<Option<usize>>,
+    ignored: Vec<String>,
+}
+
+impl Columns {
+    fn of_known(known: &[&str]) -> Self {
+        Self {
+            all: known.iter().map(|k| (*k).to_string()).collect(),
+            field_of: vec![0usize; known.len()],
+            values: vec![Vec::new(); known.len()],
+            field_map: Vec::new(),
+            ignored: Vec::new(),
+        }
+    }
+
+    /// The table: the first `known` columns by position (`None` where absent), the rest extra.
+    fn into_table(self, known: usize, comments: Vec<String>) -> Table {
+        let Self {
+            mut all,
+            mut field_of,
+            mut values,
+            ignored,
+            ..
+        } = self;
+        let extra_values = values.split_off(known);
+        let extra = all
+            .split_off(known)
+            .into_iter()
+            .zip(field_of.split_off(known))
+            .zip(extra_values)
+            .map(|((name, col), v)| (name, col, v))
+            .collect();
+        let columns = values
+            .into_iter()
+            .enumerate()
+            .map(|(k, v)| if field_of[k] == 0 { None } else { Some(v) })
+            .collect();
+        Table {
+            columns,
+            field_of,
+            extra,
+            comments,
+            ignored,
+        }
+    }
+}
+
+/// A control character (other than a tab) on a line is binary data, not CSV.
+fn check_no_control(line: &str, lineno: usize, path: &str) -> Result<()> {
+    let p = || path.to_string();
+    if let Some(c) = line.chars().find(|&c| c.is_control() && c != '\t') {
+        return Err(ExperimentError::Line {
             path: p(),
-            line: row_lines[row],
-            column: tcol,
-            name: "time_s".into(),
-            kind,
-            reason,
+            line: lineno,
+            kind: ErrorKind::Binary,
+            reason: format!(
+                "control character {} in the text: not a CSV file (binary data?)",
+                describe_control(c)
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// The error for a quoted field that does not end on its line.
+fn unbalanced_quote(record: &csv::ByteRecord, lineno: usize, path: &str) -> ExperimentError {
+    let p = || path.to_string();
+    let col = record
+        .iter()
+        .position(|f| f.contains(&b'\n'))
+        .map_or(record.len(), |j| j + 1);
+    ExperimentError::Line {
+        path: p(),
+        line: lineno,
+        kind: ErrorKind::FieldCount,
+        reason: format!(
+            "unbalanced quote: the quoted field in column {col} does not end on this \
+             line (a '\"' without its closing '\"'?)"
+        ),
+    }
+}
+
+/// The header's column names, each classified into `cols`: a known or extra column is read,
+/// any other ignored; a header that is empty, repeated, misspelled, separated by another
+/// delimiter or lacks a required column is an error.
+fn read_header(
+    spec: &Spec<'_>,
+    record: &csv::ByteRecord,
+    line: &str,
+    lineno: usize,
+    cols: &mut Columns,
+) -> Result<Vec<String>> {
+    let p = || spec.path.to_string();
+    if !line.contains(',') {
+        let delim = if line.contains(';') {
+            Some("';'")
+        } else if line.contains('\t') {
+            Some("a tab")
+        } else {
+            None
         };
-        for i in 1..t.len() {
-            if t[i] <= t[i - 1] {
-                let reason = if t[i] == t[i - 1] {
-                    format!(
-                        "time does not increase: {} repeats the previous sample (line {})",
-                        human(t[i]),
-                        row_lines[i - 1]
-                    )
-                } else {
-                    format!(
-                        "time goes backwards: {} after {} (line {})",
-                        human(t[i]),
-                        human(t[i - 1]),
-                        row_lines[i - 1]
-                    )
-                };
-                return Err(terr(i, ErrorKind::TimeNotIncreasing, reason));
-            }
-        }
-        if t.len() >= 2 {
-            let mut d: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
-            let mid = d.len() / 2;
-            let (_, med, _) = d.select_nth_unstable_by(mid, f64::total_cmp);
-            let med = *med;
-            for i in 1..t.len() {
-                let dt = t[i] - t[i - 1];
-                let rel = (dt - med).abs() / med;
-                if rel > opts.time_tolerance {
-                    let reason = if dt > 1.5 * med {
-                        format!(
-                            "gap in time: {} s since the previous sample (line {}), expected {} s ({} missing)",
-                            human(dt),
-                            row_lines[i - 1],
-                            human(med),
-                            missing_samples(dt, med)
-                        )
-                    } else {
-                        format!(
-                            "non-uniform sampling: step {} s differs from the median step {} s by {:.3e} (relative), more than {:e}",
-                            human(dt),
-                            human(med),
-                            rel,
-                            opts.time_tolerance
-                        )
-                    };
-                    let kind = if dt > 1.5 * med {
-                        ErrorKind::TimeGap
-                    } else {
-                        ErrorKind::NonUniformTime
-                    };
-                    return Err(terr(i, kind, reason));
-                }
-            }
-        }
-        let dur = t[t.len() - 1] - t[0];
-        if t.len() < 2 || dur < opts.min_duration_s * (1.0 - 1e-9) {
-            return Err(ExperimentError::File {
+        if let Some(d) = delim {
+            return Err(ExperimentError::Line {
                 path: p(),
-                kind: ErrorKind::TooShort,
+                line: lineno,
+                kind: ErrorKind::WrongDelimiter,
                 reason: format!(
-                    "too short: {} s of data ({} samples); at least {} s is required",
-                    human(if t.len() < 2 { 0.0 } else { dur }),
-                    t.len(),
-                    human(opts.min_duration_s)
+                    "wrong delimiter: the header is separated by {d}; fields must be separated by ','"
                 ),
             });
         }
     }
-
-    let extra_values = values.split_off(known.len());
-    let extra = all
-        .split_off(known.len())
-        .into_iter()
-        .zip(field_of.split_off(known.len()))
-        .zip(extra_values)
-        .map(|((name, col), v)| (name, col, v))
-        .collect();
-    let columns = values
-        .into_iter()
+    let names: Vec<String> = record.iter().map(|f| field(f).into_owned()).collect();
+    for (j, name) in names.iter().enumerate() {
+        let col = j + 1;
+        if name.is_empty() {
+            return Err(ExperimentError::Cell {
+                path: p(),
+                line: lineno,
+                column: col,
+                name: String::new(),
+                kind: ErrorKind::EmptyColumnName,
+                reason: "empty column name in the header".into(),
+            });
+        }
+        let extra = spec
+            .extra_prefix
+            .and_then(|pre| name.strip_prefix(pre))
+            .is_some_and(is_channel_name);
+        if let Some(k) = cols.all.iter().position(|k| k == name) {
+            if cols.field_of[k] != 0 {
+                return Err(ExperimentError::Cell {
+                    path: p(),
+                    line: lineno,
+                    column: col,
+                    name: name.clone(),
+                    kind: ErrorKind::DuplicateColumn,
+                    reason: format!(
+                        "column '{name}' appears twice (also column {})",
+                        cols.field_of[k]
+                    ),
+                });
+            }
+            cols.field_of[k] = col;
+            cols.field_map.push(Some(k));
+        } else if let Some(&k) = spec
+            .known
+            .iter()
+            .find(|&&k| normalise_name(name) == normalise_name(k))
+        {
+            return Err(ExperimentError::Cell {
+                path: p(),
+                line: lineno,
+                column: col,
+                name: name.clone(),
+                kind: ErrorKind::MisspelledColumn,
+                reason: format!(
+                    "column {} looks like '{k}'; column names are exact and lower case",
+                    quote(name)
+                ),
+            });
+        } else if extra {
+            cols.all.push(name.clone());
+            cols.field_of.push(col);
+            cols.values.push(Vec::new());
+            cols.field_map.push(Some(cols.all.len() - 1));
+        } else if let Some(prefix) = spec.extra_prefix.filter(|pre| {
+            let n = normalise_name(name);
+            n.starts_with(pre) && n.len() > pre.len()
+        }) {
+            // a channel the user meant to supply, misnamed: ignoring it would
+            // quietly drop it
+            return Err(ExperimentError::Cell {
+                path: p(),
+                line: lineno,
+                column: col,
+                name: name.clone(),
+                kind: ErrorKind::MisspelledColumn,
+                reason: format!(
+                    "column {} looks like a channel '{prefix}<name>'; the name after \
+                     '{prefix}' is lower case: letters, digits and '_', starting with a letter",
+                    quote(name)
+                ),
+            });
+        } else {
+            cols.ignored.push(name.clone());
+            cols.field_map.push(None);
+        }
+    }
+    let missing: Vec<&str> = spec
+        .required
+        .iter()
         .enumerate()
-        .map(|(k, v)| if field_of[k] == 0 { None } else { Some(v) })
+        .filter(|(k, _)| cols.field_of[*k] == 0)
+        .map(|(_, &n)| n)
         .collect();
-    Ok(Table {
-        columns,
-        field_of,
-        extra,
-        comments,
-        ignored,
-    })
+    if !missing.is_empty() {
+        let list = missing
+            .iter()
+            .map(|m| format!("'{m}'"))
+            .collect::<Vec<_>>()
+            .join(", ");
+        let plural = if missing.len() > 1 { "s" } else { "" };
+        return Err(ExperimentError::Line {
+            path: p(),
+            line: lineno,
+            kind: ErrorKind::MissingColumn,
+            reason: format!(
+                "missing required column{plural} {list} (the header has: {})",
+                names.join(", ")
+            ),
+        });
+    }
+    Ok(names)
+}
+
+/// One data row's cells into `cols`: the row has the header's `width` fields, and every read
+/// cell is a finite number (within the joint's range for an angle).
+fn read_row(
+    path: &str,
+    record: &csv::ByteRecord,
+    line: &str,
+    lineno: usize,
+    width: usize,
+    cols: &mut Columns,
+) -> Result<()> {
+    let p = || path.to_string();
+    let nfields = record.len();
+    if nfields != width {
+        let hint = if line.contains(';') {
+            " (the line contains ';': fields must be separated by ',' and decimals written with '.')"
+        } else if line.contains('\t') {
+            " (the line contains a tab: fields must be separated by ',')"
+        } else {
+            ""
+        };
+        let what = if nfields < width {
+            "too few"
+        } else {
+            "too many"
+        };
+        return Err(ExperimentError::Line {
+            path: p(),
+            line: lineno,
+            kind: ErrorKind::FieldCount,
+            reason: format!("{what} fields: expected {width}, found {nfields}{hint}"),
+        });
+    }
+    for (j, cell) in record.iter().enumerate() {
+        let Some(k) = cols.field_map[j] else { continue };
+        let cell = field(cell);
+        let cell = cell.as_ref();
+        let cell_err = |kind, reason| ExperimentError::Cell {
+            path: p(),
+            line: lineno,
+            column: j + 1,
+            name: cols.all[k].clone(),
+            kind,
+            reason,
+        };
+        if cell.is_empty() {
+            return Err(cell_err(ErrorKind::EmptyCell, "empty cell".into()));
+        }
+        let v: f64 = cell.parse().map_err(|_| {
+            cell_err(
+                ErrorKind::NotANumber,
+                format!("{} is not a number", quote(cell)),
+            )
+        })?;
+        if !v.is_finite() {
+            return Err(cell_err(
+                ErrorKind::NotFinite,
+                format!("{} is not a finite number", quote(cell)),
+            ));
+        }
+        if let Some((lo, hi)) = plausible_range(&cols.all[k]) {
+            if !(lo..=hi).contains(&v) {
+                return Err(cell_err(
+                    ErrorKind::OutOfRange,
+                    format!(
+                        "{} degrees is outside the joint's range [{lo}, {hi}]",
+                        quote(cell)
+                    ),
+                ));
+            }
+        }
+        cols.values[k].push(v);
+    }
+    Ok(())
+}
+
+/// Time: strictly increasing, uniform, long enough; `tcol` is its header column.
+fn check_time(
+    t: &[f64],
+    tcol: usize,
+    row_lines: &[usize],
+    opts: &ReadOptions,
+    path: &str,
+) -> Result<()> {
+    let p = || path.to_string();
+    let terr = |row: usize, kind, reason| ExperimentError::Cell {
+        path: p(),
+        line: row_lines[row],
+        column: tcol,
+        name: "time_s".into(),
+        kind,
+        reason,
+    };
+    for i in 1..t.len() {
+        if t[i] <= t[i - 1] {
+            let reason = if t[i] == t[i - 1] {
+                format!(
+                    "time does not increase: {} repeats the previous sample (line {})",
+                    human(t[i]),
+                    row_lines[i - 1]
+                )
+            } else {
+                format!(
+                    "time goes backwards: {} after {} (line {})",
+                    human(t[i]),
+                    human(t[i - 1]),
+                    row_lines[i - 1]
+                )
+            };
+            return Err(terr(i, ErrorKind::TimeNotIncreasing, reason));
+        }
+    }
+    if t.len() >= 2 {
+        let mut d: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+        let mid = d.len() / 2;
+        let (_, med, _) = d.select_nth_unstable_by(mid, f64::total_cmp);
+        let med = *med;
+        for i in 1..t.len() {
+            let dt = t[i] - t[i - 1];
+            let rel = (dt - med).abs() / med;
+            if rel > opts.time_tolerance {
+                let reason = if dt > 1.5 * med {
+                    format!(
+                        "gap in time: {} s since the previous sample (line {}), expected {} s ({} missing)",
+                        human(dt),
+                        row_lines[i - 1],
+                        human(med),
+                        missing_samples(dt, med)
+                    )
+                } else {
+                    format!(
+                        "non-uniform sampling: step {} s differs from the median step {} s by {:.3e} (relative), more than {:e}",
+                        human(dt),
+                        human(med),
+                        rel,
+                        opts.time_tolerance
+                    )
+                };
+                let kind = if dt > 1.5 * med {
+                    ErrorKind::TimeGap
+                } else {
+                    ErrorKind::NonUniformTime
+                };
+                return Err(terr(i, kind, reason));
+            }
+        }
+    }
+    let dur = t[t.len() - 1] - t[0];
+    if t.len() < 2 || dur < opts.min_duration_s * (1.0 - 1e-9) {
+        return Err(ExperimentError::File {
+            path: p(),
+            kind: ErrorKind::TooShort,
+            reason: format!(
+                "too short: {} s of data ({} samples); at least {} s is required",
+                human(if t.len() < 2 { 0.0 } else { dur }),
+                t.len(),
+                human(opts.min_duration_s)
+            ),
+        });
+    }
+    Ok(())
 }
 
 /// A field of a record as text, trimmed like [`str::trim`].

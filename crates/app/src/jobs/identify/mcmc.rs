@@ -349,7 +349,7 @@ pub(super) fn run_mcmc(
         .problem
         .predict(&mean)
         .map_err(|e| AppError::internal(format!("simulation of the posterior mean failed: {e}")))?;
-    let fit = experiment::ceinms::moment_fit(prep.problem.measured(), &prediction);
+    let fit = experiment::moment_fit(prep.problem.measured(), &prediction);
     let trials = vec![trial_entry(&prep.loaded.name, &m.trials[0], fit)];
     let lines = summary_lines(&prep.loaded.name, &m, &trials);
     let doc = mcmc_doc(&m, trials);
