@@ -185,3 +185,25 @@ def test_design_equals_the_cli(cli, tmp_path):
 def test_design_rejects_a_bad_protocol():
     with pytest.raises(surae.InputError, match="elbow"):
         surae.design(["knee0@30,elbow"])
+
+
+def test_two_threads_run_side_by_side_with_their_own_progress():
+    # each call has its own observer: two diagnoses at once give the single run's result, and
+    # each callback sees only its own run's updates
+    import threading
+
+    alone = without(surae.diagnose(), "wall_s")
+    results, seen = {}, {0: [], 1: []}
+
+    def run(k):
+        results[k] = surae.diagnose(progress=lambda *u: seen[k].append(u))
+
+    threads = [threading.Thread(target=run, args=(k,)) for k in (0, 1)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    for k in (0, 1):
+        assert without(results[k], "wall_s") == alone
+        assert seen[k], "each run reports its progress"
+        assert all(u[0].startswith("diag") for u in seen[k])

@@ -30,14 +30,26 @@ use std::path::PathBuf;
 /// The design defaults the front ends show in their help.
 pub use design::{DEFAULT_EMG_DRAWS, DEFAULT_EMG_SEED, OFFSET_PRIOR_SD_NM};
 pub use error::{AppError, AppResult};
-pub use jobs::design::{run as design, DesignJob};
-pub use jobs::diagnose::{run as diagnose, DiagnoseJob};
+pub use jobs::design::{
+    run as design, DesignJob, DesignNoiseReport, DesignReport, EmgDrawsReport, JacobianStepReport,
+    ProtocolReport,
+};
+pub use jobs::diagnose::{
+    run as diagnose, DiagnoseJob, FitFigures, MomentFitReport, SessionDiagnosisReport,
+    SessionTrialDiagnosisRow, TrialDiagnosisReport,
+};
 pub use jobs::envelope::{run as envelope, EnvelopeJob};
-pub use jobs::identify::{run as identify, IdentifyJob, Method};
-pub use jobs::inspect::{run as inspect, InspectJob};
+pub use jobs::identify::{
+    run as identify, AdequacyReport, CorrelationMatrixReport, CorrelationReport, IdentifyJob,
+    IdentifyReport, McmcReport, McmcTrialReport, Method, NoiseCorrectionReport, NoiseUseReport,
+    PosteriorReport, SaChainsReport,
+};
+pub use jobs::inspect::{run as inspect, InspectJob, MapInspectionReport, TrialSpanReport};
 pub use jobs::sensitivity::{run as sensitivity, SensitivityJob};
-pub use jobs::session::{load_session, LoadedSession};
-pub use jobs::simulate::{run as simulate, SimulateJob};
+pub use jobs::session::{load_session, EmgNormalisationReport, LoadedSession};
+pub use jobs::simulate::{
+    run as simulate, SessionSimulationReport, SimulateJob, SimulatedTrialReport,
+};
 pub use jobs::{read_json, KneeSettings, ModelSettings};
 pub use output::write_file_checked;
 pub use progress::{JobObserver, ProgressDisplay, Reporter, SilentObserver};

@@ -14,9 +14,10 @@ use std::sync::Arc;
 use surae_app::{AppResult, Reporter};
 use terminal::Terminal;
 
-/// Triceps-surae muscle parameters from an isokinetic dynamometer test with EMG.
+/// Identify the calf's muscle parameters (soleus, gastrocnemius medialis and lateralis) from
+/// EMG and a measured ankle moment, and find what the model still gets wrong.
 #[derive(Parser, Debug)]
-#[command(name = "surae", version, about, long_about = None)]
+#[command(name = "surae", version, long_about = None)]
 struct Cli {
     #[command(subcommand)]
     command: Command,

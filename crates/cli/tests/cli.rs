@@ -314,3 +314,15 @@ fn crlf_trials_are_read() {
         std::fs::read(dir.path().join("b.csv")).unwrap()
     );
 }
+
+#[test]
+fn help_opens_with_what_the_program_does() {
+    let o = surae(&["--help"], Path::new(env!("CARGO_MANIFEST_DIR")));
+    assert!(o.status.success());
+    let text = String::from_utf8_lossy(&o.stdout);
+    let first = text.lines().next().unwrap_or("");
+    assert!(
+        first.starts_with("Identify the calf's muscle parameters"),
+        "surae --help opens with: {first}"
+    );
+}

@@ -64,7 +64,11 @@ fn check(name: &str, args: &[&str], files: &[&str]) {
     let out = tempfile::tempdir().unwrap();
     let out_arg = out.path().display().to_string();
     let mut full: Vec<&str> = args.to_vec();
-    full.extend(["--out", &out_arg, "--quiet"]);
+    full.extend(["--out", &out_arg]);
+    // simulate prints a short summary and has no --quiet
+    if args[0] != "simulate" {
+        full.push("--quiet");
+    }
     let o = surae(&full, &root);
     ok(&o);
     let record = std::env::var_os("SURAE_RECORD_GOLDEN").is_some();
@@ -154,5 +158,38 @@ fn session3_diagnose() {
             "knee0_60/diagnosis.json",
             "knee90_30/diagnosis.json",
         ],
+    );
+}
+
+#[test]
+fn design_two_protocols() {
+    check(
+        "design",
+        &[
+            "design",
+            "--protocol",
+            "knee0@30",
+            "--protocol",
+            "knee0@30,knee90@30,knee0@60",
+        ],
+        &["design.json"],
+    );
+}
+
+#[test]
+fn inspect_a_recording_map() {
+    check(
+        "inspect_map",
+        &["inspect", "fixtures/formats/noraxon/map.json"],
+        &["inspect.json"],
+    );
+}
+
+#[test]
+fn session3_simulate() {
+    check(
+        "session3_simulate",
+        &["simulate", "--session", "fixtures/session3/session.json"],
+        &["simulate.json"],
     );
 }

@@ -2,13 +2,14 @@
 //! protocols, from the Fisher information of the model (crate `design`, `docs/design.md`).
 
 use crate::Reporter;
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use design::{
     trial_informations, uncertainty_of, DesignNoise, DesignProtocol, DesignSettings,
     OffsetTreatment, ProtocolUncertainty,
 };
-use serde_json::{json, Map, Value};
+use serde_json::Value;
 
 use super::{load_model_config, ModelSettings};
 use crate::error::{AppError, AppResult};
@@ -134,19 +135,32 @@ pub fn run(args: DesignJob, rep: &Reporter) -> AppResult {
         known.push(k);
     }
 
-    let doc = json!({
-        "protocols": rows.iter().zip(&known).map(|(u, k)| protocol_json(u, k)).collect::<Vec<_>>(),
-        "noise": {
-            "source": noise_source,
-            "ar1_sd_nm": noise.ar1_sd_nm,
-            "ar1_corr_time_s": noise.ar1_corr_time_s,
-            "white_sd_nm": noise.white_sd_nm,
+    let doc = DesignReport {
+        protocols: rows
+            .iter()
+            .zip(&known)
+            .map(|(u, k)| ProtocolReport::of(u, k))
+            .collect(),
+        noise: DesignNoiseReport {
+            source: noise_source.to_string(),
+            ar1_sd_nm: noise.ar1_sd_nm,
+            ar1_corr_time_s: noise.ar1_corr_time_s,
+            white_sd_nm: noise.white_sd_nm,
         },
-        "params": args.params.as_deref().map_or(Value::from("nominal"), |p| Value::from(p.display().to_string())),
-        "offset_prior_sd_nm": args.offset_sd,
-        "emg": {"first_seed": args.emg_seed, "draws": args.emg_draws},
-        "jacobian": {"rel_step": settings.jacobian.rel_step, "rtol": settings.jacobian.sim.rtol},
-    });
+        params: args
+            .params
+            .as_deref()
+            .map_or("nominal".to_string(), |p| p.display().to_string()),
+        offset_prior_sd_nm: args.offset_sd,
+        emg: EmgDrawsReport {
+            first_seed: args.emg_seed,
+            draws: args.emg_draws,
+        },
+        jacobian: JacobianStepReport {
+            rel_step: settings.jacobian.rel_step,
+            rtol: settings.jacobian.sim.rtol,
+        },
+    };
     let text = serde_json::to_string_pretty(&doc).map_err(AppError::internal)? + "\n";
     let json_path = out.write("design.json", text.as_bytes())?;
 
@@ -207,24 +221,97 @@ fn noise_of_unloaded(path: &Path, rep: &Reporter) -> AppResult<DesignNoise> {
     DesignNoise::from_correction(&c).map_err(|e| AppError::bad(format!("{}: {e}", path.display())))
 }
 
-fn by_name(u: &ProtocolUncertainty, f: impl Fn(&design::ParamUncertainty) -> Value) -> Value {
-    let mut m = Map::new();
-    for q in &u.params {
-        m.insert(q.name.clone(), f(q));
-    }
-    Value::Object(m)
+/// `design.json`: each candidate protocol's expected posterior sd of every parameter, and what
+/// the expectation assumed.
+#[derive(Debug, Clone, serde::Serialize)]
+#[non_exhaustive]
+pub struct DesignReport {
+    /// The candidate protocols, in the order given.
+    pub protocols: Vec<ProtocolReport>,
+    /// The torque noise assumed.
+    pub noise: DesignNoiseReport,
+    /// The design point: `nominal` or the parameters file.
+    pub params: String,
+    /// Prior sd of each trial's torque offset (N·m).
+    pub offset_prior_sd_nm: f64,
+    /// The synthetic EMG realisations averaged over.
+    pub emg: EmgDrawsReport,
+    /// The Jacobian's finite-difference step and integration tolerance.
+    pub jacobian: JacobianStepReport,
 }
 
-fn protocol_json(u: &ProtocolUncertainty, known: &ProtocolUncertainty) -> Value {
-    json!({
-        "protocol": u.protocol,
-        "trials": u.trials,
-        "sd_pct": by_name(u, |q| json!(q.sd_pct)),
-        "sd_pct_with_prior": by_name(u, |q| json!(q.sd_pct_with_prior)),
-        "prior_sd_pct": by_name(u, |q| json!(q.prior_sd_pct)),
-        "identifiable": by_name(u, |q| json!(q.identifiable)),
-        "sd_pct_offset_known": by_name(known, |q| json!(q.sd_pct)),
-    })
+/// One protocol's expected uncertainty, by parameter name.
+#[derive(Debug, Clone, serde::Serialize)]
+#[non_exhaustive]
+pub struct ProtocolReport {
+    /// The protocol as given.
+    pub protocol: String,
+    /// Its trials.
+    pub trials: Vec<String>,
+    /// Expected posterior sd (% of the value), offsets integrated out.
+    pub sd_pct: BTreeMap<String, f64>,
+    /// The same with the parameters' priors.
+    pub sd_pct_with_prior: BTreeMap<String, f64>,
+    /// The priors' sd (% of the value).
+    pub prior_sd_pct: BTreeMap<String, f64>,
+    /// Whether the data would identify each parameter.
+    pub identifiable: BTreeMap<String, bool>,
+    /// Expected posterior sd with the offsets known.
+    pub sd_pct_offset_known: BTreeMap<String, f64>,
+}
+
+impl ProtocolReport {
+    fn of(u: &ProtocolUncertainty, known: &ProtocolUncertainty) -> Self {
+        fn by_name<T>(
+            u: &ProtocolUncertainty,
+            f: impl Fn(&design::ParamUncertainty) -> T,
+        ) -> BTreeMap<String, T> {
+            u.params.iter().map(|q| (q.name.clone(), f(q))).collect()
+        }
+        Self {
+            protocol: u.protocol.clone(),
+            trials: u.trials.clone(),
+            sd_pct: by_name(u, |q| q.sd_pct),
+            sd_pct_with_prior: by_name(u, |q| q.sd_pct_with_prior),
+            prior_sd_pct: by_name(u, |q| q.prior_sd_pct),
+            identifiable: by_name(u, |q| q.identifiable),
+            sd_pct_offset_known: by_name(known, |q| q.sd_pct),
+        }
+    }
+}
+
+/// The torque noise a design assumed.
+#[derive(Debug, Clone, serde::Serialize)]
+#[non_exhaustive]
+pub struct DesignNoiseReport {
+    /// `synthetic dynamometer` or the unloaded run.
+    pub source: String,
+    /// AR(1) part's sd (N·m).
+    pub ar1_sd_nm: f64,
+    /// AR(1) part's correlation time (s).
+    pub ar1_corr_time_s: f64,
+    /// White part's sd (N·m).
+    pub white_sd_nm: f64,
+}
+
+/// The synthetic EMG realisations a design averaged over.
+#[derive(Debug, Clone, Copy, serde::Serialize)]
+#[non_exhaustive]
+pub struct EmgDrawsReport {
+    /// The first seed.
+    pub first_seed: u64,
+    /// How many.
+    pub draws: usize,
+}
+
+/// The Jacobian's settings in a design.
+#[derive(Debug, Clone, Copy, serde::Serialize)]
+#[non_exhaustive]
+pub struct JacobianStepReport {
+    /// Relative finite-difference step.
+    pub rel_step: f64,
+    /// Relative integration tolerance.
+    pub rtol: f64,
 }
 
 /// `sol LST`, `gm F0`, `gl α0`.

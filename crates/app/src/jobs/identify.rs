@@ -5,7 +5,14 @@
 mod joint;
 mod mcmc;
 mod other_tools;
+mod reports;
 mod with;
+
+pub use reports::{
+    AdequacyReport, CorrelationMatrixReport, CorrelationReport, IdentifyReport, McmcReport,
+    McmcTrialReport, NoiseCorrectionReport, NoiseUseReport, PosteriorReport, SaChainsReport,
+    SessionAdequacyReport, SessionIdentifyReport, SessionSaChainsReport, SessionTrialReport,
+};
 
 use super::{
     load_model_config, load_trial, load_unloaded, trial_inputs, LoadedTrial, ModelSettings,
@@ -16,7 +23,7 @@ use crate::output::OutDir;
 use crate::progress::ProgressDisplay;
 use crate::Reporter;
 use muscle_model::{EffectKind, Effects, ModelParams, ParamId, Problem};
-use serde_json::{json, Map, Value};
+use serde_json::Value;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -133,10 +140,10 @@ pub struct Prepared {
     /// The measured torque as recorded.
     pub measured_raw: Vec<f64>,
     /// How the unloaded run was used, for the JSON.
-    pub noise: Value,
+    pub noise: NoiseUseReport,
     /// The dynamometer correction subtracted (`"dynamometer"` in the JSON; `null` without an
     /// unloaded run, when nothing is subtracted).
-    pub dynamometer: Value,
+    pub dynamometer: Option<experiment::DynamometerReport>,
     /// True parameters and effects, if known.
     pub truth: Option<(ModelParams, Effects)>,
     /// The dynamometer correction estimated from the unloaded run, if any (MCMC takes its
@@ -209,17 +216,22 @@ pub fn prepare(
             None => AppError::bad(format!("{}: {e}", loaded.name)),
         })?;
     let noise = match &prep.correction {
-        Some(c) => json!({
-            "unloaded": unloaded_name,
-            "offset_nm": c.offset_nm,
-            "sigma_nm": c.random.marginal_sd(),
-            "lag1_autocorrelation": c.random.autocorrelation(1),
-            "ar1_phi": c.random.phi,
-            "subtracted_rms_nm": prep.subtracted_rms_nm(),
-        }),
-        None => json!({"unloaded": Value::Null}),
+        Some(c) => NoiseUseReport {
+            unloaded: unloaded_name,
+            correction: Some(NoiseCorrectionReport {
+                offset_nm: c.offset_nm,
+                sigma_nm: c.random.marginal_sd(),
+                lag1_autocorrelation: c.random.autocorrelation(1),
+                ar1_phi: c.random.phi,
+                subtracted_rms_nm: prep.subtracted_rms_nm(),
+            }),
+        },
+        None => NoiseUseReport {
+            unloaded: None,
+            correction: None,
+        },
     };
-    let dynamometer = json!(prep.correction.as_ref().map(|c| c.report()));
+    let dynamometer = prep.correction.as_ref().map(|c| c.report());
     let measured_raw = prep.raw_torque.clone();
     let problem = Problem::new(
         prep.problem.inputs().clone(),
@@ -323,7 +335,7 @@ pub fn run(args: IdentifyJob, rep: &Reporter) -> AppResult {
     let out = OutDir::prepare(&out_dir, &input_refs, PLANNED)?;
     let show = rep.show();
     let Outcome {
-        mut doc,
+        estimate,
         lines,
         prediction,
         mcmc,
@@ -332,20 +344,11 @@ pub fn run(args: IdentifyJob, rep: &Reporter) -> AppResult {
         Method::Mcmc => mcmc::run_mcmc(&prep, args.seed, args.max_iterations, show, rep)?,
     };
 
-    // common fields
-    let params: BTreeMap<String, f64> = doc["params"]
-        .as_object()
-        .map(|m| {
-            m.iter()
-                .filter_map(|(k, v)| v.as_f64().map(|f| (k.clone(), f)))
-                .collect()
-        })
-        .unwrap_or_default();
     // does the identified model leave structure in its residual?
     let (point_params, point_effects) = with::identified_point(
         prep.problem.base_params(),
         prep.problem.base_effects(),
-        &doc["params"],
+        &estimate.params,
     )?;
     let adequacy = diagnose::adequacy(
         &prep.loaded.trial,
@@ -357,29 +360,29 @@ pub fn run(args: IdentifyJob, rep: &Reporter) -> AppResult {
     )
     .map_err(|e| e.to_string());
     let adequacy_lines = with::adequacy_lines(&adequacy, None);
-    let obj = doc.as_object_mut().expect("identify document is an object");
-    obj.insert(
-        "with".into(),
-        json!(prep.with.iter().map(|k| k.name()).collect::<Vec<_>>()),
-    );
-    if !point_effects.enabled().is_empty() {
-        obj.insert("effects".into(), point_effects.to_json_value());
-    }
-    obj.insert("adequacy".into(), with::adequacy_json(&adequacy));
-    if !prep.crosstalk.is_empty() {
-        obj.insert("emg_crosstalk".into(), json!(prep.crosstalk));
-    }
-    obj.insert("trial".into(), json!(prep.loaded.name));
-    obj.insert("seed".into(), json!(args.seed));
-    obj.insert("noise".into(), prep.noise.clone());
-    obj.insert("dynamometer".into(), prep.dynamometer.clone());
     let checks = super::inspect::trial_checks(&prep.loaded);
-    obj.insert("checks".into(), json!(checks));
-    if let Some(truth) = &prep.truth {
-        let e = errors_pct(&params, truth);
-        obj.insert("errors_pct".into(), json!(e));
-    }
-    let text = serde_json::to_string_pretty(&doc).map_err(AppError::internal)? + "\n";
+    let errors_pct = prep.truth.as_ref().map(|t| errors_pct(&estimate.params, t));
+    let report = IdentifyReport {
+        method: estimate.method.name(),
+        params: estimate.params,
+        rms_nm: estimate.rms_nm,
+        rms_raw_nm: estimate.rms_raw_nm,
+        evaluations: estimate.evaluations,
+        wall_s: estimate.wall_s,
+        sa: estimate.sa,
+        mcmc: estimate.mcmc,
+        with: prep.with.iter().map(|k| k.name()).collect(),
+        effects: (!point_effects.enabled().is_empty()).then(|| point_effects.to_json_value()),
+        adequacy: AdequacyReport::of(&adequacy),
+        emg_crosstalk: prep.crosstalk.clone(),
+        trial: prep.loaded.name.clone(),
+        seed: args.seed,
+        noise: prep.noise.clone(),
+        dynamometer: prep.dynamometer,
+        checks,
+        errors_pct,
+    };
+    let text = serde_json::to_string_pretty(&report).map_err(AppError::internal)? + "\n";
     let path = out.write("identify.json", text.as_bytes())?;
     let mut files = Vec::new();
     if let Some(m) = &mcmc {
@@ -392,12 +395,11 @@ pub fn run(args: IdentifyJob, rep: &Reporter) -> AppResult {
         Some(m) => other_tools::write_chains(&out, m, args.seed, &prep.loaded.name)?,
         None => Vec::new(),
     };
-    let osim =
-        other_tools::write_identified_osim(&out, &args.model, prep.problem.base_params(), &doc)?;
+    let osim = other_tools::write_identified_osim(&out, &args.model, &point_params)?;
     files.extend(write_figures(
         &out,
         &prep,
-        &doc,
+        &report,
         &prediction,
         args.method,
         mcmc.as_ref(),
@@ -410,17 +412,13 @@ pub fn run(args: IdentifyJob, rep: &Reporter) -> AppResult {
         for l in &lines {
             say(l);
         }
-        for l in super::inspect::check_lines(&checks) {
+        for l in super::inspect::check_lines(&report.checks) {
             say(&l);
         }
-        if let Some(e) = doc.get("errors_pct").and_then(|v| v.as_object()) {
+        if let Some(e) = &report.errors_pct {
             say("errors vs truth (%):");
             for m in ["sol", "gm", "gl"] {
-                let get = |f: &str| {
-                    e.get(&format!("{m}.{f}"))
-                        .and_then(|v| v.as_f64())
-                        .unwrap_or(f64::NAN)
-                };
+                let get = |f: &str| e.get(&format!("{m}.{f}")).copied().unwrap_or(f64::NAN);
                 say(&format!(
                     "  {m:<4} LST {:6.2}   F0 {:6.2}   α0 {:6.2}",
                     get("lst_m"),
@@ -430,10 +428,7 @@ pub fn run(args: IdentifyJob, rep: &Reporter) -> AppResult {
             }
             for (name, err) in e {
                 if ParamId::parse(name).is_ok_and(|id| id.muscle().is_none()) {
-                    say(&format!(
-                        "  {name:<32} {:6.2}",
-                        err.as_f64().unwrap_or(f64::NAN)
-                    ));
+                    say(&format!("  {name:<32} {err:6.2}"));
                 }
             }
         }
@@ -466,10 +461,22 @@ pub fn run(args: IdentifyJob, rep: &Reporter) -> AppResult {
     Ok(())
 }
 
+/// What a method estimated: the fields of `identify.json` that depend on the method.
+pub(super) struct Estimate {
+    pub(super) method: Method,
+    pub(super) params: BTreeMap<String, f64>,
+    pub(super) rms_nm: f64,
+    pub(super) rms_raw_nm: f64,
+    pub(super) evaluations: u64,
+    pub(super) wall_s: f64,
+    pub(super) sa: Option<SaChainsReport>,
+    pub(super) mcmc: Option<McmcReport>,
+}
+
 /// What a method returns to the command.
 struct Outcome {
-    /// `identify.json` (without the common fields).
-    doc: Value,
+    /// The method's part of `identify.json`.
+    estimate: Estimate,
     /// Summary lines.
     lines: Vec<String>,
     /// Model torque at the estimate (on the corrected torque's scale).
@@ -506,24 +513,20 @@ fn run_sa(
         .predict(&fit.x)
         .map_err(|e| AppError::internal(format!("simulation of the fit failed: {e}")))?;
     let rms_raw = rms(&prep.measured_raw, &prediction);
-    let params: Map<String, Value> = fit
-        .params
-        .iter()
-        .map(|(k, v)| (k.clone(), json!(v)))
-        .collect();
-    let doc = json!({
-        "method": Method::Sa.name(),
-        "params": params,
-        "rms_nm": fit.rms_nm,
-        "rms_raw_nm": rms_raw,
-        "evaluations": fit.evaluations,
-        "wall_s": fit.wall_s,
-        "sa": {
-            "chains": fit.chains.len(),
-            "best_chain": fit.best_chain,
-            "chain_costs": fit.chains.iter().map(|c| c.cost).collect::<Vec<_>>(),
-        },
-    });
+    let estimate = Estimate {
+        method: Method::Sa,
+        params: fit.params.iter().map(|(k, v)| (k.clone(), *v)).collect(),
+        rms_nm: fit.rms_nm,
+        rms_raw_nm: rms_raw,
+        evaluations: fit.evaluations,
+        wall_s: fit.wall_s,
+        sa: Some(SaChainsReport {
+            chains: fit.chains.len(),
+            best_chain: fit.best_chain,
+            chain_costs: fit.chains.iter().map(|c| c.cost).collect(),
+        }),
+        mcmc: None,
+    };
     let mut lines = vec![format!(
         "identify (sa): {} — {} evaluations in {:.1} s ({:.1} µs per evaluation)",
         prep.loaded.name,
@@ -558,7 +561,7 @@ fn run_sa(
         ));
     }
     Ok(Outcome {
-        doc,
+        estimate,
         lines,
         prediction,
         mcmc: None,
@@ -569,7 +572,7 @@ fn run_sa(
 fn write_figures(
     out: &OutDir,
     prep: &Prepared,
-    doc: &Value,
+    report: &IdentifyReport,
     prediction: &[f64],
     method: Method,
     mcmc: Option<&identify_mcmc::McmcIdentification>,
@@ -620,7 +623,7 @@ fn write_figures(
     let mut rows = Vec::new();
     for (i, id) in prep.problem.free().iter().enumerate() {
         let name = id.name();
-        let v = doc["params"][&name].as_f64().unwrap_or(f64::NAN);
+        let v = report.params.get(&name).copied().unwrap_or(f64::NAN);
         let (lo, hi) = prep.problem.bounds()[i];
         let mut row = vec![
             report::param_label(&name),
@@ -635,8 +638,10 @@ fn write_figures(
         if let Some(t) = &truth {
             row.push(report::format_sig(t[i], 5));
             row.push(
-                doc["errors_pct"][&name]
-                    .as_f64()
+                report
+                    .errors_pct
+                    .as_ref()
+                    .and_then(|e| e.get(&name))
                     .map_or("–".into(), |e| format!("{e:.2}")),
             );
         }
@@ -652,24 +657,19 @@ fn write_figures(
     set.page().key_values(
         "Fit",
         &[
-            (
-                "torque RMS (N·m)",
-                format!("{:.3}", doc["rms_nm"].as_f64().unwrap_or(f64::NAN)),
-            ),
-            ("model evaluations", doc["evaluations"].to_string()),
-            (
-                "wall time (s)",
-                format!("{:.2}", doc["wall_s"].as_f64().unwrap_or(f64::NAN)),
-            ),
+            ("torque RMS (N·m)", format!("{:.3}", report.rms_nm)),
+            ("model evaluations", report.evaluations.to_string()),
+            ("wall time (s)", format!("{:.2}", report.wall_s)),
             (
                 "residual structure p",
-                doc["adequacy"]["structure_p"]
-                    .as_f64()
+                report
+                    .adequacy
+                    .structure_p()
                     .map_or("not tested".into(), |p| format!("{p:.3e}")),
             ),
         ],
     );
-    if let Some(w) = doc["adequacy"]["warning"].as_str() {
+    if let Some(w) = report.adequacy.warning() {
         set.page().paragraph(format!("Warning: {w}."));
     }
     let env = figures::envelopes(inputs);

@@ -5,8 +5,6 @@
 use crate::Reporter;
 use std::path::{Path, PathBuf};
 
-use serde_json::json;
-
 use super::{load_mapped_trial, trial_inputs, ModelSettings};
 use crate::error::{AppError, AppResult};
 use crate::output::OutDir;
@@ -111,13 +109,7 @@ pub fn run(args: InspectJob, rep: &Reporter) -> AppResult {
     for n in &found.notes {
         say(&format!("note: {n}"));
     }
-    let report = json!({
-        "files": found.files,
-        "map": found.map,
-        "unassigned": found.unassigned,
-        "notes": found.notes,
-    });
-    let text = serde_json::to_string_pretty(&report).map_err(AppError::internal)? + "\n";
+    let text = serde_json::to_string_pretty(&found).map_err(AppError::internal)? + "\n";
     written.push(out.write("inspect.json", text.as_bytes())?);
     rep.print_json(&text);
     for p in written {
@@ -168,16 +160,48 @@ fn run_map(args: &InspectJob, out_dir: &Path, inputs: &[&Path], rep: &Reporter) 
     for l in checks.summary_lines() {
         say(&format!("  {l}"));
     }
-    let report = json!({
-        "map": map_path.display().to_string(),
-        "files": files,
-        "trial": {"samples": t.len(), "sample_rate_hz": t.sample_rate_hz(),
-                  "start_s": t.time_s[0], "end_s": t.time_s[t.len() - 1]},
-        "checks": checks,
-    });
+    let report = MapInspectionReport {
+        map: map_path.display().to_string(),
+        files,
+        trial: TrialSpanReport {
+            samples: t.len(),
+            sample_rate_hz: t.sample_rate_hz(),
+            start_s: t.time_s[0],
+            end_s: t.time_s[t.len() - 1],
+        },
+        checks,
+    };
     let text = serde_json::to_string_pretty(&report).map_err(AppError::internal)? + "\n";
     let p = out.write("inspect.json", text.as_bytes())?;
     rep.print_json(&text);
     say(&format!("wrote {}", p.display()));
     Ok(())
+}
+
+/// `inspect.json` of a recording map: its files, the trial it reads and the checks.
+#[derive(Debug, Clone, serde::Serialize)]
+#[non_exhaustive]
+pub struct MapInspectionReport {
+    /// The map's path.
+    pub map: String,
+    /// A summary of each data file the map reads.
+    pub files: Vec<recording::inspect::FileSummary>,
+    /// The trial the map reads.
+    pub trial: TrialSpanReport,
+    /// The recording's checks.
+    pub checks: recording::checks::TrialChecks,
+}
+
+/// How many samples a trial has, at what rate, over which times.
+#[derive(Debug, Clone, Copy, serde::Serialize)]
+#[non_exhaustive]
+pub struct TrialSpanReport {
+    /// Samples.
+    pub samples: usize,
+    /// Sampling rate (Hz).
+    pub sample_rate_hz: f64,
+    /// First sample's time (s).
+    pub start_s: f64,
+    /// Last sample's time (s).
+    pub end_s: f64,
 }

@@ -15,7 +15,7 @@ use crate::error::{AppError, AppResult};
 use crate::Reporter;
 use experiment::CeinmsModelTrial;
 use muscle_model::{Effects, ModelParams, ParamId, Problem, ProblemSet};
-use serde_json::{json, Value};
+use serde_json::Value;
 use session::{SessionManifest, TrialSource};
 use std::path::{Path, PathBuf};
 
@@ -66,8 +66,8 @@ impl SessionTrial {
     }
 
     /// The trial's dynamometer report (`null` without an unloaded run).
-    pub fn dynamometer(&self) -> Value {
-        json!(self.correction.as_ref().map(|c| c.report()))
+    pub fn dynamometer(&self) -> Option<experiment::DynamometerReport> {
+        self.correction.as_ref().map(|c| c.report())
     }
 }
 
@@ -550,19 +550,30 @@ impl SessionEmgNormalisation {
     }
 
     /// `{"source": "mvc" | "session_maximum" | "as_given", "references": {"sol": …}}`.
-    pub fn to_json(&self) -> Value {
-        let refs: serde_json::Map<String, Value> = self
-            .references
-            .iter()
-            .map(|(k, v)| (k.to_string(), json!(v)))
-            .collect();
-        let source = match self.source {
-            EmgReferenceSource::Mvc => "mvc",
-            EmgReferenceSource::SessionMaximum => "session_maximum",
-            EmgReferenceSource::AsGiven => "as_given",
-        };
-        json!({"source": source, "references": refs})
+    pub fn report(&self) -> EmgNormalisationReport {
+        EmgNormalisationReport {
+            source: match self.source {
+                EmgReferenceSource::Mvc => "mvc",
+                EmgReferenceSource::SessionMaximum => "session_maximum",
+                EmgReferenceSource::AsGiven => "as_given",
+            },
+            references: self
+                .references
+                .iter()
+                .map(|(k, v)| (k.to_string(), v))
+                .collect(),
+        }
     }
+}
+
+/// How a session's EMG was normalised (`"emg_normalisation"`).
+#[derive(Debug, Clone, serde::Serialize)]
+#[non_exhaustive]
+pub struct EmgNormalisationReport {
+    /// `mvc`, `session_maximum` or `as_given`.
+    pub source: &'static str,
+    /// Each channel's reference, in the unit of its raw envelope.
+    pub references: std::collections::BTreeMap<String, f64>,
 }
 
 /// Relative excess over the MVC reference above which a trial's envelope is reported: surface

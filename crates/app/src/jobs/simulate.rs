@@ -14,6 +14,8 @@ use std::path::PathBuf;
 
 mod session_out;
 
+pub use session_out::{SessionSimulationReport, SimulatedTrialReport};
+
 /// Arguments of `surae simulate`.
 #[derive(Debug)]
 pub struct SimulateJob {

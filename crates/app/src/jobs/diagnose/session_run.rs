@@ -23,7 +23,6 @@ use crate::progress::ProgressDisplay;
 use crate::Reporter;
 use diagnose::{DiagnoseSettings, Diagnosis, DiagnosisRecording, SessionDiagnosis, SessionMember};
 use muscle_model::TrialInputs;
-use serde_json::{json, Value};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
@@ -105,16 +104,16 @@ pub(super) fn run(args: &DiagnoseJob, session_path: &Path, rep: &Reporter) -> Ap
         )?;
         rows.push(session_row(t, r)?);
     }
-    let mut doc = json!({
-        "session": session_path.display().to_string(),
-        "params": args.params.as_ref().map(|p| p.display().to_string())
-            .or_else(|| session.manifest.params.as_ref().map(|p| p.display().to_string())),
-    });
-    let joint_json = serde_json::to_value(&joint).map_err(AppError::internal)?;
-    if let (Some(o), Value::Object(j)) = (doc.as_object_mut(), joint_json) {
-        o.extend(j);
-        o.insert("trials".into(), Value::Array(rows));
-    }
+    let doc = SessionDiagnosisReport {
+        session: session_path.display().to_string(),
+        params: args
+            .params
+            .as_ref()
+            .or(session.manifest.params.as_ref())
+            .map(|p| p.display().to_string()),
+        joint: &joint,
+        trials: rows,
+    };
     let text = serde_json::to_string_pretty(&doc).map_err(AppError::internal)? + "\n";
     let path = out.write(SESSION_FILE, text.as_bytes())?;
 
@@ -331,7 +330,7 @@ fn weighted_span(w: &[f64]) -> Range<usize> {
 /// The trial's line of `diagnosis_session.json`. For a CEINMS trial it adds the moment's RMS
 /// error and R² of the baseline and final models at the moment file's own samples, the
 /// numbers `identify` and `simulate` report.
-fn session_row(t: &SessionTrial, r: &Diagnosed) -> AppResult<Value> {
+fn session_row(t: &SessionTrial, r: &Diagnosed) -> AppResult<SessionTrialDiagnosisRow> {
     let d = &r.d;
     let moment_fit = match &t.ceinms {
         Some(_) => {
@@ -341,34 +340,116 @@ fn session_row(t: &SessionTrial, r: &Diagnosed) -> AppResult<Value> {
             };
             let (rb, r2b) = t.fit_of(&pred(&s.baseline_residual_nm))?;
             let (re, r2e) = t.fit_of(&pred(&s.extended_residual_nm))?;
-            json!({
-                "baseline": {"rms_nm": rb, "r2": r2b},
-                "extended": {"rms_nm": re, "r2": r2e},
+            Some(MomentFitReport {
+                baseline: FitFigures {
+                    rms_nm: rb,
+                    r2: r2b,
+                },
+                extended: FitFigures {
+                    rms_nm: re,
+                    r2: r2e,
+                },
             })
         }
-        None => Value::Null,
+        None => None,
     };
     let folder: PathBuf = PathBuf::from(&r.stem);
     // the AR(1) correlation time of the noise model, `−Δt/ln φ` (s)
     let phi = d.noise.phi;
     let corr_time_s = (phi > 0.0 && phi < 1.0).then(|| -1.0 / (r.fitted_on_hz * phi.ln()));
-    Ok(json!({
-        "name": t.name,
-        "source": t.source,
-        "folder": folder.display().to_string(),
-        "verdict": d.verdict,
-        "causes": d.causes,
-        "unexplained_structure": d.unexplained_structure,
-        "structure_p_value": d.residual_analysis.structure_p_value,
-        "not_testable": d.not_testable.iter().map(|x| x.effect.clone()).collect::<Vec<_>>(),
-        "baseline_rms_nm": d.baseline.rms_nm,
-        "baseline_heldout_rms_nm": d.baseline.heldout_rms_nm,
-        "extended_heldout_rms_nm": d.extended.heldout_rms_nm,
-        "heldout_rms_reduction_pct": d.gain.heldout_rms_reduction_pct,
-        "heldout_deviance_reduction": d.gain.heldout_deviance_reduction,
-        "delta_bic": d.gain.delta_bic,
-        "noise_source": d.noise.source,
-        "noise_corr_time_s": corr_time_s,
-        "moment_fit": moment_fit,
-    }))
+    Ok(SessionTrialDiagnosisRow {
+        name: t.name.clone(),
+        source: t.source.clone(),
+        folder: folder.display().to_string(),
+        verdict: d.verdict,
+        causes: d.causes.clone(),
+        unexplained_structure: d.unexplained_structure,
+        structure_p_value: d.residual_analysis.structure_p_value,
+        not_testable: d.not_testable.iter().map(|x| x.effect.clone()).collect(),
+        baseline_rms_nm: d.baseline.rms_nm,
+        baseline_heldout_rms_nm: d.baseline.heldout_rms_nm,
+        extended_heldout_rms_nm: d.extended.heldout_rms_nm,
+        heldout_rms_reduction_pct: d.gain.heldout_rms_reduction_pct,
+        heldout_deviance_reduction: d.gain.heldout_deviance_reduction,
+        delta_bic: d.gain.delta_bic,
+        noise_source: d.noise.source,
+        noise_corr_time_s: corr_time_s,
+        moment_fit,
+    })
+}
+
+/// `diagnosis_session.json`: the session's joint diagnosis, with one row per trial (each
+/// trial's full diagnosis is in its folder).
+#[derive(Debug, Clone, serde::Serialize)]
+#[non_exhaustive]
+pub struct SessionDiagnosisReport<'a> {
+    /// The session manifest (or CEINMS trial folder).
+    pub session: String,
+    /// The parameters file the session was diagnosed with (`null`: the manifest's own).
+    pub params: Option<String>,
+    /// The joint diagnosis, its members at the top level of the JSON.
+    #[serde(flatten)]
+    pub joint: &'a diagnose::SessionDiagnosis,
+    /// One row per trial.
+    pub trials: Vec<SessionTrialDiagnosisRow>,
+}
+
+/// A trial's row in `diagnosis_session.json`.
+#[derive(Debug, Clone, serde::Serialize)]
+#[non_exhaustive]
+pub struct SessionTrialDiagnosisRow {
+    /// The trial's name.
+    pub name: String,
+    /// Where it was read from.
+    pub source: String,
+    /// The folder of its `diagnosis.json`, inside the output folder.
+    pub folder: String,
+    /// Its verdict.
+    pub verdict: diagnose::Verdict,
+    /// The causes named for it.
+    pub causes: Vec<String>,
+    /// Structure left that no catalogued effect explains.
+    pub unexplained_structure: bool,
+    /// p-value of the residual structure test.
+    pub structure_p_value: f64,
+    /// Effects it could not test.
+    pub not_testable: Vec<String>,
+    /// The baseline's RMS (N·m).
+    pub baseline_rms_nm: f64,
+    /// The baseline's held-out RMS (N·m).
+    pub baseline_heldout_rms_nm: f64,
+    /// The extended model's held-out RMS (N·m).
+    pub extended_heldout_rms_nm: f64,
+    /// Held-out RMS reduction by the extension (%).
+    pub heldout_rms_reduction_pct: f64,
+    /// Held-out deviance reduction by the extension.
+    pub heldout_deviance_reduction: f64,
+    /// ΔBIC of the extension.
+    pub delta_bic: f64,
+    /// Where the noise model comes from.
+    pub noise_source: diagnose::NoiseModelSource,
+    /// The noise model's AR(1) correlation time (s; `null` when φ is outside (0, 1)).
+    pub noise_corr_time_s: Option<f64>,
+    /// A CEINMS trial's moment fit at its own samples (`null` otherwise).
+    pub moment_fit: Option<MomentFitReport>,
+}
+
+/// The moment's fit of the baseline and the extended model.
+#[derive(Debug, Clone, Copy, serde::Serialize)]
+#[non_exhaustive]
+pub struct MomentFitReport {
+    /// The baseline model's.
+    pub baseline: FitFigures,
+    /// The extended model's.
+    pub extended: FitFigures,
+}
+
+/// RMS and R² of a fit.
+#[derive(Debug, Clone, Copy, serde::Serialize)]
+#[non_exhaustive]
+pub struct FitFigures {
+    /// RMS (N·m).
+    pub rms_nm: f64,
+    /// R².
+    pub r2: f64,
 }

@@ -7,14 +7,17 @@
 //! (`"adequacy"`).
 
 use super::super::session::{file_stem, load_session, LoadedSession};
-use super::IdentifyJob;
+use super::{
+    AdequacyReport, IdentifyJob, SaChainsReport, SessionAdequacyReport, SessionIdentifyReport,
+    SessionSaChainsReport, SessionTrialReport,
+};
 use crate::error::{AppError, AppResult};
 use crate::figures::{self, FigureSet};
 use crate::output::OutDir;
 use crate::progress::ProgressDisplay;
 use crate::Reporter;
 use muscle_model::{EffectKind, Effects, ModelParams, ParamId};
-use serde_json::{json, Map, Value};
+use std::collections::BTreeMap;
 use std::path::Path;
 
 /// True parameters and effects.
@@ -82,7 +85,7 @@ pub(super) fn run(
     let mut trials = Vec::with_capacity(session.trials.len());
     let mut predictions = Vec::with_capacity(session.trials.len());
     let start = set.base_vector();
-    for t in &session.trials {
+    for (t, a) in session.trials.iter().zip(&adequacy) {
         let failed = |e: muscle_model::ModelError| {
             AppError::bad(format!("{}: simulation of the fit failed: {e}", t.source))
         };
@@ -91,58 +94,63 @@ pub(super) fn run(
         // the session's own parameters, for comparison (e.g. a CEINMS calibration)
         let base = t.problem.predict(&start).map_err(failed)?;
         let (rms0, r20) = t.fit_of(&base)?;
-        trials.push(json!({
-            "name": t.name,
-            "source": t.source,
-            "rms_nm": rms,
-            "r2": r2,
-            "start_rms_nm": rms0,
-            "start_r2": r20,
-            "dynamometer": t.dynamometer(),
-            "checks": t.checks,
-        }));
-        if !t.crosstalk.is_empty() {
-            trials.last_mut().expect("pushed")["emg_crosstalk"] = json!(t.crosstalk);
-        }
+        trials.push(SessionTrialReport {
+            name: t.name.clone(),
+            source: t.source.clone(),
+            rms_nm: rms,
+            r2,
+            start_rms_nm: Some(rms0),
+            start_r2: Some(r20),
+            rms_raw_nm: None,
+            noise_model: None,
+            dynamometer: t.dynamometer(),
+            checks: t.checks.clone(),
+            emg_crosstalk: t.crosstalk.clone(),
+            adequacy: AdequacyReport::of(a),
+        });
         predictions.push((pred, base));
     }
-    let values: Map<String, Value> = fit
-        .params
-        .iter()
-        .map(|(k, v)| (k.clone(), json!(v)))
-        .collect();
-    let bounds: Map<String, Value> = set
-        .names()
-        .iter()
-        .zip(set.bounds())
-        .map(|(k, (lo, hi))| (k.clone(), json!([lo, hi])))
-        .collect();
-    let mut doc = json!({
-        "method": "sa",
-        "session": session_path.display().to_string(),
-        "subject": session.manifest.subject,
-        "seed": args.seed,
-        "params": values,
-        "bounds": bounds,
-        "rms_nm": fit.rms_nm,
-        "trials": trials,
-        "dynamometer": session.trials.iter().map(|t| t.dynamometer()).collect::<Vec<_>>(),
-        "evaluations": fit.evaluations,
-        "wall_s": fit.wall_s,
-        "sa": {
-            "chains": fit.chains.len(),
-            "best_chain": fit.best_chain,
-            "chain_costs": fit.chains.iter().map(|c| c.cost).collect::<Vec<_>>(),
-            "chain_rms_nm": fit.chains.iter().map(|c| (c.cost / set.weight_sum()).sqrt()).collect::<Vec<_>>(),
-        },
-        "model": params.to_json_value(),
-    });
-    if !effects.enabled().is_empty() {
-        doc["effects"] = effects.to_json_value();
-    }
-    doc["with"] = json!(with.iter().map(|k| k.name()).collect::<Vec<_>>());
-    let adequacy_lines = add_adequacy(&mut doc, &session, &adequacy);
-    let truth_lines = add_session_keys(&mut doc, &session, truth.as_ref());
+    let adequacy_lines = adequacy_lines(&session, &adequacy);
+    let (errors_pct, truth_lines) = session_errors(&fit.params, truth.as_ref());
+    let doc = SessionIdentifyReport {
+        method: "sa",
+        session: session_path.display().to_string(),
+        subject: session.manifest.subject.clone(),
+        seed: args.seed,
+        params: fit.params.iter().map(|(k, v)| (k.clone(), *v)).collect(),
+        bounds: bounds_of(&set),
+        rms_nm: fit.rms_nm,
+        rms_raw_nm: None,
+        trials,
+        dynamometer: session.trials.iter().map(|t| t.dynamometer()).collect(),
+        evaluations: fit.evaluations,
+        wall_s: fit.wall_s,
+        sa: Some(SessionSaChainsReport {
+            chains: SaChainsReport {
+                chains: fit.chains.len(),
+                best_chain: fit.best_chain,
+                chain_costs: fit.chains.iter().map(|c| c.cost).collect(),
+            },
+            chain_rms_nm: fit
+                .chains
+                .iter()
+                .map(|c| (c.cost / set.weight_sum()).sqrt())
+                .collect(),
+        }),
+        mcmc: None,
+        model: params.to_json_value(),
+        effects: (!effects.enabled().is_empty()).then(|| effects.to_json_value()),
+        with: with.iter().map(|k| k.name()).collect(),
+        adequacy: SessionAdequacyReport::worst(
+            session
+                .trials
+                .iter()
+                .map(|t| t.name.as_str())
+                .zip(&adequacy),
+        ),
+        emg_normalisation: session.emg.report(),
+        errors_pct,
+    };
     let text = serde_json::to_string_pretty(&doc).map_err(AppError::internal)? + "\n";
     let path = out.write("identify.json", text.as_bytes())?;
     let mut files = write_figures(
@@ -185,15 +193,14 @@ pub(super) fn run(
             fit.best_chain
         ));
         say("  trial                     RMS (N·m)     R²   at the session's parameters");
-        for t in doc["trials"].as_array().into_iter().flatten() {
-            let f = |k: &str| t[k].as_f64().unwrap_or(f64::NAN);
+        for t in &doc.trials {
             say(&format!(
                 "  {:<24} {:>9.2} {:>8.3}   {:>9.2} {:>8.3}",
-                t["name"].as_str().unwrap_or(""),
-                f("rms_nm"),
-                f("r2"),
-                f("start_rms_nm"),
-                f("start_r2")
+                t.name,
+                t.rms_nm,
+                t.r2,
+                t.start_rms_nm.unwrap_or(f64::NAN),
+                t.start_r2.unwrap_or(f64::NAN)
             ));
         }
         say("  parameter                      estimate    bounds");
@@ -227,7 +234,7 @@ fn write_figures(
     session: &LoadedSession,
     predictions: &[(Vec<f64>, Vec<f64>)],
     session_path: &Path,
-    doc: &Value,
+    doc: &SessionIdentifyReport,
     truth: Option<&Truth>,
     mcmc: Option<&identify_mcmc::McmcIdentification>,
     rep: &Reporter,
@@ -313,28 +320,25 @@ fn write_figures(
 fn session_tables(
     set: &mut FigureSet<'_>,
     session: &LoadedSession,
-    doc: &Value,
+    doc: &SessionIdentifyReport,
     with_params: bool,
 ) -> AppResult {
-    let num = |v: &Value, digits: usize| {
-        v.as_f64()
-            .map_or_else(|| "—".to_string(), |x| report::format_sig(x, digits))
+    let num = |v: Option<f64>, digits: usize| {
+        v.map_or_else(|| "—".to_string(), |x| report::format_sig(x, digits))
     };
-    let rows: Vec<Vec<String>> = doc["trials"]
-        .as_array()
-        .into_iter()
-        .flatten()
+    let rows: Vec<Vec<String>> = doc
+        .trials
+        .iter()
         .map(|t| {
             vec![
-                t["name"].as_str().unwrap_or("").to_string(),
-                t["source"].as_str().unwrap_or("").to_string(),
-                num(&t["rms_nm"], 3),
-                num(&t["r2"], 3),
-                num(&t["start_rms_nm"], 3),
+                t.name.clone(),
+                t.source.clone(),
+                num(Some(t.rms_nm), 3),
+                num(Some(t.r2), 3),
+                num(t.start_rms_nm, 3),
             ]
         })
         .collect();
-    let norm = &doc["emg_normalisation"];
     set.page()
         .table(
             "Trials",
@@ -350,9 +354,9 @@ fn session_tables(
         .map_err(|e| AppError::internal(e.to_string()))?;
     set.page().paragraph(format!(
         "EMG normalisation: {} ({} trials; one reference per channel for the whole session).",
-        match norm["source"].as_str() {
-            Some("mvc") => "each channel by its largest envelope over the MVC trials",
-            Some("session_maximum") => "each channel by its largest envelope over all the trials",
+        match doc.emg_normalisation.source {
+            "mvc" => "each channel by its largest envelope over the MVC trials",
+            "session_maximum" => "each channel by its largest envelope over all the trials",
             _ => "envelopes as given",
         },
         session.trials.len()
@@ -360,25 +364,24 @@ fn session_tables(
     if !with_params {
         return Ok(());
     }
-    let errors = doc["errors_pct"].as_object();
+    let errors = doc.errors_pct.as_ref();
     let mut headers = vec!["parameter", "estimate", "lower bound", "upper bound"];
     if errors.is_some() {
         headers.push("error vs truth (%)");
     }
-    let rows: Vec<Vec<String>> = doc["params"]
-        .as_object()
-        .into_iter()
-        .flatten()
+    let rows: Vec<Vec<String>> = doc
+        .params
+        .iter()
         .map(|(k, v)| {
-            let b = &doc["bounds"][k];
+            let b = doc.bounds.get(k);
             let mut row = vec![
                 report::param_label(k),
-                num(v, 5),
-                num(&b[0], 5),
-                num(&b[1], 5),
+                num(Some(*v), 5),
+                num(b.map(|b| b[0]), 5),
+                num(b.map(|b| b[1]), 5),
             ];
             if let Some(e) = errors {
-                row.push(e.get(k).map_or_else(|| "—".into(), |x| num(x, 3)));
+                row.push(num(e.get(k).copied(), 3));
             }
             row
         })
@@ -387,6 +390,15 @@ fn session_tables(
         .table("Shared parameters", &headers, &rows)
         .map_err(|e| AppError::internal(e.to_string()))?;
     Ok(())
+}
+
+/// Each free parameter's bounds, by name.
+fn bounds_of(set: &muscle_model::ProblemSet) -> BTreeMap<String, [f64; 2]> {
+    set.names()
+        .iter()
+        .zip(set.bounds())
+        .map(|(k, (lo, hi))| (k.clone(), [*lo, *hi]))
+        .collect()
 }
 
 /// Runs `identify --method mcmc --session`: each trial on its torque as measured, corrected by
@@ -511,62 +523,32 @@ fn trials_adequacy(
         .collect()
 }
 
-/// Each trial's `adequacy` into its entry of `trials`, and the session's (the trial with the
-/// smallest p) as `adequacy`; the summary's lines.
-fn add_adequacy(
-    doc: &mut Value,
+/// The summary's lines on each trial's structure test.
+fn adequacy_lines(
     session: &LoadedSession,
     adequacy: &[Result<diagnose::Adequacy, String>],
 ) -> Vec<String> {
-    let mut lines = Vec::new();
-    let mut worst: Option<(&str, &diagnose::Adequacy)> = None;
-    for (k, (t, a)) in session.trials.iter().zip(adequacy).enumerate() {
-        doc["trials"][k]["adequacy"] = super::with::adequacy_json(a);
-        lines.extend(super::with::adequacy_lines(a, Some(&t.name)));
-        if let Ok(a) = a {
-            if worst.is_none_or(|(_, w)| a.structure_p < w.structure_p) {
-                worst = Some((&t.name, a));
-            }
-        }
-    }
-    doc["adequacy"] = match worst {
-        Some((name, a)) => {
-            let mut v = super::with::adequacy_json(&Ok(a.clone()));
-            v["trial"] = json!(name);
-            v["warning"] = json!(a.warning().map(|w| format!("trial {name}: {w}")));
-            v
-        }
-        None => super::with::adequacy_json(&Err(
-            "the structure test could not be run on any trial".into(),
-        )),
-    };
-    lines
+    session
+        .trials
+        .iter()
+        .zip(adequacy)
+        .flat_map(|(t, a)| super::with::adequacy_lines(a, Some(&t.name)))
+        .collect()
 }
 
-/// `errors_pct` (% error of every identified parameter against the truth) and
-/// `emg_normalisation` into an `identify.json` of a session; the error lines for the summary.
-fn add_session_keys(
-    doc: &mut Value,
-    session: &LoadedSession,
+/// `errors_pct` (% error of every identified parameter against the truth, when known) and
+/// its lines for the summary.
+fn session_errors(
+    params: &BTreeMap<String, f64>,
     truth: Option<&Truth>,
-) -> Vec<String> {
-    doc["emg_normalisation"] = session.emg.to_json();
+) -> (Option<BTreeMap<String, f64>>, Vec<String>) {
     let Some(truth) = truth else {
-        return Vec::new();
+        return (None, Vec::new());
     };
-    let params: std::collections::BTreeMap<String, f64> = doc["params"]
-        .as_object()
-        .map(|m| {
-            m.iter()
-                .filter_map(|(k, v)| v.as_f64().map(|v| (k.clone(), v)))
-                .collect()
-        })
-        .unwrap_or_default();
-    let errors = super::errors_pct(&params, truth);
+    let errors = super::errors_pct(params, truth);
     let mut lines = vec!["  errors vs truth (%):".to_string()];
     lines.extend(errors.iter().map(|(k, e)| format!("    {k:<28} {e:>8.2}")));
-    doc["errors_pct"] = json!(errors);
-    lines
+    (Some(errors), lines)
 }
 
 fn run_mcmc(
@@ -615,9 +597,14 @@ fn run_mcmc(
 
     let mean = m.mean();
     let start = set.base_vector();
-    let mut entries = Vec::with_capacity(session.trials.len());
+    let (params, effects) = set
+        .params_from_vector(&mean)
+        .map_err(|e| AppError::internal(e.to_string()))?;
+    let adequacy = trials_adequacy(&session, &params, &effects, set.free(), rep);
+    let mut fits = Vec::with_capacity(session.trials.len());
+    let mut trials = Vec::with_capacity(session.trials.len());
     let mut predictions = Vec::with_capacity(session.trials.len());
-    for (t, fit) in session.trials.iter().zip(&m.trials) {
+    for ((t, fit), a) in session.trials.iter().zip(&m.trials).zip(&adequacy) {
         let failed = |e: muscle_model::ModelError| {
             AppError::bad(format!(
                 "{}: simulation of the posterior mean failed: {e}",
@@ -625,49 +612,63 @@ fn run_mcmc(
             ))
         };
         let pred = t.problem.predict(&mean).map_err(failed)?;
-        let mut entry = super::mcmc::trial_entry(&t.name, fit, t.fit_of(&pred)?);
-        entry["source"] = json!(t.source);
-        entry["dynamometer"] = t.dynamometer();
-        entry["checks"] = json!(t.checks);
-        if !t.crosstalk.is_empty() {
-            entry["emg_crosstalk"] = json!(t.crosstalk);
-        }
+        let entry = super::mcmc::trial_entry(&t.name, fit, t.fit_of(&pred)?);
+        trials.push(SessionTrialReport {
+            name: entry.name.clone(),
+            source: t.source.clone(),
+            rms_nm: entry.rms_nm,
+            r2: entry.r2,
+            start_rms_nm: None,
+            start_r2: None,
+            rms_raw_nm: Some(entry.rms_raw_nm),
+            noise_model: Some(entry.noise_model),
+            dynamometer: t.dynamometer(),
+            checks: t.checks.clone(),
+            emg_crosstalk: t.crosstalk.clone(),
+            adequacy: AdequacyReport::of(a),
+        });
+        fits.push(entry);
         let base = t.problem.predict(&start).map_err(failed)?;
         predictions.push((pred, base));
-        entries.push(entry);
     }
     let lines = super::mcmc::summary_lines(
         &format!("session {what}, {} trials", session.trials.len()),
         &m,
-        &entries,
+        &fits,
     );
-    let (params, effects) = set
-        .params_from_vector(&mean)
-        .map_err(|e| AppError::internal(e.to_string()))?;
-    let mut doc = super::mcmc::mcmc_doc(&m, entries);
-    let bounds: Map<String, Value> = set
-        .names()
-        .iter()
-        .zip(set.bounds())
-        .map(|(k, (lo, hi))| (k.clone(), json!([lo, hi])))
-        .collect();
-    doc["session"] = json!(what);
-    doc["subject"] = json!(session.manifest.subject);
-    doc["seed"] = json!(args.seed);
-    doc["bounds"] = json!(bounds);
-    doc["dynamometer"] = json!(session
-        .trials
-        .iter()
-        .map(|t| t.dynamometer())
-        .collect::<Vec<_>>());
-    doc["model"] = params.to_json_value();
-    if !effects.enabled().is_empty() {
-        doc["effects"] = effects.to_json_value();
-    }
-    doc["with"] = json!(with.iter().map(|k| k.name()).collect::<Vec<_>>());
-    let adequacy = trials_adequacy(&session, &params, &effects, set.free(), rep);
-    let adequacy_lines = add_adequacy(&mut doc, &session, &adequacy);
-    let truth_lines = add_session_keys(&mut doc, &session, truth);
+    let adequacy_lines = adequacy_lines(&session, &adequacy);
+    let estimate = super::mcmc::posterior_means(&m);
+    let (errors_pct, truth_lines) = session_errors(&estimate, truth);
+    // a session's per-trial fits are its own `trials`, with each trial's source and checks
+    let posterior = super::mcmc::mcmc_report(&m, Vec::new());
+    let doc = SessionIdentifyReport {
+        method: "mcmc",
+        session: what.clone(),
+        subject: session.manifest.subject.clone(),
+        seed: args.seed,
+        params: estimate,
+        bounds: bounds_of(&set),
+        rms_nm: m.rms_corrected_nm,
+        rms_raw_nm: Some(m.rms_nm),
+        trials,
+        dynamometer: session.trials.iter().map(|t| t.dynamometer()).collect(),
+        evaluations: m.evaluations,
+        wall_s: m.wall_s,
+        sa: None,
+        mcmc: Some(posterior),
+        model: params.to_json_value(),
+        effects: (!effects.enabled().is_empty()).then(|| effects.to_json_value()),
+        with: with.iter().map(|k| k.name()).collect(),
+        adequacy: SessionAdequacyReport::worst(
+            session
+                .trials
+                .iter()
+                .map(|t| t.name.as_str())
+                .zip(&adequacy),
+        ),
+        emg_normalisation: session.emg.report(),
+        errors_pct,
+    };
     let text = serde_json::to_string_pretty(&doc).map_err(AppError::internal)? + "\n";
     let path = out.write("identify.json", text.as_bytes())?;
     let mut csv = Vec::new();

@@ -169,58 +169,76 @@ pub(super) fn trial_entry(
     name: &str,
     fit: &identify_mcmc::McmcTrialFit,
     (rms, r2): (f64, f64),
-) -> Value {
-    json!({
-        "name": name,
-        "rms_nm": rms,
-        "r2": r2,
-        "rms_raw_nm": fit.rms_nm,
-        "noise_model": fit.noise,
-    })
+) -> McmcTrialReport {
+    McmcTrialReport {
+        name: name.to_string(),
+        rms_nm: rms,
+        r2,
+        rms_raw_nm: fit.rms_nm,
+        noise_model: fit.noise,
+    }
 }
 
-/// `identify.json`'s MCMC fields (the caller adds where the data came from).
-pub(super) fn mcmc_doc(m: &identify_mcmc::McmcIdentification, trials: Vec<Value>) -> Value {
-    let params: Map<String, Value> = m
-        .posterior
+/// The parameters' posterior means by name: an MCMC identification's estimate.
+pub(super) fn posterior_means(m: &identify_mcmc::McmcIdentification) -> BTreeMap<String, f64> {
+    m.posterior
         .iter()
-        .map(|p| (p.name.clone(), json!(p.mean)))
-        .collect();
-    let posterior: Map<String, Value> = m
+        .map(|p| (p.name.clone(), p.mean))
+        .collect()
+}
+
+/// What MCMC adds to `identify.json`.
+pub(super) fn mcmc_report(
+    m: &identify_mcmc::McmcIdentification,
+    trials: Vec<McmcTrialReport>,
+) -> McmcReport {
+    let posterior = m
         .posterior
         .iter()
         .map(|p| {
             (
                 p.name.clone(),
-                json!({
-                    "mean": p.mean, "sd": p.sd, "q05": p.q05, "q95": p.q95,
-                    "rhat": p.rhat, "ess_bulk": p.ess_bulk, "ess_tail": p.ess_tail,
-                    "identifiable": p.identifiable, "prior_sd_ratio": p.prior_sd_ratio,
-                }),
+                PosteriorReport {
+                    mean: p.mean,
+                    sd: p.sd,
+                    q05: p.q05,
+                    q95: p.q95,
+                    rhat: p.rhat,
+                    ess_bulk: p.ess_bulk,
+                    ess_tail: p.ess_tail,
+                    identifiable: p.identifiable,
+                    prior_sd_ratio: p.prior_sd_ratio,
+                },
             )
         })
         .collect();
-    json!({
-        "method": Method::Mcmc.name(),
-        "params": params,
-        "rms_nm": m.rms_corrected_nm,
-        "rms_raw_nm": m.rms_nm,
-        "evaluations": m.evaluations,
-        "wall_s": m.wall_s,
-        "posterior": posterior,
-        "converged": m.converged,
-        "stop": format!("{:?}", m.stop),
-        "chains": m.run.draws.first().map_or(0, |c| c.len()),
-        "warmup_iterations": m.warmup_iterations,
-        "sampling_iterations": m.sampling_iterations,
-        "acceptance_rate": m.acceptance_rate,
-        "modes": m.modes.len(),
-        "jump_acceptance_rate": m.jump_acceptance_rate,
-        "correlations": m.correlations.iter().take(10).map(|c| json!({"a": c.a, "b": c.b, "r": c.r})).collect::<Vec<_>>(),
-        "posterior_correlation": {"names": m.names, "matrix": m.posterior_correlation},
-        "noise_model": m.noise,
-        "trials": trials,
-    })
+    McmcReport {
+        posterior,
+        converged: m.converged,
+        stop: format!("{:?}", m.stop),
+        chains: m.run.draws.first().map_or(0, |c| c.len()),
+        warmup_iterations: m.warmup_iterations,
+        sampling_iterations: m.sampling_iterations,
+        acceptance_rate: m.acceptance_rate,
+        modes: m.modes.len(),
+        jump_acceptance_rate: m.jump_acceptance_rate,
+        correlations: m
+            .correlations
+            .iter()
+            .take(10)
+            .map(|c| CorrelationReport {
+                a: c.a.clone(),
+                b: c.b.clone(),
+                r: c.r,
+            })
+            .collect(),
+        posterior_correlation: CorrelationMatrixReport {
+            names: m.names.clone(),
+            matrix: m.posterior_correlation.clone(),
+        },
+        noise_model: m.noise,
+        trials,
+    }
 }
 
 /// The summary printed after sampling: convergence, fit, the posterior table and which
@@ -228,7 +246,7 @@ pub(super) fn mcmc_doc(m: &identify_mcmc::McmcIdentification, trials: Vec<Value>
 pub(super) fn summary_lines(
     what: &str,
     m: &identify_mcmc::McmcIdentification,
-    trials: &[Value],
+    trials: &[McmcTrialReport],
 ) -> Vec<String> {
     let (max_rhat, min_ess) = m.worst_diagnostics();
     let mut lines = vec![format!(
@@ -251,13 +269,9 @@ pub(super) fn summary_lines(
     if trials.len() > 1 {
         lines.push("  trial                     RMS (N·m)     R²   raw RMS (N·m)".into());
         for t in trials {
-            let f = |k: &str| t[k].as_f64().unwrap_or(f64::NAN);
             lines.push(format!(
                 "  {:<24} {:>9.2} {:>8.3}   {:>9.2}",
-                t["name"].as_str().unwrap_or(""),
-                f("rms_nm"),
-                f("r2"),
-                f("rms_raw_nm")
+                t.name, t.rms_nm, t.r2, t.rms_raw_nm
             ));
         }
     }
@@ -352,9 +366,18 @@ pub(super) fn run_mcmc(
     let fit = experiment::moment_fit(prep.problem.measured(), &prediction);
     let trials = vec![trial_entry(&prep.loaded.name, &m.trials[0], fit)];
     let lines = summary_lines(&prep.loaded.name, &m, &trials);
-    let doc = mcmc_doc(&m, trials);
+    let estimate = Estimate {
+        method: Method::Mcmc,
+        params: posterior_means(&m),
+        rms_nm: m.rms_corrected_nm,
+        rms_raw_nm: m.rms_nm,
+        evaluations: m.evaluations,
+        wall_s: m.wall_s,
+        sa: None,
+        mcmc: Some(mcmc_report(&m, trials)),
+    };
     Ok(Outcome {
-        doc,
+        estimate,
         lines,
         prediction,
         mcmc: Some(m),

@@ -5,8 +5,7 @@
 use super::super::{is_osim, osim_names, read_text, ModelSettings};
 use crate::error::{AppError, AppResult};
 use crate::output::OutDir;
-use muscle_model::{ModelParams, ParamId};
-use serde_json::Value;
+use muscle_model::ModelParams;
 use std::path::PathBuf;
 
 /// Writes one CmdStan-format CSV per chain into `chains/`.
@@ -32,28 +31,16 @@ pub(super) fn write_chains(
 }
 
 /// With an `.osim` `--params`, writes `identified.osim`: the model with the identified F0, LST
-/// and α0 of sol, gm and gl (`doc["params"]`), nothing else changed. `None` otherwise.
+/// and α0 of sol, gm and gl (the identified parameters), nothing else changed. `None` otherwise.
 pub(super) fn write_identified_osim(
     out: &OutDir,
     model: &ModelSettings,
-    base: &ModelParams,
-    doc: &Value,
+    identified: &ModelParams,
 ) -> AppResult<Option<PathBuf>> {
     let Some(path) = model.params.as_deref().filter(|p| is_osim(p)) else {
         return Ok(None);
     };
-    let mut params = *base;
-    let mut effects = muscle_model::Effects::none();
-    if let Some(map) = doc["params"].as_object() {
-        for (name, v) in map {
-            let id = ParamId::parse(name).map_err(AppError::internal)?;
-            let v = v
-                .as_f64()
-                .ok_or_else(|| AppError::internal(format!("{name} is not a number")))?;
-            id.set(&mut params, &mut effects, v);
-        }
-    }
-    write_osim_copy(out, path, &osim_names(model)?, &params).map(Some)
+    write_osim_copy(out, path, &osim_names(model)?, identified).map(Some)
 }
 
 /// Writes `identified.osim`: the model `path` with `params`' F0, LST and α0 of sol, gm and gl

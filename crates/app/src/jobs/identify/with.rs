@@ -4,7 +4,7 @@
 
 use crate::error::{AppError, AppResult};
 use muscle_model::{EffectKind, Effects, ModelParams, ParamId};
-use serde_json::{json, Value};
+use std::collections::BTreeMap;
 
 /// The catalogue's names, for messages.
 fn valid_names() -> String {
@@ -85,15 +85,12 @@ pub(super) fn check_session_scope(kinds: &[EffectKind], trials: usize) -> AppRes
 pub(super) fn identified_point(
     params: &ModelParams,
     effects: &Effects,
-    identified: &Value,
+    identified: &BTreeMap<String, f64>,
 ) -> AppResult<(ModelParams, Effects)> {
     let mut params = *params;
     let mut effects = *effects;
-    for (name, v) in identified.as_object().into_iter().flatten() {
+    for (name, &v) in identified {
         let id = ParamId::parse(name).map_err(AppError::internal)?;
-        let v = v
-            .as_f64()
-            .ok_or_else(|| AppError::internal(format!("{name} is not a number")))?;
         id.set(&mut params, &mut effects, v);
     }
     Ok((params, effects))
@@ -103,35 +100,6 @@ pub(super) fn identified_point(
 /// the truth does not carry is at its null value).
 pub(super) fn truth_values(free: &[ParamId], truth: &(ModelParams, Effects)) -> Vec<f64> {
     free.iter().map(|id| id.get(&truth.0, &truth.1)).collect()
-}
-
-/// `identify.json`'s `adequacy` object: the structure test's p-value, its evidence
-/// (`−log10 p`), the threshold, the two score statistics and the warning (`null` when the
-/// model leaves no structure); when the test could not be run, its fields are `null` and
-/// `error` says why.
-pub(super) fn adequacy_json(a: &Result<diagnose::Adequacy, String>) -> Value {
-    match a {
-        Ok(a) => json!({
-            "structure_p": a.structure_p,
-            // −log10 of p = 1 is −0
-            "structure_evidence": a.structure_evidence + 0.0,
-            "threshold": a.threshold,
-            "leaves_structure": a.leaves_structure(),
-            "motion_lm": a.motion_lm,
-            "motion_df": a.motion_df,
-            "time_lm": a.time_lm,
-            "time_df": a.time_df,
-            "warning": a.warning(),
-        }),
-        Err(e) => json!({
-            "structure_p": null,
-            "structure_evidence": null,
-            "threshold": null,
-            "leaves_structure": null,
-            "warning": null,
-            "error": e,
-        }),
-    }
 }
 
 /// The summary's lines on the adequacy of the identified model (`trial`: a session's trial).

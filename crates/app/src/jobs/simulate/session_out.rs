@@ -9,7 +9,6 @@ use crate::error::{AppError, AppResult};
 use crate::output::OutDir;
 use crate::Reporter;
 use muscle_model::{simulate, SimSettings};
-use serde_json::json;
 use std::path::Path;
 
 /// Runs `simulate --session`.
@@ -51,7 +50,12 @@ pub(super) fn run(args: &SimulateJob, session_path: &Path, rep: &Reporter) -> Ap
         )
         .map_err(|e| AppError::bad(format!("{}: simulation failed: {e}", t.source)))?;
         let (rms, r2) = t.fit_of(&sim.torque)?;
-        rows.push(json!({"name": t.name, "source": t.source, "rms_nm": rms, "r2": r2}));
+        rows.push(SimulatedTrialReport {
+            name: t.name.clone(),
+            source: t.source.clone(),
+            rms_nm: rms,
+            r2,
+        });
         let mut text = String::with_capacity(inputs.len() * 60);
         text.push_str("time_s,torque_nm,measured_nm,weight\n");
         let weights = t.problem.weights();
@@ -68,14 +72,17 @@ pub(super) fn run(args: &SimulateJob, session_path: &Path, rep: &Reporter) -> Ap
         texts.push((format!("{}.csv", file_stem(&t.name)), text));
     }
     let n = rows.len() as f64;
-    let mean = |k: &str| rows.iter().filter_map(|r| r[k].as_f64()).sum::<f64>() / n;
-    let doc = json!({
-        "session": session_path.display().to_string(),
-        "trials": rows,
-        "mean_rms_nm": mean("rms_nm"),
-        "mean_r2": mean("r2"),
-        "emg_normalisation": session.emg.to_json(),
-    });
+    // a fit that is not a number (a trial of constant torque has no R²) counts as 0 in the mean
+    let mean = |f: fn(&SimulatedTrialReport) -> f64| {
+        rows.iter().map(f).filter(|v| v.is_finite()).sum::<f64>() / n
+    };
+    let doc = SessionSimulationReport {
+        session: session_path.display().to_string(),
+        mean_rms_nm: mean(|r| r.rms_nm),
+        mean_r2: mean(|r| r.r2),
+        trials: rows,
+        emg_normalisation: session.emg.report(),
+    };
     let text = serde_json::to_string_pretty(&doc).map_err(AppError::internal)? + "\n";
     for (name, t) in &texts {
         out.write(name, t.as_bytes())?;
@@ -90,18 +97,12 @@ pub(super) fn run(args: &SimulateJob, session_path: &Path, rep: &Reporter) -> Ap
         rep.say(&l);
     }
     rep.say("  trial                     RMS (N·m)     R²");
-    for r in doc["trials"].as_array().into_iter().flatten() {
-        rep.say(&format!(
-            "  {:<24} {:>9.2} {:>8.3}",
-            r["name"].as_str().unwrap_or(""),
-            r["rms_nm"].as_f64().unwrap_or(f64::NAN),
-            r["r2"].as_f64().unwrap_or(f64::NAN)
-        ));
+    for r in &doc.trials {
+        rep.say(&format!("  {:<24} {:>9.2} {:>8.3}", r.name, r.rms_nm, r.r2));
     }
     rep.say(&format!(
         "  mean                     {:>9.2} {:>8.3}",
-        doc["mean_rms_nm"].as_f64().unwrap_or(f64::NAN),
-        doc["mean_r2"].as_f64().unwrap_or(f64::NAN)
+        doc.mean_rms_nm, doc.mean_r2
     ));
     rep.say(&format!(
         "wrote {} and {} trial CSVs",
@@ -109,4 +110,34 @@ pub(super) fn run(args: &SimulateJob, session_path: &Path, rep: &Reporter) -> Ap
         texts.len()
     ));
     Ok(())
+}
+
+/// `simulate.json` of a session: each trial's fit at the session's parameters.
+#[derive(Debug, Clone, serde::Serialize)]
+#[non_exhaustive]
+pub struct SessionSimulationReport {
+    /// The session manifest (or CEINMS trial folder).
+    pub session: String,
+    /// Each trial's fit.
+    pub trials: Vec<SimulatedTrialReport>,
+    /// Mean RMS over the trials (N·m).
+    pub mean_rms_nm: f64,
+    /// Mean R² over the trials.
+    pub mean_r2: f64,
+    /// How the session's EMG was normalised.
+    pub emg_normalisation: super::super::session::EmgNormalisationReport,
+}
+
+/// One trial's fit in a session's `simulate.json`.
+#[derive(Debug, Clone, serde::Serialize)]
+#[non_exhaustive]
+pub struct SimulatedTrialReport {
+    /// The trial's name.
+    pub name: String,
+    /// Where it was read from.
+    pub source: String,
+    /// RMS where the trial is judged (N·m).
+    pub rms_nm: f64,
+    /// R² where the trial is judged.
+    pub r2: f64,
 }
