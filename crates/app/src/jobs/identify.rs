@@ -11,7 +11,8 @@ mod with;
 pub use reports::{
     AdequacyReport, CorrelationMatrixReport, CorrelationReport, IdentifyReport, McmcReport,
     McmcTrialReport, NoiseCorrectionReport, NoiseUseReport, PosteriorReport, SaChainsReport,
-    SessionAdequacyReport, SessionIdentifyReport, SessionSaChainsReport, SessionTrialReport,
+    SessionAdequacyReport, SessionContextReport, SessionIdentifyReport, SessionSaChainsReport,
+    SessionTrialReport,
 };
 
 use super::{

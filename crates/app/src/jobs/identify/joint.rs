@@ -8,8 +8,8 @@
 
 use super::super::session::{file_stem, load_session, LoadedSession};
 use super::{
-    AdequacyReport, IdentifyJob, SaChainsReport, SessionAdequacyReport, SessionIdentifyReport,
-    SessionSaChainsReport, SessionTrialReport,
+    AdequacyReport, IdentifyJob, SaChainsReport, SessionAdequacyReport, SessionContextReport,
+    SessionIdentifyReport, SessionSaChainsReport, SessionTrialReport,
 };
 use crate::error::{AppError, AppResult};
 use crate::figures::{self, FigureSet};
@@ -114,15 +114,10 @@ pub(super) fn run(
     let (errors_pct, truth_lines) = session_errors(&fit.params, truth.as_ref());
     let doc = SessionIdentifyReport {
         method: "sa",
-        session: session_path.display().to_string(),
-        subject: session.manifest.subject.clone(),
-        seed: args.seed,
         params: fit.params.iter().map(|(k, v)| (k.clone(), *v)).collect(),
-        bounds: bounds_of(&set),
         rms_nm: fit.rms_nm,
         rms_raw_nm: None,
         trials,
-        dynamometer: session.trials.iter().map(|t| t.dynamometer()).collect(),
         evaluations: fit.evaluations,
         wall_s: fit.wall_s,
         sa: Some(SessionSaChainsReport {
@@ -138,17 +133,15 @@ pub(super) fn run(
                 .collect(),
         }),
         mcmc: None,
-        model: params.to_json_value(),
-        effects: (!effects.enabled().is_empty()).then(|| effects.to_json_value()),
-        with: with.iter().map(|k| k.name()).collect(),
-        adequacy: SessionAdequacyReport::worst(
-            session
-                .trials
-                .iter()
-                .map(|t| t.name.as_str())
-                .zip(&adequacy),
+        context: session_context(
+            &session,
+            session_path.display().to_string(),
+            args,
+            &set,
+            (&params, &effects),
+            with,
+            &adequacy,
         ),
-        emg_normalisation: session.emg.report(),
         errors_pct,
     };
     let text = serde_json::to_string_pretty(&doc).map_err(AppError::internal)? + "\n";
@@ -354,7 +347,7 @@ fn session_tables(
         .map_err(|e| AppError::internal(e.to_string()))?;
     set.page().paragraph(format!(
         "EMG normalisation: {} ({} trials; one reference per channel for the whole session).",
-        match doc.emg_normalisation.source {
+        match doc.context.emg_normalisation.source {
             "mvc" => "each channel by its largest envelope over the MVC trials",
             "session_maximum" => "each channel by its largest envelope over all the trials",
             _ => "envelopes as given",
@@ -373,7 +366,7 @@ fn session_tables(
         .params
         .iter()
         .map(|(k, v)| {
-            let b = doc.bounds.get(k);
+            let b = doc.context.bounds.get(k);
             let mut row = vec![
                 report::param_label(k),
                 num(Some(*v), 5),
@@ -390,6 +383,33 @@ fn session_tables(
         .table("Shared parameters", &headers, &rows)
         .map_err(|e| AppError::internal(e.to_string()))?;
     Ok(())
+}
+
+/// What a session's `identify.json` says of the session: `what` names it, `model` is the
+/// estimate's parameters and effects, `adequacy` each trial's structure test.
+fn session_context(
+    session: &LoadedSession,
+    what: String,
+    args: &IdentifyJob,
+    set: &muscle_model::ProblemSet,
+    (params, effects): (&ModelParams, &Effects),
+    with: &[EffectKind],
+    adequacy: &[Result<diagnose::Adequacy, String>],
+) -> SessionContextReport {
+    SessionContextReport {
+        session: what,
+        subject: session.manifest.subject.clone(),
+        seed: args.seed,
+        bounds: bounds_of(set),
+        dynamometer: session.trials.iter().map(|t| t.dynamometer()).collect(),
+        model: params.to_json_value(),
+        effects: (!effects.enabled().is_empty()).then(|| effects.to_json_value()),
+        with: with.iter().map(|k| k.name()).collect(),
+        adequacy: SessionAdequacyReport::worst(
+            session.trials.iter().map(|t| t.name.as_str()).zip(adequacy),
+        ),
+        emg_normalisation: session.emg.report(),
+    }
 }
 
 /// Each free parameter's bounds, by name.
@@ -643,30 +663,23 @@ fn run_mcmc(
     let posterior = super::mcmc::mcmc_report(&m, Vec::new());
     let doc = SessionIdentifyReport {
         method: "mcmc",
-        session: what.clone(),
-        subject: session.manifest.subject.clone(),
-        seed: args.seed,
         params: estimate,
-        bounds: bounds_of(&set),
         rms_nm: m.rms_corrected_nm,
         rms_raw_nm: Some(m.rms_nm),
         trials,
-        dynamometer: session.trials.iter().map(|t| t.dynamometer()).collect(),
         evaluations: m.evaluations,
         wall_s: m.wall_s,
         sa: None,
         mcmc: Some(posterior),
-        model: params.to_json_value(),
-        effects: (!effects.enabled().is_empty()).then(|| effects.to_json_value()),
-        with: with.iter().map(|k| k.name()).collect(),
-        adequacy: SessionAdequacyReport::worst(
-            session
-                .trials
-                .iter()
-                .map(|t| t.name.as_str())
-                .zip(&adequacy),
+        context: session_context(
+            &session,
+            what.clone(),
+            args,
+            &set,
+            (&params, &effects),
+            with,
+            &adequacy,
         ),
-        emg_normalisation: session.emg.report(),
         errors_pct,
     };
     let text = serde_json::to_string_pretty(&doc).map_err(AppError::internal)? + "\n";

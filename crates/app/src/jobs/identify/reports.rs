@@ -280,16 +280,8 @@ pub struct NoiseCorrectionReport {
 pub struct SessionIdentifyReport {
     /// `sa` or `mcmc`.
     pub method: &'static str,
-    /// The session manifest (or CEINMS trial folder).
-    pub session: String,
-    /// The subject the manifest names.
-    pub subject: Option<String>,
-    /// The seed of every random choice.
-    pub seed: u64,
     /// The estimate of every free parameter, by name.
     pub params: BTreeMap<String, f64>,
-    /// Each free parameter's bounds.
-    pub bounds: BTreeMap<String, [f64; 2]>,
     /// Torque RMS over the session's judged samples at the estimate (N·m).
     pub rms_nm: f64,
     /// MCMC: the same against the torques as measured (N·m).
@@ -297,8 +289,6 @@ pub struct SessionIdentifyReport {
     pub rms_raw_nm: Option<f64>,
     /// Each trial's fit.
     pub trials: Vec<SessionTrialReport>,
-    /// Each trial's dynamometer correction (`null` without an unloaded run).
-    pub dynamometer: Vec<Option<experiment::DynamometerReport>>,
     /// Model evaluations.
     pub evaluations: u64,
     /// Wall time (s).
@@ -310,6 +300,28 @@ pub struct SessionIdentifyReport {
     /// in `trials`).
     #[serde(flatten)]
     pub mcmc: Option<McmcReport>,
+    /// The session, the model at the estimate and its tests, at the top level of the JSON.
+    #[serde(flatten)]
+    pub context: SessionContextReport,
+    /// `100·|estimate − truth|/|truth|`, when the truth is known.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub errors_pct: Option<BTreeMap<String, f64>>,
+}
+
+/// What a session's `identify.json` says of the session whatever the method.
+#[derive(Debug, Clone, Serialize)]
+#[non_exhaustive]
+pub struct SessionContextReport {
+    /// The session manifest (or CEINMS trial folder).
+    pub session: String,
+    /// The subject the manifest names.
+    pub subject: Option<String>,
+    /// The seed of every random choice.
+    pub seed: u64,
+    /// Each free parameter's bounds.
+    pub bounds: BTreeMap<String, [f64; 2]>,
+    /// Each trial's dynamometer correction (`null` without an unloaded run).
+    pub dynamometer: Vec<Option<experiment::DynamometerReport>>,
     /// The session's model at the estimate (a parameters JSON).
     pub model: serde_json::Value,
     /// Its effects, when any is switched on.
@@ -321,9 +333,6 @@ pub struct SessionIdentifyReport {
     pub adequacy: SessionAdequacyReport,
     /// How the session's EMG was normalised.
     pub emg_normalisation: super::super::session::EmgNormalisationReport,
-    /// `100·|estimate − truth|/|truth|`, when the truth is known.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub errors_pct: Option<BTreeMap<String, f64>>,
 }
 
 /// One trial's fit in a session's `identify.json`.
