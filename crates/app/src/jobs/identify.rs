@@ -345,44 +345,7 @@ pub fn run(args: IdentifyJob, rep: &Reporter) -> AppResult {
         Method::Mcmc => mcmc::run_mcmc(&prep, args.seed, args.max_iterations, show, rep)?,
     };
 
-    // does the identified model leave structure in its residual?
-    let (point_params, point_effects) = with::identified_point(
-        prep.problem.base_params(),
-        prep.problem.base_effects(),
-        &estimate.params,
-    )?;
-    let adequacy = diagnose::adequacy(
-        &prep.loaded.trial,
-        prep.unloaded.as_ref(),
-        &point_params,
-        &point_effects,
-        prep.problem.free(),
-        &with::settings(prep.options),
-    )
-    .map_err(|e| e.to_string());
-    let adequacy_lines = with::adequacy_lines(&adequacy, None);
-    let checks = super::inspect::trial_checks(&prep.loaded);
-    let errors_pct = prep.truth.as_ref().map(|t| errors_pct(&estimate.params, t));
-    let report = IdentifyReport {
-        method: estimate.method.name(),
-        params: estimate.params,
-        rms_nm: estimate.rms_nm,
-        rms_raw_nm: estimate.rms_raw_nm,
-        evaluations: estimate.evaluations,
-        wall_s: estimate.wall_s,
-        sa: estimate.sa,
-        mcmc: estimate.mcmc,
-        with: prep.with.iter().map(|k| k.name()).collect(),
-        effects: (!point_effects.enabled().is_empty()).then(|| point_effects.to_json_value()),
-        adequacy: AdequacyReport::of(&adequacy),
-        emg_crosstalk: prep.crosstalk.clone(),
-        trial: prep.loaded.name.clone(),
-        seed: args.seed,
-        noise: prep.noise.clone(),
-        dynamometer: prep.dynamometer,
-        checks,
-        errors_pct,
-    };
+    let (report, point_params, adequacy_lines) = identify_report(&prep, estimate, args.seed)?;
     let text = serde_json::to_string_pretty(&report).map_err(AppError::internal)? + "\n";
     let path = out.write("identify.json", text.as_bytes())?;
     let mut files = Vec::new();
@@ -460,6 +423,55 @@ pub fn run(args: IdentifyJob, rep: &Reporter) -> AppResult {
         }
     }
     Ok(())
+}
+
+/// `identify.json` of a trial from the method's estimate: the estimate with the structure
+/// test of the identified model's residual, the recording's checks and, with a truth, the
+/// errors; also the identified parameters and the summary's lines on the test.
+fn identify_report(
+    prep: &Prepared,
+    estimate: Estimate,
+    seed: u64,
+) -> AppResult<(IdentifyReport, ModelParams, Vec<String>)> {
+    // does the identified model leave structure in its residual?
+    let (point_params, point_effects) = with::identified_point(
+        prep.problem.base_params(),
+        prep.problem.base_effects(),
+        &estimate.params,
+    )?;
+    let adequacy = diagnose::adequacy(
+        &prep.loaded.trial,
+        prep.unloaded.as_ref(),
+        &point_params,
+        &point_effects,
+        prep.problem.free(),
+        &with::settings(prep.options),
+    )
+    .map_err(|e| e.to_string());
+    let adequacy_lines = with::adequacy_lines(&adequacy, None);
+    let checks = super::inspect::trial_checks(&prep.loaded);
+    let errors_pct = prep.truth.as_ref().map(|t| errors_pct(&estimate.params, t));
+    let report = IdentifyReport {
+        method: estimate.method.name(),
+        params: estimate.params,
+        rms_nm: estimate.rms_nm,
+        rms_raw_nm: estimate.rms_raw_nm,
+        evaluations: estimate.evaluations,
+        wall_s: estimate.wall_s,
+        sa: estimate.sa,
+        mcmc: estimate.mcmc,
+        with: prep.with.iter().map(|k| k.name()).collect(),
+        effects: (!point_effects.enabled().is_empty()).then(|| point_effects.to_json_value()),
+        adequacy: AdequacyReport::of(&adequacy),
+        emg_crosstalk: prep.crosstalk.clone(),
+        trial: prep.loaded.name.clone(),
+        seed,
+        noise: prep.noise.clone(),
+        dynamometer: prep.dynamometer,
+        checks,
+        errors_pct,
+    };
+    Ok((report, point_params, adequacy_lines))
 }
 
 /// What a method estimated: the fields of `identify.json` that depend on the method.

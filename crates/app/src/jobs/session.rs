@@ -227,41 +227,205 @@ fn identified_over(
     Ok((params, effects))
 }
 
-/// A session's trial file as read: the recording (its TA crosstalk removed), its unloaded
-/// run, the geometry its recording map carries, its recording checks (of the file as
-/// recorded) and its crosstalk tests.
-struct LoadedCsv {
-    trial: experiment::Trial,
-    unloaded: Option<experiment::Unloaded>,
-    geometry: Vec<recording::MappedGeometry>,
-    checks: recording::checks::TrialChecks,
-    crosstalk: Vec<diagnose::CrosstalkCheck>,
+/// The model every trial of a session shares: its parameters and effects, the free parameters
+/// with their bounds, and the OpenSim names of its muscles.
+struct SessionModel<'a> {
+    params: ModelParams,
+    effects: Effects,
+    free: &'a [ParamId],
+    bounds: &'a [(f64, f64)],
+    osim: &'a opensim_files::OsimMuscleNames,
 }
 
-/// Reads a session and prepares its trials. `model` may override the session's parameters
-/// (`--params`), effects (`--effects`) and EMG handling; `free` overrides its free parameters.
-pub fn load_session(
-    path: &Path,
+/// The session's parameters and effects: the manifest's, with `--params` (a parameters file,
+/// an `.osim` or CEINMS subject, or an `identify.json`) over them and `--effects` replacing
+/// theirs; with the OpenSim names its model files use.
+fn session_params(
+    manifest: &SessionManifest,
     model: &ModelSettings,
-    free: Option<&[String]>,
-    rep: &Reporter,
-) -> AppResult<LoadedSession> {
-    // a CEINMS trial folder given as `--trial` is a session of one
-    let manifest = if path.is_dir() {
-        SessionManifest::of_recording(path)
-    } else {
-        session::read_session_manifest(path).map_err(AppError::bad)?
-    };
-    let mut read = if path.is_dir() {
-        Vec::new()
-    } else {
-        vec![path.to_path_buf()]
-    };
-    // the recordings first: a CEINMS subject's fixed muscles are those of its trials
-    enum Loaded {
-        Csv(Box<LoadedCsv>),
-        Ceinms(Box<CeinmsModelTrial>),
+    ceinms_muscles: &[String],
+    read: &mut Vec<PathBuf>,
+) -> AppResult<(opensim_files::OsimMuscleNames, ModelParams, Effects)> {
+    let osim = opensim_files::OsimMuscleNames::renamed(
+        manifest
+            .osim_muscles
+            .iter()
+            .map(|(k, v)| (k.as_str(), v.as_str())),
+    )
+    .map_err(|e| AppError::bad(format!("{}: {e}", manifest.path.display())))?;
+    let mut params = ModelParams::nominal();
+    let mut effects_from_params = None;
+    if let Some(p) = &manifest.params {
+        read.push(p.clone());
+        let (pp, e) = load_params_file(p, &osim, ceinms_muscles, &params)?;
+        params = pp;
+        effects_from_params = e;
     }
+    if let Some(p) = &model.params {
+        read.push(p.clone());
+        let (pp, e) = load_params_file(p, &osim, ceinms_muscles, &params)?;
+        params = pp;
+        effects_from_params = e.or(effects_from_params);
+    }
+    let effects_path = model.effects.as_ref().or(manifest.effects.as_ref());
+    let effects = match effects_path {
+        Some(p) => {
+            read.push(p.clone());
+            super::read_effects(p)?
+        }
+        None => effects_from_params.unwrap_or_else(Effects::none),
+    };
+    Ok((osim, params, effects))
+}
+
+/// A free parameter's lower and upper bound.
+type Bounds = (f64, f64);
+
+/// The free parameters (`--free`, else the manifest's, else LST, F0 and α0 of the triceps)
+/// and their bounds (the manifest's, else each parameter's default); a manifest bound of a
+/// parameter that is not free is an error.
+fn free_and_bounds(
+    manifest: &SessionManifest,
+    free: Option<&[String]>,
+    params: &ModelParams,
+    effects: &Effects,
+) -> AppResult<(Vec<ParamId>, Vec<Bounds>)> {
+    let free_names: Option<Vec<String>> =
+        free.map(|f| f.to_vec()).or_else(|| manifest.free.clone());
+    let free: Vec<ParamId> = match free_names {
+        Some(names) => names
+            .iter()
+            .map(|n| ParamId::parse(n).map_err(|e| AppError::bad(format!("--free {n}: {e}"))))
+            .collect::<AppResult<_>>()?,
+        None => ParamId::identified().to_vec(),
+    };
+    let bounds: Vec<(f64, f64)> = free
+        .iter()
+        .map(|id| {
+            let name = id.name();
+            match manifest.bounds.get(&name) {
+                Some(&b) => b,
+                None => id.default_bounds(params, effects),
+            }
+        })
+        .collect();
+    for name in manifest.bounds.keys() {
+        if !free.iter().any(|id| &id.name() == name) {
+            return Err(AppError::bad(format!(
+                "{}: bounds.{name}: not a free parameter of this identification",
+                manifest.path.display()
+            )));
+        }
+    }
+    Ok((free, bounds))
+}
+
+/// A session's trial file as a trial of the session: its model inputs (EMG by the session's
+/// references, its geometry), its torque corrected by its unloaded run, and its problem.
+fn session_csv_trial(
+    entry: &session::SessionTrialEntry,
+    csv: LoadedCsv,
+    model: &ModelSettings,
+    emg: &SessionEmgNormalisation,
+    m: &SessionModel<'_>,
+) -> AppResult<SessionTrial> {
+    let source = entry.source.path().display().to_string();
+    let bad = |e: &dyn std::fmt::Display| AppError::bad(format!("{source}: {e}"));
+    let LoadedCsv {
+        trial,
+        unloaded,
+        geometry: mapped_geometry,
+        checks,
+        crosstalk,
+    } = csv;
+    let opts = experiment::InputOptions {
+        emg_is_envelope: model.emg_is_envelope,
+        knee_angle_deg: entry.knee_angle_deg,
+        ..experiment::InputOptions::default()
+    };
+    let prep = identify_sa::prepare_trial(&trial, unloaded.as_ref(), &opts).map_err(|e| bad(&e))?;
+    let mut inputs = experiment::model_inputs_referenced(&trial, &opts, &emg.references, &source)
+        .map_err(AppError::bad)?;
+    if let Some(g) = &entry.geometry {
+        inputs = with_muscle_analysis(inputs, g, &m.params, m.osim)?;
+    }
+    for g in mapped_geometry {
+        let muscle = g.muscle.clone();
+        inputs = inputs
+            .with_geometry(
+                &muscle,
+                muscle_model::GeometrySeries {
+                    lmt_m: g.lmt_m,
+                    moment_arm_m: g.moment_arm_m,
+                },
+            )
+            .map_err(|e| bad(&format!("lmt_{muscle}_m / ma_{muscle}_m: {e}")))?;
+    }
+    let problem = Problem::new(
+        inputs,
+        prep.problem.measured().to_vec(),
+        m.params,
+        m.effects,
+        m.free.to_vec(),
+    )
+    .and_then(|p| p.with_bounds(m.bounds.to_vec()))
+    .map_err(|e| bad(&e))?;
+    Ok(SessionTrial {
+        name: entry.name.clone(),
+        source,
+        problem,
+        raw_torque: prep.raw_torque,
+        correction: prep.correction,
+        ceinms: None,
+        checks: Some(checks),
+        crosstalk,
+    })
+}
+
+/// A CEINMS trial folder as a trial of the session (its moment weighted where it is judged).
+fn session_ceinms_trial(
+    entry: &session::SessionTrialEntry,
+    c: CeinmsModelTrial,
+    m: &SessionModel<'_>,
+) -> AppResult<SessionTrial> {
+    let source = entry.source.path().display().to_string();
+    let bad = |e: &dyn std::fmt::Display| AppError::bad(format!("{source}: {e}"));
+    let problem = Problem::new(
+        c.inputs.clone(),
+        c.torque_nm.clone(),
+        m.params,
+        m.effects,
+        m.free.to_vec(),
+    )
+    .and_then(|p| p.with_bounds(m.bounds.to_vec()))
+    .and_then(|p| p.with_weights(c.weights.clone()))
+    .map_err(|e| bad(&e))?;
+    Ok(SessionTrial {
+        name: entry.name.clone(),
+        source,
+        problem,
+        raw_torque: c.torque_nm.clone(),
+        correction: None,
+        ceinms: Some(c),
+        checks: None,
+        crosstalk: Vec::new(),
+    })
+}
+
+/// A session's trial as read: a trial file (CSV or recording map) or a CEINMS trial folder.
+enum Loaded {
+    Csv(Box<LoadedCsv>),
+    Ceinms(Box<CeinmsModelTrial>),
+}
+
+/// Reads every trial of `manifest` (adding the files read to `read`), and the muscles of its
+/// CEINMS trials.
+fn load_recordings(
+    manifest: &SessionManifest,
+    model: &ModelSettings,
+    read: &mut Vec<PathBuf>,
+    rep: &Reporter,
+) -> AppResult<(Vec<Loaded>, Vec<String>)> {
     let mut loaded = Vec::with_capacity(manifest.trials.len());
     let mut ceinms_muscles: Vec<String> = Vec::new();
     for t in &manifest.trials {
@@ -297,58 +461,107 @@ pub fn load_session(
                 )));
             }
             TrialSource::Csv(_) | TrialSource::Recording(_) => {
-                let (mut trial, geometry) = read_session_trial(p, model, rep)?;
-                // the recording as recorded is what its checks judge
-                let checks = super::inspect::trial_checks(&super::LoadedTrial {
-                    trial: trial.clone(),
-                    name: p.display().to_string(),
-                    path: Some(p.to_path_buf()),
-                    data_files: Vec::new(),
-                    emg_is_envelope: model.emg_is_envelope,
-                });
-                // the TA's crosstalk leaves the raw triceps EMG before the session's EMG
-                // references are taken from it, as it leaves a single trial's
-                let settings = diagnose::DiagnoseSettings {
-                    input_options: experiment::InputOptions {
-                        emg_is_envelope: model.emg_is_envelope,
-                        ..experiment::InputOptions::default()
-                    },
-                    ..diagnose::DiagnoseSettings::default()
-                };
-                let crosstalk = diagnose::emg_crosstalk(&trial, &settings).map_err(|e| {
-                    AppError::bad(format!(
-                        "{}: trial {}: {e}",
-                        manifest.path.display(),
-                        t.name
-                    ))
-                })?;
-                if let Some(c) = diagnose::remove_crosstalk(&trial, &crosstalk) {
-                    trial = c;
-                }
-                let unloaded = match &t.unloaded {
-                    Some(u) => {
-                        read.push(u.clone());
-                        let un = super::read_unloaded_any(u, rep)?;
-                        super::check_unloaded(
-                            &trial,
-                            &p.display().to_string(),
-                            &un,
-                            &u.display().to_string(),
-                        )?;
-                        Some(un)
-                    }
-                    None => None,
-                };
-                loaded.push(Loaded::Csv(Box::new(LoadedCsv {
-                    trial,
-                    unloaded,
-                    geometry,
-                    checks,
-                    crosstalk,
-                })));
+                let csv = load_csv_trial(manifest, t, model, read, rep)?;
+                loaded.push(Loaded::Csv(Box::new(csv)));
             }
         }
     }
+    Ok((loaded, ceinms_muscles))
+}
+
+/// Reads a session's trial file (a CSV or recording map) with its unloaded run, checks it as
+/// recorded, and removes the TA's crosstalk from its raw triceps EMG.
+fn load_csv_trial(
+    manifest: &SessionManifest,
+    t: &session::SessionTrialEntry,
+    model: &ModelSettings,
+    read: &mut Vec<PathBuf>,
+    rep: &Reporter,
+) -> AppResult<LoadedCsv> {
+    let p = t.source.path();
+    let (mut trial, geometry) = read_session_trial(p, model, rep)?;
+    // the recording as recorded is what its checks judge
+    let checks = super::inspect::trial_checks(&super::LoadedTrial {
+        trial: trial.clone(),
+        name: p.display().to_string(),
+        path: Some(p.to_path_buf()),
+        data_files: Vec::new(),
+        emg_is_envelope: model.emg_is_envelope,
+    });
+    // the TA's crosstalk leaves the raw triceps EMG before the session's EMG
+    // references are taken from it, as it leaves a single trial's
+    let settings = diagnose::DiagnoseSettings {
+        input_options: experiment::InputOptions {
+            emg_is_envelope: model.emg_is_envelope,
+            ..experiment::InputOptions::default()
+        },
+        ..diagnose::DiagnoseSettings::default()
+    };
+    let crosstalk = diagnose::emg_crosstalk(&trial, &settings).map_err(|e| {
+        AppError::bad(format!(
+            "{}: trial {}: {e}",
+            manifest.path.display(),
+            t.name
+        ))
+    })?;
+    if let Some(c) = diagnose::remove_crosstalk(&trial, &crosstalk) {
+        trial = c;
+    }
+    let unloaded = match &t.unloaded {
+        Some(u) => {
+            read.push(u.clone());
+            let un = super::read_unloaded_any(u, rep)?;
+            super::check_unloaded(
+                &trial,
+                &p.display().to_string(),
+                &un,
+                &u.display().to_string(),
+            )?;
+            Some(un)
+        }
+        None => None,
+    };
+    Ok(LoadedCsv {
+        trial,
+        unloaded,
+        geometry,
+        checks,
+        crosstalk,
+    })
+}
+
+/// A session's trial file as read: the recording (its TA crosstalk removed), its unloaded
+/// run, the geometry its recording map carries, its recording checks (of the file as
+/// recorded) and its crosstalk tests.
+struct LoadedCsv {
+    trial: experiment::Trial,
+    unloaded: Option<experiment::Unloaded>,
+    geometry: Vec<recording::MappedGeometry>,
+    checks: recording::checks::TrialChecks,
+    crosstalk: Vec<diagnose::CrosstalkCheck>,
+}
+
+/// Reads a session and prepares its trials. `model` may override the session's parameters
+/// (`--params`), effects (`--effects`) and EMG handling; `free` overrides its free parameters.
+pub fn load_session(
+    path: &Path,
+    model: &ModelSettings,
+    free: Option<&[String]>,
+    rep: &Reporter,
+) -> AppResult<LoadedSession> {
+    // a CEINMS trial folder given as `--trial` is a session of one
+    let manifest = if path.is_dir() {
+        SessionManifest::of_recording(path)
+    } else {
+        session::read_session_manifest(path).map_err(AppError::bad)?
+    };
+    let mut read = if path.is_dir() {
+        Vec::new()
+    } else {
+        vec![path.to_path_buf()]
+    };
+    // the recordings first: a CEINMS subject's fixed muscles are those of its trials
+    let (loaded, ceinms_muscles) = load_recordings(&manifest, model, &mut read, rep)?;
 
     let csv_trials: Vec<(&str, &experiment::Trial)> = manifest
         .trials
@@ -362,145 +575,21 @@ pub fn load_session(
     let emg = session_emg_references(&manifest, &csv_trials, model, &mut read, rep)?;
 
     // parameters: the session's, replaced by --params or with an identify.json over them
-    let osim = opensim_files::OsimMuscleNames::renamed(
-        manifest
-            .osim_muscles
-            .iter()
-            .map(|(k, v)| (k.as_str(), v.as_str())),
-    )
-    .map_err(|e| AppError::bad(format!("{}: {e}", manifest.path.display())))?;
-    let mut params = ModelParams::nominal();
-    let mut effects_from_params = None;
-    if let Some(p) = &manifest.params {
-        read.push(p.clone());
-        let (pp, e) = load_params_file(p, &osim, &ceinms_muscles, &params)?;
-        params = pp;
-        effects_from_params = e;
-    }
-    if let Some(p) = &model.params {
-        read.push(p.clone());
-        let (pp, e) = load_params_file(p, &osim, &ceinms_muscles, &params)?;
-        params = pp;
-        effects_from_params = e.or(effects_from_params);
-    }
-    let effects_path = model.effects.as_ref().or(manifest.effects.as_ref());
-    let effects = match effects_path {
-        Some(p) => {
-            read.push(p.clone());
-            super::read_effects(p)?
-        }
-        None => effects_from_params.unwrap_or_else(Effects::none),
+    let (osim, params, effects) = session_params(&manifest, model, &ceinms_muscles, &mut read)?;
+    let (free, bounds) = free_and_bounds(&manifest, free, &params, &effects)?;
+    let shared = SessionModel {
+        params,
+        effects,
+        free: &free,
+        bounds: &bounds,
+        osim: &osim,
     };
-    let free_names: Option<Vec<String>> =
-        free.map(|f| f.to_vec()).or_else(|| manifest.free.clone());
-    let free: Vec<ParamId> = match free_names {
-        Some(names) => names
-            .iter()
-            .map(|n| ParamId::parse(n).map_err(|e| AppError::bad(format!("--free {n}: {e}"))))
-            .collect::<AppResult<_>>()?,
-        None => ParamId::identified().to_vec(),
-    };
-    let bounds: Vec<(f64, f64)> = free
-        .iter()
-        .map(|id| {
-            let name = id.name();
-            match manifest.bounds.get(&name) {
-                Some(&b) => b,
-                None => id.default_bounds(&params, &effects),
-            }
-        })
-        .collect();
-    for name in manifest.bounds.keys() {
-        if !free.iter().any(|id| &id.name() == name) {
-            return Err(AppError::bad(format!(
-                "{}: bounds.{name}: not a free parameter of this identification",
-                manifest.path.display()
-            )));
-        }
-    }
-
     let mut trials = Vec::with_capacity(loaded.len());
     for (entry, l) in manifest.trials.iter().zip(loaded) {
-        let source = entry.source.path().display().to_string();
-        let bad = |e: &dyn std::fmt::Display| AppError::bad(format!("{source}: {e}"));
-        let trial = match l {
-            Loaded::Csv(csv) => {
-                let LoadedCsv {
-                    trial,
-                    unloaded,
-                    geometry: mapped_geometry,
-                    checks,
-                    crosstalk,
-                } = *csv;
-                let opts = experiment::InputOptions {
-                    emg_is_envelope: model.emg_is_envelope,
-                    knee_angle_deg: entry.knee_angle_deg,
-                    ..experiment::InputOptions::default()
-                };
-                let prep = identify_sa::prepare_trial(&trial, unloaded.as_ref(), &opts)
-                    .map_err(|e| bad(&e))?;
-                let mut inputs =
-                    experiment::model_inputs_referenced(&trial, &opts, &emg.references, &source)
-                        .map_err(AppError::bad)?;
-                if let Some(g) = &entry.geometry {
-                    inputs = with_muscle_analysis(inputs, g, &params, &osim)?;
-                }
-                for g in mapped_geometry {
-                    let muscle = g.muscle.clone();
-                    inputs = inputs
-                        .with_geometry(
-                            &muscle,
-                            muscle_model::GeometrySeries {
-                                lmt_m: g.lmt_m,
-                                moment_arm_m: g.moment_arm_m,
-                            },
-                        )
-                        .map_err(|e| bad(&format!("lmt_{muscle}_m / ma_{muscle}_m: {e}")))?;
-                }
-                let problem = Problem::new(
-                    inputs,
-                    prep.problem.measured().to_vec(),
-                    params,
-                    effects,
-                    free.clone(),
-                )
-                .and_then(|p| p.with_bounds(bounds.clone()))
-                .map_err(|e| bad(&e))?;
-                SessionTrial {
-                    name: entry.name.clone(),
-                    source,
-                    problem,
-                    raw_torque: prep.raw_torque,
-                    correction: prep.correction,
-                    ceinms: None,
-                    checks: Some(checks),
-                    crosstalk,
-                }
-            }
-            Loaded::Ceinms(c) => {
-                let problem = Problem::new(
-                    c.inputs.clone(),
-                    c.torque_nm.clone(),
-                    params,
-                    effects,
-                    free.clone(),
-                )
-                .and_then(|p| p.with_bounds(bounds.clone()))
-                .and_then(|p| p.with_weights(c.weights.clone()))
-                .map_err(|e| bad(&e))?;
-                SessionTrial {
-                    name: entry.name.clone(),
-                    source,
-                    problem,
-                    raw_torque: c.torque_nm.clone(),
-                    correction: None,
-                    ceinms: Some(*c),
-                    checks: None,
-                    crosstalk: Vec::new(),
-                }
-            }
-        };
-        trials.push(trial);
+        trials.push(match l {
+            Loaded::Csv(csv) => session_csv_trial(entry, *csv, model, &emg, &shared)?,
+            Loaded::Ceinms(c) => session_ceinms_trial(entry, *c, &shared)?,
+        });
     }
     Ok(LoadedSession {
         manifest,

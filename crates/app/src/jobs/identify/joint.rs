@@ -8,8 +8,8 @@
 
 use super::super::session::{file_stem, load_session, LoadedSession};
 use super::{
-    AdequacyReport, IdentifyJob, SaChainsReport, SessionAdequacyReport, SessionContextReport,
-    SessionIdentifyReport, SessionSaChainsReport, SessionTrialReport,
+    AdequacyReport, IdentifyJob, McmcTrialReport, SaChainsReport, SessionAdequacyReport,
+    SessionContextReport, SessionIdentifyReport, SessionSaChainsReport, SessionTrialReport,
 };
 use crate::error::{AppError, AppResult};
 use crate::figures::{self, FigureSet};
@@ -82,34 +82,7 @@ pub(super) fn run(
         .params_from_vector(&fit.x)
         .map_err(|e| AppError::internal(e.to_string()))?;
     let adequacy = trials_adequacy(&session, &params, &effects, set.free(), rep);
-    let mut trials = Vec::with_capacity(session.trials.len());
-    let mut predictions = Vec::with_capacity(session.trials.len());
-    let start = set.base_vector();
-    for (t, a) in session.trials.iter().zip(&adequacy) {
-        let failed = |e: muscle_model::ModelError| {
-            AppError::bad(format!("{}: simulation of the fit failed: {e}", t.source))
-        };
-        let pred = t.problem.predict(&fit.x).map_err(failed)?;
-        let (rms, r2) = t.fit_of(&pred)?;
-        // the session's own parameters, for comparison (e.g. a CEINMS calibration)
-        let base = t.problem.predict(&start).map_err(failed)?;
-        let (rms0, r20) = t.fit_of(&base)?;
-        trials.push(SessionTrialReport {
-            name: t.name.clone(),
-            source: t.source.clone(),
-            rms_nm: rms,
-            r2,
-            start_rms_nm: Some(rms0),
-            start_r2: Some(r20),
-            rms_raw_nm: None,
-            noise_model: None,
-            dynamometer: t.dynamometer(),
-            checks: t.checks.clone(),
-            emg_crosstalk: t.crosstalk.clone(),
-            adequacy: AdequacyReport::of(a),
-        });
-        predictions.push((pred, base));
-    }
+    let (trials, predictions) = sa_trials(&session, &set, &fit.x, &adequacy)?;
     let adequacy_lines = adequacy_lines(&session, &adequacy);
     let (errors_pct, truth_lines) = session_errors(&fit.params, truth.as_ref());
     let doc = SessionIdentifyReport {
@@ -161,50 +134,8 @@ pub(super) fn run(
     rep.print_json(&text);
     if show {
         let say = |s: &str| rep.say(s);
-        say(&format!(
-            "identify (sa): session {} — {} trials, {} evaluations in {:.1} s",
-            session_path.display(),
-            session.trials.len(),
-            fit.evaluations,
-            fit.wall_s
-        ));
-        for l in session
-            .emg
-            .summary_lines()
-            .into_iter()
-            .chain(session.crosstalk_lines())
-        {
+        for l in sa_summary_lines(session_path, &session, &fit, &set, &doc) {
             say(&l);
-        }
-        say(&format!(
-            "  chains' RMS: {} N·m (best: chain {})",
-            fit.chains
-                .iter()
-                .map(|c| format!("{:.2}", (c.cost / set.weight_sum()).sqrt()))
-                .collect::<Vec<_>>()
-                .join(", "),
-            fit.best_chain
-        ));
-        say("  trial                     RMS (N·m)     R²   at the session's parameters");
-        for t in &doc.trials {
-            say(&format!(
-                "  {:<24} {:>9.2} {:>8.3}   {:>9.2} {:>8.3}",
-                t.name,
-                t.rms_nm,
-                t.r2,
-                t.start_rms_nm.unwrap_or(f64::NAN),
-                t.start_r2.unwrap_or(f64::NAN)
-            ));
-        }
-        say("  parameter                      estimate    bounds");
-        for (i, name) in set.names().iter().enumerate() {
-            let (lo, hi) = set.bounds()[i];
-            let v = fit.x[i];
-            let at_bound = (v - lo).abs() <= 1e-6 * (hi - lo) || (hi - v).abs() <= 1e-6 * (hi - lo);
-            say(&format!(
-                "  {name:<30} {v:>12.5}    [{lo:.5}, {hi:.5}]{}",
-                if at_bound { "  at bound" } else { "" }
-            ));
         }
         for l in truth_lines.iter().chain(&adequacy_lines) {
             say(l);
@@ -217,6 +148,148 @@ pub(super) fn run(
         ));
     }
     Ok(())
+}
+
+/// Each trial's prediction at the estimate `x` and at the session's own parameters (the
+/// figures draw both), with the fit of each.
+type Predictions = Vec<(Vec<f64>, Vec<f64>)>;
+
+/// Each trial's fit at the SA estimate `x`, against its fit at the session's own parameters,
+/// with its structure test; and the predictions drawn.
+fn sa_trials(
+    session: &LoadedSession,
+    set: &muscle_model::ProblemSet,
+    x: &[f64],
+    adequacy: &[Result<diagnose::Adequacy, String>],
+) -> AppResult<(Vec<SessionTrialReport>, Predictions)> {
+    let mut trials = Vec::with_capacity(session.trials.len());
+    let mut predictions = Vec::with_capacity(session.trials.len());
+    let start = set.base_vector();
+    for (t, a) in session.trials.iter().zip(adequacy) {
+        let failed = |e: muscle_model::ModelError| {
+            AppError::bad(format!("{}: simulation of the fit failed: {e}", t.source))
+        };
+        let pred = t.problem.predict(x).map_err(failed)?;
+        let (rms, r2) = t.fit_of(&pred)?;
+        // the session's own parameters, for comparison (e.g. a CEINMS calibration)
+        let base = t.problem.predict(&start).map_err(failed)?;
+        let (rms0, r20) = t.fit_of(&base)?;
+        trials.push(SessionTrialReport {
+            name: t.name.clone(),
+            source: t.source.clone(),
+            rms_nm: rms,
+            r2,
+            start_rms_nm: Some(rms0),
+            start_r2: Some(r20),
+            rms_raw_nm: None,
+            noise_model: None,
+            dynamometer: t.dynamometer(),
+            checks: t.checks.clone(),
+            emg_crosstalk: t.crosstalk.clone(),
+            adequacy: AdequacyReport::of(a),
+        });
+        predictions.push((pred, base));
+    }
+    Ok((trials, predictions))
+}
+
+/// Each trial's fit at the posterior mean (as a session's trial and as the sampler's), with its
+/// structure test; and the predictions drawn, at the mean and at the session's own parameters.
+fn mcmc_trials(
+    session: &LoadedSession,
+    m: &identify_mcmc::McmcIdentification,
+    (mean, start): (&[f64], &[f64]),
+    adequacy: &[Result<diagnose::Adequacy, String>],
+) -> AppResult<(Vec<SessionTrialReport>, Vec<McmcTrialReport>, Predictions)> {
+    let mut fits = Vec::with_capacity(session.trials.len());
+    let mut trials = Vec::with_capacity(session.trials.len());
+    let mut predictions = Vec::with_capacity(session.trials.len());
+    for ((t, fit), a) in session.trials.iter().zip(&m.trials).zip(adequacy) {
+        let failed = |e: muscle_model::ModelError| {
+            AppError::bad(format!(
+                "{}: simulation of the posterior mean failed: {e}",
+                t.source
+            ))
+        };
+        let pred = t.problem.predict(mean).map_err(failed)?;
+        let entry = super::mcmc::trial_entry(&t.name, fit, t.fit_of(&pred)?);
+        trials.push(SessionTrialReport {
+            name: entry.name.clone(),
+            source: t.source.clone(),
+            rms_nm: entry.rms_nm,
+            r2: entry.r2,
+            start_rms_nm: None,
+            start_r2: None,
+            rms_raw_nm: Some(entry.rms_raw_nm),
+            noise_model: Some(entry.noise_model),
+            dynamometer: t.dynamometer(),
+            checks: t.checks.clone(),
+            emg_crosstalk: t.crosstalk.clone(),
+            adequacy: AdequacyReport::of(a),
+        });
+        fits.push(entry);
+        let base = t.problem.predict(start).map_err(failed)?;
+        predictions.push((pred, base));
+    }
+    Ok((trials, fits, predictions))
+}
+
+/// The summary of a session's SA identification: the run, the EMG, the chains, each trial's
+/// fit and the estimate against its bounds.
+fn sa_summary_lines(
+    session_path: &Path,
+    session: &LoadedSession,
+    fit: &identify_sa::Identification,
+    set: &muscle_model::ProblemSet,
+    doc: &SessionIdentifyReport,
+) -> Vec<String> {
+    let mut lines = Vec::new();
+    lines.push(format!(
+        "identify (sa): session {} — {} trials, {} evaluations in {:.1} s",
+        session_path.display(),
+        session.trials.len(),
+        fit.evaluations,
+        fit.wall_s
+    ));
+    for l in session
+        .emg
+        .summary_lines()
+        .into_iter()
+        .chain(session.crosstalk_lines())
+    {
+        lines.push(l);
+    }
+    lines.push(format!(
+        "  chains' RMS: {} N·m (best: chain {})",
+        fit.chains
+            .iter()
+            .map(|c| format!("{:.2}", (c.cost / set.weight_sum()).sqrt()))
+            .collect::<Vec<_>>()
+            .join(", "),
+        fit.best_chain
+    ));
+    lines.push("  trial                     RMS (N·m)     R²   at the session's parameters".into());
+    for t in &doc.trials {
+        lines.push(format!(
+            "  {:<24} {:>9.2} {:>8.3}   {:>9.2} {:>8.3}",
+            t.name,
+            t.rms_nm,
+            t.r2,
+            t.start_rms_nm.unwrap_or(f64::NAN),
+            t.start_r2.unwrap_or(f64::NAN)
+        ));
+    }
+    lines.push("  parameter                      estimate    bounds".into());
+    for (i, name) in set.names().iter().enumerate() {
+        let (lo, hi) = set.bounds()[i];
+        let v = fit.x[i];
+        let at_bound = (v - lo).abs() <= 1e-6 * (hi - lo) || (hi - v).abs() <= 1e-6 * (hi - lo);
+        lines.push(format!(
+            "  {name:<30} {v:>12.5}    [{lo:.5}, {hi:.5}]{}",
+            if at_bound { "  at bound" } else { "" }
+        ));
+    }
+    lines
 }
 
 /// The per-trial fit figures (and, for MCMC, the posterior's) and `report.html`.
@@ -621,36 +694,7 @@ fn run_mcmc(
         .params_from_vector(&mean)
         .map_err(|e| AppError::internal(e.to_string()))?;
     let adequacy = trials_adequacy(&session, &params, &effects, set.free(), rep);
-    let mut fits = Vec::with_capacity(session.trials.len());
-    let mut trials = Vec::with_capacity(session.trials.len());
-    let mut predictions = Vec::with_capacity(session.trials.len());
-    for ((t, fit), a) in session.trials.iter().zip(&m.trials).zip(&adequacy) {
-        let failed = |e: muscle_model::ModelError| {
-            AppError::bad(format!(
-                "{}: simulation of the posterior mean failed: {e}",
-                t.source
-            ))
-        };
-        let pred = t.problem.predict(&mean).map_err(failed)?;
-        let entry = super::mcmc::trial_entry(&t.name, fit, t.fit_of(&pred)?);
-        trials.push(SessionTrialReport {
-            name: entry.name.clone(),
-            source: t.source.clone(),
-            rms_nm: entry.rms_nm,
-            r2: entry.r2,
-            start_rms_nm: None,
-            start_r2: None,
-            rms_raw_nm: Some(entry.rms_raw_nm),
-            noise_model: Some(entry.noise_model),
-            dynamometer: t.dynamometer(),
-            checks: t.checks.clone(),
-            emg_crosstalk: t.crosstalk.clone(),
-            adequacy: AdequacyReport::of(a),
-        });
-        fits.push(entry);
-        let base = t.problem.predict(&start).map_err(failed)?;
-        predictions.push((pred, base));
-    }
+    let (trials, fits, predictions) = mcmc_trials(&session, &m, (&mean, &start), &adequacy)?;
     let lines = super::mcmc::summary_lines(
         &format!("session {what}, {} trials", session.trials.len()),
         &m,
