@@ -9,7 +9,6 @@ use design::{
     trial_informations, uncertainty_of, DesignNoise, DesignProtocol, DesignSettings,
     OffsetTreatment, ProtocolUncertainty,
 };
-use serde_json::Value;
 
 use super::{load_model_config, ModelSettings};
 use crate::error::{AppError, AppResult};
@@ -82,11 +81,8 @@ pub fn run(args: DesignJob, rep: &Reporter) -> AppResult {
         params.fixed = Default::default();
     }
     let (noise, noise_source) = match &args.unloaded {
-        Some(p) => (
-            noise_of_unloaded(p, rep)?,
-            Value::from(p.display().to_string()),
-        ),
-        None => (DesignNoise::synthetic(), Value::from("synthetic")),
+        Some(p) => (noise_of_unloaded(p, rep)?, p.display().to_string()),
+        None => (DesignNoise::synthetic(), "synthetic".to_string()),
     };
     let offset = if args.offset_sd > 0.0 {
         OffsetTreatment::Prior {
@@ -142,7 +138,7 @@ pub fn run(args: DesignJob, rep: &Reporter) -> AppResult {
             .map(|(u, k)| ProtocolReport::of(u, k))
             .collect(),
         noise: DesignNoiseReport {
-            source: noise_source.to_string(),
+            source: noise_source.clone(),
             ar1_sd_nm: noise.ar1_sd_nm,
             ar1_corr_time_s: noise.ar1_corr_time_s,
             white_sd_nm: noise.white_sd_nm,
@@ -169,6 +165,38 @@ pub fn run(args: DesignJob, rep: &Reporter) -> AppResult {
         .iter()
         .map(|q| short_label(&q.name))
         .collect();
+    write_design_figure(&out, &rows, &names, rep)?;
+
+    rep.print_json(&text);
+    rep.say(&format!(
+        "design: expected posterior sd, % of the value at the design point ({}; noise {}: AR(1) \
+         {:.2} N·m, {:.3} s, white {:.2} N·m; offset prior sd {} N·m)",
+        args.params
+            .as_deref()
+            .map_or_else(|| "nominal".to_string(), |p| p.display().to_string()),
+        noise_source,
+        noise.ar1_sd_nm,
+        noise.ar1_corr_time_s,
+        noise.white_sd_nm,
+        args.offset_sd
+    ));
+    for line in table(&rows, &names) {
+        rep.say(&line);
+    }
+    rep.say(&format!(
+        "  (* = not identifiable: sd with the bounds' prior above half the prior sd)\n  wrote {}",
+        json_path.display()
+    ));
+    Ok(())
+}
+
+/// `design.svg`: each protocol's expected sd of every parameter (`names`), beside the prior's.
+fn write_design_figure(
+    out: &OutDir,
+    rows: &[ProtocolUncertainty],
+    names: &[String],
+    rep: &Reporter,
+) -> AppResult {
     let name_refs: Vec<&str> = names.iter().map(String::as_str).collect();
     let sds: Vec<Vec<f64>> = rows
         .iter()
@@ -189,27 +217,6 @@ pub fn run(args: DesignJob, rep: &Reporter) -> AppResult {
         }
         Err(e) => rep.warn(format!("figure design not drawn: {e}")),
     }
-
-    rep.print_json(&text);
-    rep.say(&format!(
-        "design: expected posterior sd, % of the value at the design point ({}; noise {}: AR(1) \
-         {:.2} N·m, {:.3} s, white {:.2} N·m; offset prior sd {} N·m)",
-        args.params
-            .as_deref()
-            .map_or_else(|| "nominal".to_string(), |p| p.display().to_string()),
-        noise_source.as_str().unwrap_or("synthetic"),
-        noise.ar1_sd_nm,
-        noise.ar1_corr_time_s,
-        noise.white_sd_nm,
-        args.offset_sd
-    ));
-    for line in table(&rows, &names) {
-        rep.say(&line);
-    }
-    rep.say(&format!(
-        "  (* = not identifiable: sd with the bounds' prior above half the prior sd)\n  wrote {}",
-        json_path.display()
-    ));
     Ok(())
 }
 

@@ -10,41 +10,9 @@ use diagnose::Diagnosis;
 use std::ops::Range;
 use std::path::PathBuf;
 
-/// The figures and `report.html` of a diagnosis, drawn over the samples `span` (the compared
-/// samples of a recording whose torque starts after its EMG). The residual against the angle
-/// is left out for a recording without a joint angle; the flexible terms are drawn when the
-/// diagnosis has them. The report ends with `closing`. A figure of [`PLANNED`] this run did
-/// not draw is removed from `out`.
-// every figure of the report draws from its own series
-#[allow(clippy::too_many_arguments)]
-pub(super) fn write_figures(
-    out: &OutDir,
-    name: &str,
-    measured_all: &[f64],
-    inputs: &muscle_model::TrialInputs,
-    d: &Diagnosis,
-    span: Range<usize>,
-    closing: &Closing,
-    rep: &Reporter,
-) -> AppResult<Vec<PathBuf>> {
-    let s = &d.residual_analysis.series;
-    let time = &s.time_s[span.clone()];
-    let measured = &measured_all[span.clone()];
-    let baseline_residual = &s.baseline_residual_nm[span.clone()];
-    let extended_residual = &s.extended_residual_nm[span.clone()];
-    // predictions of the measured torque: measured − residual (model + the
-    // dynamometer's cycle-locked error)
-    let baseline: Vec<f64> = measured
-        .iter()
-        .zip(baseline_residual)
-        .map(|(m, r)| m - r)
-        .collect();
-    let extended: Vec<f64> = measured
-        .iter()
-        .zip(extended_residual)
-        .map(|(m, r)| m - r)
-        .collect();
-    let mut set = FigureSet::new(out, &format!("surae diagnose — {name}"), rep);
+/// The report's text: the diagnosis in words, what could not be tested, the summary, the
+/// candidates and the final model's parameters.
+fn diagnosis_pages(set: &mut FigureSet<'_>, d: &Diagnosis) -> AppResult {
     let causes: Vec<&str> = d.causes.iter().map(|c| c.as_str()).collect();
     let mut effect_labels: Vec<(String, f64)> = Vec::new();
     if let Some(effects) = &d.extended.effects {
@@ -135,7 +103,45 @@ pub(super) fn write_figures(
             &parameter_rows(&d.extended),
         )
         .map_err(|e| AppError::internal(e.to_string()))?;
+    Ok(())
+}
 
+/// The figures and `report.html` of a diagnosis, drawn over the samples `span` (the compared
+/// samples of a recording whose torque starts after its EMG). The residual against the angle
+/// is left out for a recording without a joint angle; the flexible terms are drawn when the
+/// diagnosis has them. The report ends with `closing`. A figure of [`PLANNED`] this run did
+/// not draw is removed from `out`.
+// every figure of the report draws from its own series
+#[allow(clippy::too_many_arguments)]
+pub(super) fn write_figures(
+    out: &OutDir,
+    name: &str,
+    measured_all: &[f64],
+    inputs: &muscle_model::TrialInputs,
+    d: &Diagnosis,
+    span: Range<usize>,
+    closing: &Closing,
+    rep: &Reporter,
+) -> AppResult<Vec<PathBuf>> {
+    let s = &d.residual_analysis.series;
+    let time = &s.time_s[span.clone()];
+    let measured = &measured_all[span.clone()];
+    let baseline_residual = &s.baseline_residual_nm[span.clone()];
+    let extended_residual = &s.extended_residual_nm[span.clone()];
+    // predictions of the measured torque: measured − residual (model + the
+    // dynamometer's cycle-locked error)
+    let baseline: Vec<f64> = measured
+        .iter()
+        .zip(baseline_residual)
+        .map(|(m, r)| m - r)
+        .collect();
+    let extended: Vec<f64> = measured
+        .iter()
+        .zip(extended_residual)
+        .map(|(m, r)| m - r)
+        .collect();
+    let mut set = FigureSet::new(out, &format!("surae diagnose — {name}"), rep);
+    diagnosis_pages(&mut set, d)?;
     let angle = &s.angle_deg[span.clone()];
     let env: Vec<(&str, &[f64])> = figures::envelopes(inputs)
         .into_iter()
