@@ -143,7 +143,9 @@ impl Annealer {
                     Some(v) => self.f = v,
                     None => {
                         self.failed += 1;
-                        return Err(Error::StartEvaluationFailed);
+                        return Err(Error::Numerics(
+                            numerics::NumericsError::StartEvaluationFailed,
+                        ));
                     }
                 }
             }

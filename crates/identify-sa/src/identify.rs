@@ -174,14 +174,14 @@ impl SaIdentifySettings {
     /// Check every field.
     ///
     /// # Errors
-    /// [`Error::InvalidSetting`] naming the first invalid field.
+    /// [`Error::Numerics`] ([`numerics::NumericsError::InvalidSetting`]) naming the first invalid field.
     pub fn validate(self) -> Result<Self, Error> {
         if self.chains == 0 {
-            return Err(Error::InvalidSetting {
+            return Err(Error::Numerics(numerics::NumericsError::InvalidSetting {
                 name: "chains",
                 value: 0.0,
                 reason: "must be at least 1",
-            });
+            }));
         }
         self.annealer.validate()?;
         self.polish.validate()?;
