@@ -172,7 +172,7 @@ fn phase_bins(ph: &[PhaseLabel], r: &[f64], seen: &dyn Fn(usize) -> bool) -> Vec
                 label: Some(p.name().into()),
                 n,
                 mean_nm: v.iter().sum::<f64>() / n as f64,
-                rms_nm: (v.iter().map(|x| x * x).sum::<f64>() / n as f64).sqrt(),
+                rms_nm: numerics::rms(&v),
             })
         })
         .collect()
