@@ -2,6 +2,7 @@
 
 /// Everything that can go wrong when setting up or running an optimisation.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum Error {
     /// No random start point could be evaluated.
     #[error("the objective failed at {attempts} random start points")]
