@@ -106,7 +106,7 @@ pub struct RunResult {
 }
 
 impl RunResult {
-    /// The chains of parameter `param` as slices, ready for [`diagnostics`].
+    /// The chains of parameter `param` as slices, ready for [`crate::diagnostics`].
     ///
     /// # Panics
     /// If `param >= dim`.
