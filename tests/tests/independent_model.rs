@@ -70,9 +70,7 @@ fn random_effects() -> Effects {
 
 /// RMS and maximum of `a − b`.
 fn rms_max(a: &[f64], b: &[f64]) -> (f64, f64) {
-    assert_eq!(a.len(), b.len());
-    let n = a.len() as f64;
-    let rms = (a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>() / n).sqrt();
+    let rms = numerics::rms_diff(a, b);
     let max = a
         .iter()
         .zip(b)

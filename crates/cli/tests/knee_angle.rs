@@ -29,12 +29,6 @@ fn simulated_torque(path: &Path) -> Vec<f64> {
         .collect()
 }
 
-fn rms_difference(a: &[f64], b: &[f64]) -> f64 {
-    assert_eq!(a.len(), b.len());
-    let s: f64 = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum();
-    (s / a.len() as f64).sqrt()
-}
-
 /// Files under `dir`, for "nothing written" checks.
 fn listing(dir: &Path) -> Vec<PathBuf> {
     let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
@@ -112,7 +106,7 @@ fn simulate_at_90_degrees_of_knee_flexion_changes_the_torque() {
     assert!(o.status.success(), "{}", stderr_of(&o));
     let extended = simulated_torque(&dir.path().join("extended.csv"));
     let flexed = simulated_torque(&dir.path().join("flexed.csv"));
-    let d = rms_difference(&extended, &flexed);
+    let d = numerics::rms_diff(&extended, &flexed);
     assert!(d > 1.0, "RMS torque change at 90° knee flexion {d} N·m");
     let peak = |v: &[f64]| v.iter().copied().fold(f64::MIN, f64::max);
     assert!(

@@ -334,9 +334,7 @@ fn muscle_analysis_geometry_replaces_the_polynomial() {
             d,
         ));
     }
-    let rms = |a: &[f64], b: &[f64]| {
-        (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / a.len() as f64).sqrt()
-    };
+    let rms = numerics::rms_diff;
     let poly = session_torque(&d.join("poly/a.csv"));
     let series = session_torque(&d.join("series/a.csv"));
     let flipped = session_torque(&d.join("flipped/a.csv"));

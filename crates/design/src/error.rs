@@ -2,6 +2,7 @@
 
 /// Everything that can go wrong when a protocol's information is computed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum DesignError {
     /// A protocol string that does not name a list of trials.
     #[error("protocol '{protocol}': {reason}")]

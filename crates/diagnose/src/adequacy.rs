@@ -30,6 +30,7 @@ use crate::{DiagnoseError, DiagnoseSettings, DiagnosisRecording};
 
 /// The structure test of an identified model.
 #[derive(Clone, Debug, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct Adequacy {
     /// Bonferroni p-value of the motion and time structure tests.
     pub structure_p: f64,

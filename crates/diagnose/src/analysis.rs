@@ -28,6 +28,7 @@ pub use numerics::special::{beta_regularized, chi2_survival, f_survival};
 
 /// Mean and RMS of the residual over one bin of one variable.
 #[derive(Clone, Debug, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct Bin {
     /// Variable: `phase`, `angle_deg.<phase>`, `velocity_deg_s`, `acceleration_deg_s2`,
     /// `activation`, `activation_rate_per_s`, `emg_ta`, and for a recording without joint
@@ -51,6 +52,7 @@ pub struct Bin {
 
 /// Per-sample series for plots (not serialised).
 #[derive(Clone, Debug, Default, PartialEq)]
+#[non_exhaustive]
 pub struct Series {
     /// Time (s).
     pub time_s: Vec<f64>,
@@ -76,6 +78,7 @@ pub struct Series {
 
 /// Autocorrelation of the residual vs the noise model's.
 #[derive(Clone, Debug, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct AcfPoint {
     /// Lag (ms).
     pub lag_ms: f64,
@@ -89,6 +92,7 @@ pub struct AcfPoint {
 
 /// The residual analysis.
 #[derive(Clone, Debug, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct ResidualAnalysis {
     /// Binned baseline residual.
     pub baseline_bins: Vec<Bin>,
@@ -172,7 +176,7 @@ fn phase_bins(ph: &[PhaseLabel], r: &[f64], seen: &dyn Fn(usize) -> bool) -> Vec
                 label: Some(p.name().into()),
                 n,
                 mean_nm: v.iter().sum::<f64>() / n as f64,
-                rms_nm: (v.iter().map(|x| x * x).sum::<f64>() / n as f64).sqrt(),
+                rms_nm: numerics::rms(&v),
             })
         })
         .collect()

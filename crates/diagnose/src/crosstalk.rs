@@ -33,6 +33,7 @@ const BLOCK_S: f64 = 0.1;
 
 /// The raw-EMG crosstalk test of one triceps channel against the TA's.
 #[derive(Clone, Debug, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct CrosstalkCheck {
     /// The triceps channel (`emg_sol`, `emg_gm`, `emg_gl`).
     pub channel: String,
@@ -59,6 +60,7 @@ pub(crate) struct EmgInputs {
 /// What removing the TA's share from the triceps channels is worth: the final model fitted
 /// on the corrected and on the uncorrected envelopes, compared on the same folds.
 #[derive(Clone, Debug, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct EmgCorrection {
     /// The corrected channels.
     pub channels: Vec<String>,

@@ -4,6 +4,7 @@ use thiserror::Error;
 
 /// Everything that can go wrong in a diagnosis.
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum DiagnoseError {
     /// The trial could not be turned into model inputs.
     #[error("trial: {0}")]

@@ -107,6 +107,7 @@ mod progress;
 mod recording;
 mod report;
 mod rules;
+#[cfg(feature = "test-support")]
 pub mod scenarios;
 mod score;
 pub mod segment;

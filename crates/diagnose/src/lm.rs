@@ -20,6 +20,7 @@ use numerics::{
 
 /// Result of [`minimise`].
 #[derive(Clone, Debug)]
+#[non_exhaustive]
 pub struct LmOutcome {
     /// Best point.
     pub x: Vec<f64>,

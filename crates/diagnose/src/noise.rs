@@ -34,6 +34,7 @@ pub enum NoiseModelSource {
 
 /// The noise model of the torque residual.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct TrialNoiseModel {
     /// Where it was estimated.
     pub source: NoiseModelSource,

@@ -56,6 +56,7 @@ use numerics::LevenbergMarquardtSettings;
 
 /// The null model's misfit to a noise-free trial.
 #[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
 pub struct Information {
     /// `λ`: whitened sum of squares of the null model's best fit to the noise-free torque.
     pub lambda: f64,

@@ -55,6 +55,7 @@ impl Default for ProfileSettings {
 
 /// A profile-likelihood interval.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
 pub struct ProfileInterval {
     /// Lower end (the lower bound when `lower_at_bound`).
     pub lower: f64,

@@ -6,6 +6,7 @@ use crate::DiagnoseError;
 
 /// Stage reported to the observer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum DiagnosisStage {
     /// Fitting the noise model.
     Noise,
@@ -19,6 +20,7 @@ pub enum DiagnosisStage {
 
 /// Progress report.
 #[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
 pub struct DiagnosisProgress {
     /// Stage of the diagnosis.
     pub stage: DiagnosisStage,

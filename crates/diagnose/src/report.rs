@@ -11,6 +11,7 @@ use crate::noise::TrialNoiseModel;
 /// `adequate` (no cause named) or `deficient`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
+#[non_exhaustive]
 pub enum Verdict {
     /// The baseline model explains the trial.
     Adequate,
@@ -20,6 +21,7 @@ pub enum Verdict {
 
 /// A fitted model in the report.
 #[derive(Clone, Debug, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct ModelReport {
     /// Effects and their fitted parameters (`{}` for the baseline).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -56,6 +58,7 @@ pub struct ModelReport {
 /// The 68 % profile-likelihood interval of one parameter: the values at which the best fit
 /// with the parameter held there is worse by `Δ(−2 log L) = s²` (docs/diagnosis.md).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct ParamInterval {
     /// Lower end.
     pub lower: f64,
@@ -83,6 +86,7 @@ impl ParamInterval {
 
 /// Gain of the extended model over the baseline.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct Gain {
     /// `100·(1 − heldout_ext/heldout_base)`.
     pub heldout_rms_reduction_pct: f64,
@@ -99,6 +103,7 @@ pub struct Gain {
 
 /// One candidate extension.
 #[derive(Clone, Debug, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct CandidateReport {
     /// Effect name.
     pub effect: String,
@@ -187,6 +192,7 @@ fn sig3(x: f64) -> String {
 /// less than the held-out margin, and the alternative has no more parameters than the cause or
 /// a lower BIC, so this trial cannot tell the two apart.
 #[derive(Clone, Debug, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct NearTie {
     /// The named cause.
     pub cause: String,
@@ -201,6 +207,7 @@ pub struct NearTie {
 
 /// The diagnosis of one trial (serialises to `diagnosis.json`, docs/formats.md).
 #[derive(Clone, Debug, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct Diagnosis {
     /// `adequate` or `deficient`.
     pub verdict: Verdict,
@@ -254,6 +261,7 @@ pub const NO_JOINT_ANGLE: &str = "not testable on this trial: no joint angle";
 
 /// A candidate effect the recording cannot test, and why.
 #[derive(Clone, Debug, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct NotTestable {
     /// Effect name.
     pub effect: String,

@@ -30,7 +30,7 @@ use rand_chacha::ChaCha8Rng;
 use crate::DiagnoseError;
 
 /// Angle (rad) at which the passive joint torque magnitude is stated (+15°).
-pub const PASSIVE_REFERENCE_RAD: f64 = 15.0 * std::f64::consts::PI / 180.0;
+pub const PASSIVE_REFERENCE_RAD: f64 = crate::score::PASSIVE_REFERENCE_RAD;
 
 /// Draws the parameters of one effect at a realistic magnitude (see the module table).
 pub fn draw_effect(kind: EffectKind, rng: &mut impl Rng) -> [f64; 2] {

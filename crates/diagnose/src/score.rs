@@ -474,6 +474,10 @@ type ShapeValues = Box<dyn Fn(f64) -> [f64; 2] + Sync + Send>;
 /// it, and the effect's parameters at a headline size.
 type LimitJob = (EffectKind, Option<f64>, Vec<f64>, f64, ShapeValues);
 
+/// Angle (rad) at which the passive joint torque magnitude is stated (+15°); public as
+/// `scenarios::PASSIVE_REFERENCE_RAD` with the `test-support` feature.
+pub(crate) const PASSIVE_REFERENCE_RAD: f64 = 15.0 * std::f64::consts::PI / 180.0;
+
 /// Every (effect, shape) pair whose limit is refitted, for the effects `todo`; `whitened_perp`
 /// whitens a column and projects it off `fit`'s Jacobian.
 fn limit_jobs<W>(ctx: &Context, fit: &Fit, todo: &[EffectKind], whitened_perp: &W) -> Vec<LimitJob>
@@ -481,7 +485,7 @@ where
     W: Fn(&[f64]) -> DVector<f64>,
 {
     let q = ctx.inputs.angle();
-    let passive_15 = |k: f64| (k * crate::scenarios::PASSIVE_REFERENCE_RAD).exp() - 1.0;
+    let passive_15 = |k: f64| (k * PASSIVE_REFERENCE_RAD).exp() - 1.0;
     let mut jobs: Vec<LimitJob> = Vec::new();
     for &kind in todo {
         match kind {

@@ -45,6 +45,7 @@ impl PhaseLabel {
 
 /// One cycle: a concentric sweep and the eccentric sweep that follows it.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct CycleInfo {
     /// First sample (inclusive).
     pub start: usize,
@@ -58,6 +59,7 @@ pub struct CycleInfo {
 
 /// The segmentation of one recording.
 #[derive(Clone, Debug, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct Segmentation {
     /// Label per sample.
     pub phase: Vec<PhaseLabel>,

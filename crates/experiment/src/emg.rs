@@ -414,7 +414,7 @@ fn carrier<R: Rng>(n: usize, fs: f64, band: [f64; 2], r: &mut R) -> Vec<f64> {
             out.push(x);
         }
     }
-    let rms = (out.iter().map(|x| x * x).sum::<f64>() / n.max(1) as f64).sqrt();
+    let rms = numerics::rms(&out);
     if rms > 0.0 {
         for x in &mut out {
             *x /= rms;

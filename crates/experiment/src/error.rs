@@ -61,6 +61,7 @@ pub enum ErrorKind {
 /// Every error of this crate. `Display` is always one line:
 /// `file`, `file:line`, or `file:line:column (name)`, then the reason.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum ExperimentError {
     /// A problem with the file as a whole (missing, unreadable, empty, too short).
     #[error("{path}: {reason}")]

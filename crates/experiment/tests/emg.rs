@@ -113,7 +113,7 @@ fn drive_shape_rest_floor_and_levels() {
                 .filter(|&i| cruise(i) && tr.active[i] && tr.phase[i] == MotionPhase::Concentric)
                 .map(|i| c.drive[i] / con - 1.0)
                 .collect();
-            let sd = (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt();
+            let sd = numerics::rms(&v);
             assert!((0.003..0.08).contains(&sd), "{:?} wobble {sd}", c.muscle);
         }
         // The drive ramps up during the hold before the maximal cycles.
@@ -123,7 +123,7 @@ fn drive_shape_rest_floor_and_levels() {
     // The raw EMG at the end is small but not zero (rest floor).
     let sol = emg.channel(EmgMuscle::Sol).unwrap();
     let tail = &sol.raw[n - 400..];
-    let rms = (tail.iter().map(|x| x * x).sum::<f64>() / 400.0).sqrt();
+    let rms = numerics::rms(tail);
     let expect = st.gains[0] * st.rest_level;
     assert!(
         rms > 0.5 * expect && rms < 2.0 * expect,
@@ -138,14 +138,13 @@ fn gains_differ_per_channel() {
     let emg = synthetic_emg(&tr, &st, 8).unwrap();
     assert_eq!(emg.channels.len(), 3);
     assert!(emg.channel(EmgMuscle::Ta).is_none());
-    let rms = |x: &[f64]| (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt();
     let s = emg.channel(EmgMuscle::Sol).unwrap();
     for (m, g) in [(EmgMuscle::Gm, 0.5), (EmgMuscle::Gl, 0.2)] {
         let c = emg.channel(m).unwrap();
         // Raw / drive is gain × unit-RMS carrier.
         let a: Vec<f64> = c.raw.iter().zip(&c.drive).map(|(x, d)| x / d).collect();
         let b: Vec<f64> = s.raw.iter().zip(&s.drive).map(|(x, d)| x / d).collect();
-        let ratio = rms(&a) / rms(&b);
+        let ratio = numerics::rms(&a) / numerics::rms(&b);
         assert!(
             (ratio - g / 0.35).abs() < 1e-9 * ratio,
             "{m:?} ratio {ratio}"

@@ -263,7 +263,7 @@ fn the_knee90_fixture_is_consistent() {
         .collect();
     let n = r.len() as f64;
     let mean = r.iter().sum::<f64>() / n;
-    let rms = (r.iter().map(|x| x * x).sum::<f64>() / n).sqrt();
+    let rms = numerics::rms(&r);
     assert!((-3.0..0.0).contains(&mean), "mean residual {mean} N·m");
     assert!(rms < 4.0, "residual RMS {rms} N·m");
 }

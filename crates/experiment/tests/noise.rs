@@ -5,6 +5,7 @@ use experiment::{
     detect_events, quantise, systematic_error, unloaded_run, DynamometerCorrection,
     DynamometerSettings, ErrorKind, Events, Protocol, Unloaded,
 };
+use numerics::rms_diff;
 
 fn max_event_error(a: &Events, b: &Events) -> f64 {
     assert_eq!(a.starts.len(), b.starts.len(), "starts {a:?} vs {b:?}");
@@ -70,10 +71,6 @@ fn event_detection_rejects_bad_input() {
     );
 }
 
-fn rms(a: &[f64], b: &[f64]) -> f64 {
-    (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / a.len() as f64).sqrt()
-}
-
 /// Theory for the nominal dynamometer noise at 2048 Hz.
 struct Theory {
     sigma: f64,
@@ -130,11 +127,11 @@ fn unloaded_estimate_recovers_the_systematic_part_and_the_noise() {
         // Placed at the seed trial's own (detected) events.
         let ev = detect_events(&seed_trace.time_s, &seed_trace.angle_deg).unwrap();
         let sys = est.systematic_for(&seed_trace.time_s, &ev);
-        let e_sys = rms(&sys, &true_sys);
-        let e_none = rms(&offset_only, &true_sys);
+        let e_sys = rms_diff(&sys, &true_sys);
+        let e_none = rms_diff(&offset_only, &true_sys);
         let trans_est: Vec<f64> = sys.iter().map(|v| v - est.offset_nm).collect();
         let trans_true: Vec<f64> = true_sys.iter().map(|v| v - s.offset_nm).collect();
-        let e_trans = rms(&trans_est, &trans_true);
+        let e_trans = rms_diff(&trans_est, &trans_true);
         let r = est.random;
         let e_sigma = (r.marginal_sd() / th.sigma - 1.0).abs();
         let e_lag1 = (r.autocorrelation(1) - th.lag1).abs();
@@ -230,7 +227,7 @@ fn estimate_of_a_pure_systematic_run_is_exact_up_to_quantisation() {
     // transients and the offset separately.
     let transient_truth: Vec<f64> = truth.iter().map(|v| v - s.offset_nm).collect();
     let transient_est: Vec<f64> = sys.iter().map(|v| v - est.offset_nm).collect();
-    let e = rms(&transient_est, &transient_truth);
+    let e = rms_diff(&transient_est, &transient_truth);
     let sigma = est.random.marginal_sd();
     println!("noise-free: systematic RMS error {e:.4} N·m, sigma {sigma:.4}");
     // The quantisation step is 0.33 N·m (its RMS 0.096 N·m); the estimate is within that.

@@ -20,6 +20,7 @@ fn main() -> Result<(), identify_mcmc::McmcError> {
         let phase = match p.phase {
             ChainPhase::Warmup => "warm-up ",
             ChainPhase::Sampling => "sampling",
+            _ => "        ",
         };
         println!(
             "{phase} {:>6} iterations  max R-hat {:.4}  min bulk ESS {:>7.1}  acceptance {:.3}",

@@ -300,6 +300,7 @@ impl McmcIdentifySettings {
 
 /// Posterior summary of one named parameter (a `posterior` entry of `identify.json`, docs/formats.md).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct ParamPosterior {
     /// Name as in the parameters JSON (docs/formats.md), e.g. `sol.lst_m`.
     pub name: String,
@@ -334,6 +335,7 @@ impl ParamPosterior {
 
 /// A posterior correlation between two named parameters.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct NamedCorrelation {
     /// First parameter.
     pub a: String,
@@ -345,6 +347,7 @@ pub struct NamedCorrelation {
 
 /// One mode of the marginal posterior of the nonlinear parameters.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct ModeInfo {
     /// Model parameters at the mode (F0 at its conditional optimum), in vector order.
     pub x: Vec<f64>,
@@ -437,6 +440,7 @@ pub(crate) fn mode_mixture(
 
 /// One trial's fit at the posterior mean.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct McmcTrialFit {
     /// RMS torque error against the torque as measured (N·m).
     pub rms_nm: f64,
@@ -450,6 +454,7 @@ pub struct McmcTrialFit {
 
 /// What [`crate::identify()`] found.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct McmcIdentification {
     /// Parameter names in vector order.
     pub names: Vec<String>,

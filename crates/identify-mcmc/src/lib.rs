@@ -148,6 +148,7 @@ pub use session_identify::{identify, identify_session};
 
 /// Everything that can go wrong before sampling starts.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum McmcError {
     /// A [`McmcSettings`] field is out of range.
     #[error("invalid setting `{name}` = {value}: {reason}")]

@@ -6,6 +6,7 @@ use crate::diagnostics;
 
 /// Summary of one parameter's posterior draws.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct Summary {
     /// Pooled mean.
     pub mean: f64,
@@ -73,6 +74,7 @@ impl Summary {
 
 /// One entry of the posterior correlation matrix.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct CorrelationPair {
     /// First parameter index.
     pub i: usize,

@@ -11,6 +11,7 @@ use crate::{AnnealSettings, Error, Objective};
 /// Why an optimisation stopped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
+#[non_exhaustive]
 pub enum AnnealStopReason {
     /// The best cost stayed within tolerance for `stall_stages` stages after
     /// the last allowed re-annealing.
@@ -23,6 +24,7 @@ pub enum AnnealStopReason {
 
 /// One temperature stage, as recorded in the history.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct StageRecord {
     /// Stage number (0 is the initial-temperature search).
     pub stage: u64,
@@ -143,7 +145,9 @@ impl Annealer {
                     Some(v) => self.f = v,
                     None => {
                         self.failed += 1;
-                        return Err(Error::StartEvaluationFailed);
+                        return Err(Error::Numerics(
+                            numerics::NumericsError::StartEvaluationFailed,
+                        ));
                     }
                 }
             }

@@ -11,6 +11,7 @@ use crate::{AnnealSettings, AnnealStopReason, Annealer, Error, Objective, StageR
 /// What the driver is doing when it calls the observer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
+#[non_exhaustive]
 pub enum AnnealPhase {
     /// The start point is evaluated and the initial temperature found.
     InitialTemperature,
@@ -22,6 +23,7 @@ pub enum AnnealPhase {
 
 /// A snapshot passed to the observer.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct AnnealProgress {
     /// Phase that just ended.
     pub phase: AnnealPhase,
@@ -67,6 +69,7 @@ impl<F: FnMut(&AnnealProgress) -> ControlFlow<()>> Observer for F {
 
 /// The result of [`run`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct Outcome {
     /// Best point, in the objective's coordinates.
     pub x: Vec<f64>,

@@ -174,14 +174,14 @@ impl SaIdentifySettings {
     /// Check every field.
     ///
     /// # Errors
-    /// [`Error::InvalidSetting`] naming the first invalid field.
+    /// [`Error::Numerics`] ([`numerics::NumericsError::InvalidSetting`]) naming the first invalid field.
     pub fn validate(self) -> Result<Self, Error> {
         if self.chains == 0 {
-            return Err(Error::InvalidSetting {
+            return Err(Error::Numerics(numerics::NumericsError::InvalidSetting {
                 name: "chains",
                 value: 0.0,
                 reason: "must be at least 1",
-            });
+            }));
         }
         self.annealer.validate()?;
         self.polish.validate()?;
@@ -250,6 +250,7 @@ impl<F: Fn(&IdentifyEvent) -> ControlFlow<()> + Sync> IdentifyObserver for F {
 
 /// Summary of one annealing chain.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct ChainSummary {
     /// Seed of the chain.
     pub seed: u64,
@@ -283,6 +284,7 @@ pub struct ChainSummary {
 
 /// The result of [`identify`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct Identification {
     /// The free parameters, in the problem's order.
     pub free: Vec<ParamId>,
@@ -566,6 +568,7 @@ fn levenberg_marquardt_polish(
 
 /// A trial turned into the identification problem, with what was subtracted from its torque.
 #[derive(Debug, Clone)]
+#[non_exhaustive]
 pub struct PreparedTrial {
     /// The standard problem (nominal base, 9 free parameters) on the corrected torque.
     pub problem: Problem,

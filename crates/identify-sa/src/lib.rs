@@ -175,6 +175,7 @@ mod error;
 mod executor;
 pub mod identify;
 mod settings;
+#[cfg(feature = "test-support")]
 pub mod test_functions;
 
 pub use annealer::{reflect_into_unit, AnnealStopReason, Annealer, StageRecord};

@@ -187,11 +187,11 @@ impl Default for AnnealSettings {
 }
 
 fn invalid(name: &'static str, value: f64, reason: &'static str) -> Error {
-    Error::InvalidSetting {
+    Error::Numerics(numerics::NumericsError::InvalidSetting {
         name,
         value,
         reason,
-    }
+    })
 }
 
 fn check_range(
@@ -229,7 +229,7 @@ impl AnnealSettings {
     /// Validated settings with the given seed and budget, other fields at their defaults.
     ///
     /// # Errors
-    /// [`Error::InvalidSetting`] when the budget is 0.
+    /// [`Error::Numerics`] ([`numerics::NumericsError::InvalidSetting`]) when the budget is 0.
     pub fn new(seed: u64, max_evaluations: u64) -> Result<Self, Error> {
         Self {
             seed,
@@ -314,7 +314,7 @@ impl AnnealSettings {
     /// Check every field; returns the settings unchanged when valid.
     ///
     /// # Errors
-    /// [`Error::InvalidSetting`] naming the first invalid field.
+    /// [`Error::Numerics`] ([`numerics::NumericsError::InvalidSetting`]) naming the first invalid field.
     pub fn validate(self) -> Result<Self, Error> {
         if self.max_evaluations == 0 {
             return Err(invalid("max_evaluations", 0.0, "must be at least 1"));

@@ -8,6 +8,7 @@ use identify_sa::{
     reflect_into_unit, run, Acceptance, AnnealPhase, AnnealProgress, AnnealSettings,
     AnnealStopReason, Annealer, Error, FnObjective, NelderMeadSettings, NoObserver, Objective,
 };
+use numerics::NumericsError as N;
 
 #[test]
 fn logistic_acceptance_is_eq_13() {
@@ -201,24 +202,24 @@ fn start_failures_are_errors() {
     );
     assert_eq!(
         run(&mut never, Some(&[0.5, 0.5]), &s, &mut NoObserver).unwrap_err(),
-        Error::StartEvaluationFailed
+        Error::Numerics(N::StartEvaluationFailed)
     );
     let mut ok = FnObjective::new(vec![(0.0, 1.0); 2], |x: &[f64]| Some(x[0]));
     assert_eq!(
         run(&mut ok, Some(&[0.5, 1.5]), &s, &mut NoObserver).unwrap_err(),
-        Error::StartOutOfBounds {
+        Error::Numerics(N::StartOutOfBounds {
             index: 1,
             value: 1.5,
             lower: 0.0,
             upper: 1.0
-        }
+        })
     );
     assert_eq!(
         run(&mut ok, Some(&[0.5]), &s, &mut NoObserver).unwrap_err(),
-        Error::DimensionMismatch {
+        Error::Numerics(N::DimensionMismatch {
             expected: 2,
             found: 1
-        }
+        })
     );
 }
 
@@ -228,25 +229,25 @@ fn bad_bounds_and_settings_are_errors() {
     let mut flat = FnObjective::new(vec![(0.0, 1.0), (2.0, 2.0)], |_: &[f64]| Some(0.0));
     assert_eq!(
         run(&mut flat, None, &s, &mut NoObserver).unwrap_err(),
-        Error::InvalidBounds {
+        Error::Numerics(N::InvalidBounds {
             index: 1,
             lower: 2.0,
             upper: 2.0
-        }
+        })
     );
     let mut nan = FnObjective::new(vec![(f64::NAN, 1.0)], |_: &[f64]| Some(0.0));
     assert!(matches!(
         run(&mut nan, None, &s, &mut NoObserver),
-        Err(Error::InvalidBounds { index: 0, .. })
+        Err(Error::Numerics(N::InvalidBounds { index: 0, .. }))
     ));
     let mut empty = FnObjective::new(vec![], |_: &[f64]| Some(0.0));
     assert_eq!(
         run(&mut empty, None, &s, &mut NoObserver).unwrap_err(),
-        Error::EmptyProblem
+        Error::Numerics(N::EmptyProblem)
     );
 
     let name = |r: Result<AnnealSettings, Error>| match r {
-        Err(Error::InvalidSetting { name, .. }) => name,
+        Err(Error::Numerics(N::InvalidSetting { name, .. })) => name,
         other => panic!("expected an invalid setting, got {other:?}"),
     };
     assert_eq!(name(AnnealSettings::new(1, 0)), "max_evaluations");
@@ -399,4 +400,55 @@ fn initial_temperature_scales_with_the_cost() {
     // History stage 0 is the search; its temperature is T0.
     assert_eq!(a.history[0].stage, 0);
     assert_eq!(a.history[0].temperature, a.initial_temperature);
+}
+
+/// The messages of the errors the shared optimisers report, through `Error::Numerics`, are the
+/// texts this crate has always printed.
+#[test]
+fn numerics_errors_display_as_before() {
+    let cases: [(N, &str); 6] = [
+        (
+            N::EmptyProblem,
+            "the objective has no parameters (dimension 0)",
+        ),
+        (
+            N::DimensionMismatch {
+                expected: 2,
+                found: 1,
+            },
+            "dimension mismatch: expected 2 values, found 1",
+        ),
+        (
+            N::InvalidBounds {
+                index: 1,
+                lower: 2.0,
+                upper: 2.0,
+            },
+            "invalid bounds for parameter 1: lower 2, upper 2 (need finite lower < upper)",
+        ),
+        (
+            N::InvalidSetting {
+                name: "cooling",
+                value: 1.0,
+                reason: "must be in (0, 1)",
+            },
+            "invalid setting `cooling` = 1: must be in (0, 1)",
+        ),
+        (
+            N::StartOutOfBounds {
+                index: 1,
+                value: 1.5,
+                lower: 0.0,
+                upper: 1.0,
+            },
+            "start point coordinate 1 = 1.5 is outside [0, 1]",
+        ),
+        (
+            N::StartEvaluationFailed,
+            "the objective failed at the supplied start point",
+        ),
+    ];
+    for (e, text) in cases {
+        assert_eq!(Error::from(e).to_string(), text);
+    }
 }

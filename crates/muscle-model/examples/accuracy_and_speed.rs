@@ -8,11 +8,8 @@ use muscle_model::{
     simulate, simulate_into, synthetic, Effects, Formulation, ModelParams, Muscle, MuscleUnit,
     ParamId, SimSettings, Workspace,
 };
+use numerics::rms_diff;
 use std::time::Instant;
-
-fn rms(a: &[f64], b: &[f64]) -> f64 {
-    (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / a.len() as f64).sqrt()
-}
 
 fn main() {
     let tr = synthetic::seed_like_trial(2048.0).expect("trial");
@@ -92,7 +89,7 @@ fn main() {
                 .fold(0.0, f64::max);
             println!(
                 "  {name:36} RMS vs tight {:.2e} N·m, max {:.2e} N·m, max|F̃T−fT(ε)| {:.1e}, max|LMT−LMT(q)| {:.1e} m, {} RHS calls",
-                rms(&out.torque, &tight.torque),
+                rms_diff(&out.torque, &tight.torque),
                 mx,
                 inv,
                 lmt,

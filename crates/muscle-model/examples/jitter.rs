@@ -23,6 +23,7 @@
 use muscle_model::{
     simulate, Effects, Formulation, ModelParams, ParamId, SimSettings, TrialInputs,
 };
+use numerics::rms;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::time::Instant;
@@ -37,10 +38,6 @@ fn env(k: &str, d: u64) -> u64 {
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(d)
-}
-
-fn rms(v: &[f64]) -> f64 {
-    (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt()
 }
 
 /// (max, RMS) of `a − b`.

@@ -8,11 +8,8 @@ use muscle_model::{
     simulate, simulate_into, Effects, ModelParams, Problem, ProblemWorkspace, SimSettings,
     Workspace,
 };
+use numerics::rms_diff;
 use std::time::Instant;
-
-fn rms(a: &[f64], b: &[f64]) -> f64 {
-    (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / a.len() as f64).sqrt()
-}
 
 fn env(k: &str, d: f64) -> f64 {
     std::env::var(k)
@@ -60,7 +57,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             for (name, e) in &effects {
                 let tight = simulate(&inputs, &p, e, &SimSettings::tight())?;
                 let fast = simulate(&inputs, &p, e, &s)?;
-                let err = rms(&fast.torque, &tight.torque);
+                let err = rms_diff(&fast.torque, &tight.torque);
                 worst = worst.max(err);
                 println!(
                     "{fx:9} {name:8} RMS vs tight {err:.3e} N·m, rhs {}",

@@ -3,11 +3,8 @@
 //! `cargo run --release -p muscle-model --example speed_probe [-- fixtures/seed/trial.csv]`
 
 use muscle_model::{simulate, simulate_into, Effects, ModelParams, SimSettings, Workspace};
+use numerics::rms_diff;
 use std::time::Instant;
-
-fn rms(a: &[f64], b: &[f64]) -> f64 {
-    (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / a.len() as f64).sqrt()
-}
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let path = std::env::args().nth(1).unwrap_or_else(|| {
@@ -35,7 +32,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!(
         "{} samples; default: RMS vs tight {:.3e} N·m, stats {:?}",
         inputs.len(),
-        rms(&fast.torque, &tight.torque),
+        rms_diff(&fast.torque, &tight.torque),
         fast.total_stats()
     );
     for (label, all) in [

@@ -5,6 +5,7 @@
 /// A failed simulation ([`ModelError::Integration`], [`ModelError::NonFinite`]) is
 /// recoverable for an optimiser or a sampler: treat it as a rejected candidate.
 #[derive(thiserror::Error, Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub enum ModelError {
     /// A JSON document could not be parsed at all.
     #[error("invalid JSON: {message}")]

@@ -4,10 +4,7 @@
 use muscle_model::{
     simulate, simulate_into, synthetic, Effects, ModelParams, SimSettings, Workspace,
 };
-
-fn rms(a: &[f64], b: &[f64]) -> f64 {
-    (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / a.len() as f64).sqrt()
-}
+use numerics::rms_diff;
 
 #[test]
 fn fast_default_is_within_a_hundredth_of_a_newton_metre_of_tight() {
@@ -22,7 +19,7 @@ fn fast_default_is_within_a_hundredth_of_a_newton_metre_of_tight() {
     for e in cases {
         let tight = simulate(&tr, &p, &e, &SimSettings::tight()).unwrap();
         let fast = simulate(&tr, &p, &e, &SimSettings::default()).unwrap();
-        let err = rms(&fast.torque, &tight.torque);
+        let err = rms_diff(&fast.torque, &tight.torque);
         println!("{e:?}: {err:.2e} N·m RMS, {:?}", fast.total_stats());
         assert!(err < 0.01, "{err} N·m RMS");
         // the recorded-state run computes the same torque

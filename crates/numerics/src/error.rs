@@ -2,6 +2,7 @@
 
 /// Everything that can go wrong in this crate's routines.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum NumericsError {
     /// The problem has no parameters (or no residuals).
     #[error("the objective has no parameters (dimension 0)")]

@@ -7,9 +7,11 @@
 //! * [`interpolate`]: linear resampling of a time series onto other times;
 //! * [`latin_hypercube`]: Latin-hypercube designs from a caller's random stream;
 //! * [`special`]: the normal distribution, the gamma function and the χ², F and incomplete
-//!   gamma / beta functions built on it.
+//!   gamma / beta functions built on it;
+//! * [`rms()`] and [`rms_diff`]: the root mean square of a slice and of a difference.
 //!
-//! Bad input gives a [`NumericsError`] (or NaN from a special function), never a panic.
+//! Bad input gives a [`NumericsError`] (or NaN from a special function), never a panic —
+//! except [`rms_diff`] of slices of different lengths, a caller's bug.
 //!
 //! ```
 //! use numerics::{nelder_mead, FnObjective, NelderMeadSettings};
@@ -33,6 +35,7 @@ pub mod latin_hypercube;
 pub mod lm;
 pub mod nelder_mead;
 mod objective;
+mod rms;
 pub mod special;
 
 pub use error::NumericsError;
@@ -44,3 +47,4 @@ pub use nelder_mead::{
     nelder_mead, nelder_mead_unit, NelderMeadOutcome, NelderMeadSettings, NelderMeadUnitOutcome,
 };
 pub use objective::{map_coordinate, FnObjective, Objective, UnitBox};
+pub use rms::{rms, rms_diff};

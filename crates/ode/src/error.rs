@@ -2,6 +2,7 @@
 
 /// Errors of the integrators.
 #[derive(thiserror::Error, Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub enum OdeError {
     /// The controller asked for a step smaller than the minimum.
     #[error("step size underflow at t = {t}: h = {h:e} is below the minimum")]

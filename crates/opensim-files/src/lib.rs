@@ -38,6 +38,7 @@ pub use sto::{read_sto, write_sto, StoTable};
 
 /// What can go wrong reading or writing an OpenSim file.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum OpenSimError {
     /// A syntax or value error at a place in a file.
     #[error("{file}:{line}:{column}: {message}")]

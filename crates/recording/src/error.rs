@@ -3,6 +3,7 @@
 
 /// What can go wrong reading a recording or its map.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum RecordingError {
     /// The whole file (missing, unreadable, not the format it claims, too short).
     #[error("{path}: {reason}")]

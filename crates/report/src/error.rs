@@ -4,6 +4,7 @@ use std::path::PathBuf;
 
 /// Everything that can go wrong while drawing a figure or writing a report.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum ReportError {
     /// A series that must hold data is empty.
     #[error("{figure}: `{series}` is empty")]

@@ -114,7 +114,7 @@ fn torque_fit_has_three_panels_with_units() {
         assert!(pts <= figures::MAX_LINE_POINTS, "{pts} points");
     }
     // RMS of the model error is in the legend.
-    let rms = (d.resid.iter().map(|r| r * r).sum::<f64>() / d.resid.len() as f64).sqrt();
+    let rms = numerics::rms(&d.resid);
     assert!(s.has_text(&format!("RMS error {rms:.2} N·m")));
     // Without envelopes: two panels.
     let two = figures::torque_fit(&d.t, &d.measured, &[], &d.angle, &[]).unwrap();

@@ -2,6 +2,7 @@
 
 /// Why a session could not be read.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum SessionError {
     /// The manifest could not be read from disk.
     #[error("{path}: {reason}")]

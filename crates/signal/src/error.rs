@@ -4,6 +4,7 @@ use thiserror::Error;
 
 /// Everything that can go wrong in filter design, filtering or normalisation.
 #[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
 pub enum SignalError {
     /// A Butterworth filter needs order `N ≥ 1`.
     #[error("filter order must be at least 1 (got {order})")]

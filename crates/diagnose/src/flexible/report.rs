@@ -7,6 +7,7 @@ use super::variable::StateVariable;
 
 /// A variable's flexible term added to the final model.
 #[derive(Clone, Debug, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct VariableGain {
     /// State variable.
     pub variable: StateVariable,
@@ -24,6 +25,7 @@ pub struct VariableGain {
 /// The fitted shape of one flexible term: its value at points of its variable with a 95 %
 /// band. The term is centred: its mean over the trial is zero.
 #[derive(Clone, Debug, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct FlexibleTerm {
     /// State variable.
     pub variable: StateVariable,
@@ -44,6 +46,7 @@ pub struct FlexibleTerm {
 /// A value of a flexible term's shape searched on the data (a grid or a scan), not fitted as
 /// a coefficient; it counts as one parameter in the BIC.
 #[derive(Clone, Debug, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct SearchedValue {
     /// `change_point` or `transition_width`.
     pub name: String,
@@ -55,6 +58,7 @@ pub struct SearchedValue {
 
 /// The final model extended with the flexible terms of `depends_on`.
 #[derive(Clone, Debug, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct FlexibleExtension {
     /// The variables of its terms.
     pub variables: Vec<StateVariable>,
@@ -78,6 +82,7 @@ pub struct FlexibleExtension {
 /// A catalogued effect the selection found that a flexible term in its own variable explains
 /// better: not named.
 #[derive(Clone, Debug, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct Replacement {
     /// Effect.
     pub effect: String,
@@ -90,6 +95,7 @@ pub struct Replacement {
 
 /// What the unexplained structure depends on (`unexplained` in `diagnosis.json`).
 #[derive(Clone, Debug, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct Unexplained {
     /// The best one or two variables (empty: none of the vocabulary explains it).
     pub depends_on: Vec<StateVariable>,

@@ -27,6 +27,7 @@ pub struct SessionCause {
 /// How the session's held-out errors were obtained.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
+#[non_exhaustive]
 pub enum HeldoutScheme {
     /// Each trial predicted by the model fitted on the others.
     LeaveOneTrialOut,
@@ -36,6 +37,7 @@ pub enum HeldoutScheme {
 
 /// One trial's held-out RMS under the baseline and the final model.
 #[derive(Clone, Debug, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct TrialHeldout {
     /// Trial name.
     pub name: String,
@@ -47,6 +49,7 @@ pub struct TrialHeldout {
 
 /// The session's held-out comparison of the final model with the baseline.
 #[derive(Clone, Debug, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct SessionHeldout {
     /// `leave_one_trial_out` or `within_trial`.
     pub scheme: HeldoutScheme,
@@ -64,6 +67,7 @@ pub struct SessionHeldout {
 
 /// One trial's in-sample fit by the session's joint baseline and final model.
 #[derive(Clone, Debug, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct SessionTrialFit {
     /// Trial name.
     pub name: String,
@@ -77,6 +81,7 @@ pub struct SessionTrialFit {
 
 /// A candidate term of the session's selection.
 #[derive(Clone, Debug, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct SessionCandidate {
     /// Effect name.
     pub effect: String,
@@ -105,6 +110,7 @@ pub struct SessionCandidate {
 
 /// The diagnosis of a session (serialises to the session part of `diagnosis_session.json`).
 #[derive(Clone, Debug, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct SessionDiagnosis {
     /// `adequate` or `deficient`.
     pub verdict: Verdict,

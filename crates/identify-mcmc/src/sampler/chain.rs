@@ -16,6 +16,7 @@ pub const MAX_INIT_TRIES: usize = 1_000;
 
 /// Which phase a [`ChainProgress`](super::ChainProgress) report comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub enum ChainPhase {
     /// Warm-up (adaptation on for [`Proposal::Adaptive`]); draws discarded.
     Warmup,

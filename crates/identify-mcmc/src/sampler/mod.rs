@@ -22,6 +22,7 @@ use monitor::{check_interval, mean_rate, monitor, refit_mixture};
 
 /// What the observer of [`run_with_observer`] sees after every block.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct ChainProgress {
     /// Current phase.
     pub phase: ChainPhase,
@@ -40,6 +41,7 @@ pub struct ChainProgress {
 
 /// Why sampling stopped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub enum ChainStopReason {
     /// Every parameter reached R̂ < `rhat_target` and bulk ESS ≥ `ess_target`.
     Converged,
@@ -51,6 +53,7 @@ pub enum ChainStopReason {
 
 /// The outcome of [`run`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct RunResult {
     /// The settings used.
     pub settings: McmcSettings,
@@ -103,7 +106,7 @@ pub struct RunResult {
 }
 
 impl RunResult {
-    /// The chains of parameter `param` as slices, ready for [`diagnostics`].
+    /// The chains of parameter `param` as slices, ready for [`crate::diagnostics`].
     ///
     /// # Panics
     /// If `param >= dim`.

@@ -228,13 +228,7 @@ pub(crate) fn correlation(a: &[f64], b: &[f64]) -> f64 {
     }
 }
 
-/// Root mean square.
-pub(crate) fn rms(v: &[f64]) -> f64 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt()
-}
+pub(crate) use numerics::rms;
 
 /// How a legend entry is drawn.
 #[derive(Clone, Copy, Debug)]

@@ -1,6 +1,7 @@
 //! Time-series figures of a fit: torque with angle and EMG beneath, residuals, baseline vs
 //! extended model.
 
+use numerics::rms_diff;
 use plotters::prelude::*;
 
 use super::{
@@ -8,6 +9,7 @@ use super::{
     mesh_colours, min_max, padded, render, rms, style, thin_indices, tick_text, titled, Area, Mark,
     DESC_PX, FONT, MAX_LINE_POINTS, MAX_SCATTER_POINTS, TICK_PX,
 };
+
 use crate::error::{ReportError, Result};
 use crate::palette::{SeriesStyle, BLACK, GREY};
 
@@ -223,11 +225,6 @@ pub fn torque_fit(
             &e_lines,
         )
     })
-}
-
-fn rms_diff(a: &[f64], b: &[f64]) -> f64 {
-    let d: Vec<f64> = a.iter().zip(b).map(|(x, y)| x - y).collect();
-    rms(&d)
 }
 
 /// Residual (measured − model torque, N·m) against the ankle angle (deg), one colour per
