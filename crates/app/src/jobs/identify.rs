@@ -281,10 +281,6 @@ pub(super) fn errors_pct(
         .collect()
 }
 
-fn rms(a: &[f64], b: &[f64]) -> f64 {
-    (a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>() / a.len().max(1) as f64).sqrt()
-}
-
 /// Runs the command.
 pub fn run(args: IdentifyJob, rep: &Reporter) -> AppResult {
     let with = with::parse_with(args.with_effects.as_deref())?;
@@ -525,7 +521,7 @@ fn run_sa(
         .problem
         .predict(&fit.x)
         .map_err(|e| AppError::internal(format!("simulation of the fit failed: {e}")))?;
-    let rms_raw = rms(&prep.measured_raw, &prediction);
+    let rms_raw = numerics::rms_diff(&prep.measured_raw, &prediction);
     let estimate = Estimate {
         method: Method::Sa,
         params: fit.params.iter().map(|(k, v)| (k.clone(), *v)).collect(),
