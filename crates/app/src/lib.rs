@@ -14,8 +14,8 @@
 //! | [`simulate`] | [`SimulateJob`] | `simulation.csv` |
 //! | [`sensitivity`] | [`SensitivityJob`] | `sensitivity.json`, figure |
 //! | [`identify`] | [`IdentifyJob`] | `identify.json`, figures, report |
-//! | [`diagnose`] | [`DiagnoseJob`] | `diagnosis.json`, figures, report |
-//! | [`design`] | [`DesignJob`] | `design.json`, figure |
+//! | [`diagnose()`] | [`DiagnoseJob`] | `diagnosis.json`, figures, report |
+//! | [`design()`] | [`DesignJob`] | `design.json`, figure |
 //! | [`inspect`] | [`InspectJob`] | a starter recording map |
 
 pub mod bundled;

@@ -19,6 +19,14 @@ use serde_json::Value;
 use session::{SessionManifest, TrialSource};
 use std::path::{Path, PathBuf};
 
+mod emg;
+mod read;
+
+use emg::session_emg_references;
+pub use emg::{EmgNormalisationReport, SessionEmgNormalisation};
+pub use read::read_session_trial;
+use read::read_trial_or_map;
+
 /// One trial of a session, ready to fit or to predict.
 pub struct SessionTrial {
     /// The trial's name in the manifest.
@@ -602,163 +610,6 @@ pub fn load_session(
     })
 }
 
-/// Where the session's EMG references come from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum EmgReferenceSource {
-    /// The largest envelope of each channel over the session's MVC trials.
-    Mvc,
-    /// The largest envelope of each channel over all the session's trial CSVs.
-    SessionMaximum,
-    /// None: the columns are envelopes already (`--emg-is-envelope`), or the session has no
-    /// trial CSV (CEINMS envelopes come normalised).
-    AsGiven,
-}
-
-/// The EMG normalisation of a session's trial CSVs: one reference per channel for all trials,
-/// so that a weaker trial stays weaker (docs/formats.md, "Session manifest").
-#[derive(Clone, Debug)]
-pub struct SessionEmgNormalisation {
-    /// Where the references come from.
-    pub source: EmgReferenceSource,
-    /// Each channel's reference, in the unit of its raw envelope.
-    pub references: experiment::EmgReferences,
-}
-
-impl SessionEmgNormalisation {
-    /// A summary line per channel: its reference and where it comes from.
-    pub fn summary_lines(&self) -> Vec<String> {
-        let from = match self.source {
-            EmgReferenceSource::Mvc => "largest envelope over the MVC trials",
-            EmgReferenceSource::SessionMaximum => "largest envelope over the session's trials",
-            EmgReferenceSource::AsGiven => return vec!["  EMG: envelopes as given".into()],
-        };
-        self.references
-            .iter()
-            .map(|(k, v)| format!("  EMG emg_{k:<8} reference {v:.6} ({from})"))
-            .collect()
-    }
-
-    /// `{"source": "mvc" | "session_maximum" | "as_given", "references": {"sol": …}}`.
-    pub fn report(&self) -> EmgNormalisationReport {
-        EmgNormalisationReport {
-            source: match self.source {
-                EmgReferenceSource::Mvc => "mvc",
-                EmgReferenceSource::SessionMaximum => "session_maximum",
-                EmgReferenceSource::AsGiven => "as_given",
-            },
-            references: self
-                .references
-                .iter()
-                .map(|(k, v)| (k.to_string(), v))
-                .collect(),
-        }
-    }
-}
-
-/// How a session's EMG was normalised (`"emg_normalisation"`).
-#[derive(Debug, Clone, serde::Serialize)]
-#[non_exhaustive]
-pub struct EmgNormalisationReport {
-    /// `mvc`, `session_maximum` or `as_given`.
-    pub source: &'static str,
-    /// Each channel's reference, in the unit of its raw envelope.
-    pub references: std::collections::BTreeMap<String, f64>,
-}
-
-/// Relative excess over the MVC reference above which a trial's envelope is reported: surface
-/// EMG in a submaximal or isokinetic trial can pass an isometric MVC by a few per cent.
-const MVC_EXCESS_WARNING: f64 = 0.10;
-
-/// The references of the session's trial CSVs: the largest envelope of each channel over the
-/// MVC trials when the manifest lists them (channels the MVC trials lack fall back to the
-/// session's maximum, with a warning), else over all the trials.
-fn session_emg_references(
-    manifest: &SessionManifest,
-    trials: &[(&str, &experiment::Trial)],
-    model: &ModelSettings,
-    read: &mut Vec<PathBuf>,
-    rep: &Reporter,
-) -> AppResult<SessionEmgNormalisation> {
-    let opts = experiment::InputOptions {
-        emg_is_envelope: model.emg_is_envelope,
-        ..experiment::InputOptions::default()
-    };
-    if model.emg_is_envelope || trials.is_empty() {
-        if !manifest.mvc.is_empty() {
-            rep.warn(format!(
-                "{}: mvc: not used: {}",
-                manifest.path.display(),
-                if trials.is_empty() {
-                    "the session has no trial CSV (CEINMS envelopes come normalised)"
-                } else {
-                    "the EMG columns are envelopes already (--emg-is-envelope)"
-                }
-            ));
-        }
-        return Ok(SessionEmgNormalisation {
-            source: EmgReferenceSource::AsGiven,
-            references: experiment::EmgReferences::default(),
-        });
-    }
-    let mut trial_peaks = Vec::with_capacity(trials.len());
-    for (entry, (_, trial)) in manifest
-        .trials
-        .iter()
-        .filter(|t| !t.source.path().is_dir())
-        .zip(trials)
-    {
-        let name = entry.source.path().display().to_string();
-        trial_peaks.push(experiment::envelope_peaks(trial, &opts, &name).map_err(AppError::bad)?);
-    }
-    let session_max = experiment::EmgReferences::largest(&trial_peaks);
-    if manifest.mvc.is_empty() {
-        return Ok(SessionEmgNormalisation {
-            source: EmgReferenceSource::SessionMaximum,
-            references: session_max,
-        });
-    }
-    let mut mvc_peaks = Vec::with_capacity(manifest.mvc.len());
-    for p in &manifest.mvc {
-        read.push(p.clone());
-        let (t, _) = read_session_trial(p, model, rep)?;
-        mvc_peaks.push(
-            experiment::envelope_peaks(&t, &opts, &p.display().to_string())
-                .map_err(AppError::bad)?,
-        );
-    }
-    let mut refs = experiment::EmgReferences::largest(&mvc_peaks);
-    for (channel, v) in session_max.iter() {
-        match refs.get(channel) {
-            None => {
-                rep.warn(format!(
-                    "{}: mvc: no MVC trial has emg_{channel}; that channel is normalised by its \
-                     largest envelope over the session's trials",
-                    manifest.path.display()
-                ));
-                refs.set(channel, v);
-            }
-            Some(m) if v > m * (1.0 + MVC_EXCESS_WARNING) => {
-                let name = trials
-                    .iter()
-                    .zip(&trial_peaks)
-                    .find(|(_, p)| p.get(channel) == Some(v))
-                    .map_or("?", |((n, _), _)| *n);
-                rep.warn(format!(
-                    "{}: trial {name}: the emg_{channel} envelope reaches {:.0} % of the MVC \
-                     reference; its normalised envelope is clipped at 1",
-                    manifest.path.display(),
-                    100.0 * v / m
-                ));
-            }
-            Some(_) => {}
-        }
-    }
-    Ok(SessionEmgNormalisation {
-        source: EmgReferenceSource::Mvc,
-        references: refs,
-    })
-}
-
 /// `inputs` with the musculotendon lengths and ankle moment arms of OpenSim MuscleAnalysis
 /// results (`g`) for every muscle of the model that has a column in both files (sol, gm, gl
 /// under their `.osim` names, fixed muscles under their own), resampled linearly onto the
@@ -834,46 +685,6 @@ fn with_muscle_analysis(
         )));
     }
     Ok(inputs)
-}
-
-/// A session's trial file: a trial CSV, or a recording map (with the geometry series it maps).
-/// A map whose EMG is envelopes already needs `--emg-is-envelope` for the whole session, since
-/// the session normalises every trial's EMG alike.
-pub fn read_session_trial(
-    p: &Path,
-    model: &ModelSettings,
-    rep: &Reporter,
-) -> AppResult<(experiment::Trial, Vec<recording::MappedGeometry>)> {
-    let (trial, geometry, envelopes) = read_trial_or_map(p, rep)?;
-    if envelopes && !model.emg_is_envelope {
-        return Err(AppError::bad(format!(
-            "{}: emg_is_envelope: in a session every trial's EMG is read alike: give \
-             --emg-is-envelope for the session",
-            p.display()
-        )));
-    }
-    Ok((trial, geometry))
-}
-
-/// A trial CSV or a recording map read into a trial, with the map's geometry series and
-/// whether it says its EMG is envelopes already.
-fn read_trial_or_map(
-    p: &Path,
-    rep: &Reporter,
-) -> AppResult<(experiment::Trial, Vec<recording::MappedGeometry>, bool)> {
-    if recording::file_kind(p) != recording::FileKind::Map {
-        return Ok((
-            experiment::read_trial(p).map_err(AppError::bad)?,
-            Vec::new(),
-            false,
-        ));
-    }
-    let map = recording::read_map(p).map_err(AppError::bad)?;
-    let rec = recording::read_trial_recording(&map).map_err(AppError::bad)?;
-    for n in &rec.notes {
-        rep.warn(format!("{}: {n}", p.display()));
-    }
-    Ok((rec.trial, rec.geometry, rec.emg_is_envelope))
 }
 
 /// A trial name as part of a file name (letters, digits, `-`, `_`; others become `_`).
