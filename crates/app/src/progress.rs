@@ -106,7 +106,7 @@ impl Reporter {
 
     /// A progress display of `total` steps labelled `label`.
     pub fn progress(&self, total: u64, label: &str) -> ProgressDisplay {
-        ProgressDisplay::new(self, self.show(), total, label)
+        ProgressDisplay::new(self, total, label)
     }
 }
 
@@ -121,11 +121,11 @@ pub struct ProgressDisplay {
 }
 
 impl ProgressDisplay {
-    /// A display of `total` steps labelled `label`, reported to `reporter`'s observer; `show`
-    /// false asks the observer not to draw it (it still sees the updates, and may stop the
+    /// A display of `total` steps labelled `label`, reported to `reporter`'s observer; a quiet
+    /// reporter asks the observer not to draw it (it still sees the updates, and may stop the
     /// job).
-    pub fn new(reporter: &Reporter, show: bool, total: u64, label: &str) -> Self {
-        reporter.observer.begin(label, total, show);
+    fn new(reporter: &Reporter, total: u64, label: &str) -> Self {
+        reporter.observer.begin(label, total, reporter.show());
         Self {
             observer: reporter.observer.clone(),
             label: label.to_string(),

@@ -5,7 +5,6 @@
 use super::{load_trial, load_unloaded, trial_inputs, ModelSettings};
 use crate::error::{AppError, AppResult};
 use crate::output::OutDir;
-use crate::progress::ProgressDisplay;
 use crate::Reporter;
 use diagnose::{DiagnoseSettings, Diagnosis};
 use std::path::{Path, PathBuf};
@@ -108,7 +107,7 @@ pub fn run(args: DiagnoseJob, rep: &Reporter) -> AppResult {
         ..DiagnoseSettings::default()
     };
     let show = rep.show();
-    let progress = ProgressDisplay::new(rep, show, 0, "diag");
+    let progress = rep.progress(0, "diag");
     let mut observer = |p: &diagnose::DiagnosisProgress| {
         progress.message(format!("{} ({} simulations)", p.message, p.evaluations));
         progress.flow()

@@ -21,7 +21,6 @@ use super::{
 use crate::error::{AppError, AppResult};
 use crate::figures::{self, FigureSet};
 use crate::output::OutDir;
-use crate::progress::ProgressDisplay;
 use crate::Reporter;
 use muscle_model::{EffectKind, Effects, ModelParams, ParamId, Problem};
 use serde_json::Value;
@@ -337,8 +336,8 @@ pub fn run(args: IdentifyJob, rep: &Reporter) -> AppResult {
         prediction,
         mcmc,
     } = match args.method {
-        Method::Sa => run_sa(&prep, args.seed, args.chains, show, rep)?,
-        Method::Mcmc => mcmc::run_mcmc(&prep, args.seed, args.max_iterations, show, rep)?,
+        Method::Sa => run_sa(&prep, args.seed, args.chains, rep)?,
+        Method::Mcmc => mcmc::run_mcmc(&prep, args.seed, args.max_iterations, rep)?,
     };
 
     let (report, point_params, adequacy_lines) = identify_report(&prep, estimate, args.seed)?;
@@ -494,19 +493,13 @@ struct Outcome {
     mcmc: Option<identify_mcmc::McmcIdentification>,
 }
 
-fn run_sa(
-    prep: &Prepared,
-    seed: u64,
-    chains: Option<u32>,
-    show: bool,
-    rep: &Reporter,
-) -> AppResult<Outcome> {
+fn run_sa(prep: &Prepared, seed: u64, chains: Option<u32>, rep: &Reporter) -> AppResult<Outcome> {
     let mut settings = identify_sa::SaIdentifySettings::default().with_seed(seed);
     if let Some(c) = chains {
         settings = settings.with_chains(c);
     }
     let total = u64::from(settings.chains) * settings.annealer.max_evaluations;
-    let progress = ProgressDisplay::new(rep, show, total, "SA");
+    let progress = rep.progress(total, "SA");
     let observer = |ev: &identify_sa::IdentifyEvent| {
         progress.on_sa_event(ev);
         progress.flow()

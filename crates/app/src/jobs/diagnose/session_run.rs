@@ -19,7 +19,6 @@ use super::super::ModelSettings;
 use super::{diagnosis_json, trial_args, write_figures, Closing, DiagnoseJob, PLANNED};
 use crate::error::{AppError, AppResult};
 use crate::output::OutDir;
-use crate::progress::ProgressDisplay;
 use crate::Reporter;
 use diagnose::{DiagnoseSettings, Diagnosis, DiagnosisRecording, SessionDiagnosis, SessionMember};
 use muscle_model::TrialInputs;
@@ -73,7 +72,7 @@ pub(super) fn run(args: &DiagnoseJob, session_path: &Path, rep: &Reporter) -> Ap
         let label = format!("diag {}/{}", k + 1, session.trials.len());
         done.push(diagnose_trial(&session, k, t, stem, args, &label, rep)?);
     }
-    let joint = diagnose_jointly(&session, &done, show, rep)?;
+    let joint = diagnose_jointly(&session, &done, rep)?;
 
     // every trial's report ends with the command that identifies the session with the causes
     // of its joint diagnosis
@@ -196,7 +195,7 @@ fn diagnose_trial(
         ));
         progress.flow()
     };
-    let fail = |e: diagnose::DiagnoseError, progress: &ProgressDisplay| {
+    let fail = |e: diagnose::DiagnoseError, progress: &crate::ProgressDisplay| {
         if progress.stop_requested() {
             AppError::Interrupted
         } else {
@@ -279,7 +278,6 @@ fn diagnose_trial(
 fn diagnose_jointly(
     session: &LoadedSession,
     done: &[Diagnosed],
-    show: bool,
     rep: &Reporter,
 ) -> AppResult<SessionDiagnosis> {
     if let ([t], [r]) = (session.trials.as_slice(), done) {
@@ -303,7 +301,7 @@ fn diagnose_jointly(
             }
         })
         .collect();
-    let progress = ProgressDisplay::new(rep, show, 0, "diag session");
+    let progress = rep.progress(0, "diag session");
     let mut observer = |p: &diagnose::DiagnosisProgress| {
         progress.message(format!("{} ({} simulations)", p.message, p.evaluations));
         progress.flow()

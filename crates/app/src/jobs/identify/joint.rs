@@ -14,7 +14,6 @@ use super::{
 use crate::error::{AppError, AppResult};
 use crate::figures::{self, FigureSet};
 use crate::output::OutDir;
-use crate::progress::ProgressDisplay;
 use crate::Reporter;
 use muscle_model::{EffectKind, Effects, ModelParams, ParamId};
 use std::collections::BTreeMap;
@@ -62,7 +61,7 @@ pub(super) fn run(
     }
     let show = rep.show();
     let total = u64::from(settings.chains) * settings.annealer.max_evaluations;
-    let progress = ProgressDisplay::new(rep, show, total, "SA");
+    let progress = rep.progress(total, "SA");
     let observer = |ev: &identify_sa::IdentifyEvent| {
         progress.on_sa_event(ev);
         progress.flow()
@@ -686,7 +685,7 @@ fn run_mcmc(
     let out = OutDir::prepare(&out_dir, &input_refs, &planned_refs)?;
     let show = rep.show();
     let what = session_path.display().to_string();
-    let m = super::mcmc::sample(&likelihoods, &settings, show, &what, rep)?;
+    let m = super::mcmc::sample(&likelihoods, &settings, &what, rep)?;
 
     let mean = m.mean();
     let start = set.base_vector();

@@ -140,12 +140,11 @@ pub(super) fn mcmc_settings(
 pub(super) fn sample(
     trials: &[identify_mcmc::SessionTrialLikelihood<'_>],
     settings: &identify_mcmc::McmcIdentifySettings,
-    show: bool,
     what: &str,
     rep: &Reporter,
 ) -> AppResult<identify_mcmc::McmcIdentification> {
     let cap = settings.mcmc.max_total as u64;
-    let progress = ProgressDisplay::new(rep, show, cap, "MCMC");
+    let progress = rep.progress(cap, "MCMC");
     let m =
         identify_mcmc::identify_session(trials, settings, |p: &identify_mcmc::ChainProgress| {
             progress.chain(0, p.iterations as u64, f64::NAN);
@@ -332,7 +331,6 @@ pub(super) fn run_mcmc(
     prep: &Prepared,
     seed: u64,
     max_iterations: Option<usize>,
-    show: bool,
     rep: &Reporter,
 ) -> AppResult<Outcome> {
     use identify_mcmc::{NoiseKind, NoiseSpec, SessionTrialLikelihood};
@@ -356,7 +354,7 @@ pub(super) fn run_mcmc(
         problem: &problem,
         noise: &noise,
     };
-    let m = sample(&[trial], &settings, show, &prep.loaded.name, rep)?;
+    let m = sample(&[trial], &settings, &prep.loaded.name, rep)?;
     let mean = m.mean();
     // prediction on the corrected scale, like the SA figures
     let prediction = prep
