@@ -300,7 +300,8 @@ pub fn identify<'py>(
 /// What the model gets wrong, as `surae diagnose` finds it; returns the `diagnosis.json` it
 /// writes as a dict (equal to the command line's but for `wall_s`).
 ///
-/// trial, unloaded, seed, emg_is_envelope, knee_angle_deg, out, progress: as for identify;
+/// trial, unloaded, emg_is_envelope, knee_angle_deg, out, progress: as for identify (the
+///     diagnosis takes no seed: it is deterministic);
 /// out keeps diagnosis.json, the figures and report.html.
 /// session: a session manifest path in place of trial: every trial diagnosed on its own with
 ///     the session's model (params: a parameters file or an identify.json set over it);
@@ -308,14 +309,13 @@ pub fn identify<'py>(
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
 #[pyo3(signature = (
-    trial=None, unloaded=None, seed=42, *, emg_is_envelope=false, knee_angle_deg=None,
+    trial=None, unloaded=None, *, emg_is_envelope=false, knee_angle_deg=None,
     session=None, params=None, out=None, progress=None
 ))]
 pub fn diagnose<'py>(
     py: Python<'py>,
     trial: Option<&Bound<'py, PyAny>>,
     unloaded: Option<&Bound<'py, PyAny>>,
-    seed: u64,
     emg_is_envelope: bool,
     knee_angle_deg: Option<f64>,
     session: Option<&Bound<'py, PyAny>>,
@@ -346,7 +346,6 @@ pub fn diagnose<'py>(
         unloaded,
         session,
         params,
-        seed,
         emg_is_envelope,
         knee: KneeSettings { knee_angle_deg },
         out: Some(out.clone()),

@@ -144,7 +144,6 @@ def identify(
 def diagnose(
     trial: Optional[_ColumnsArg] = None,
     unloaded: Optional[_ColumnsArg] = None,
-    seed: int = 42,
     *,
     emg_is_envelope: bool = False,
     knee_angle_deg: Optional[float] = None,

@@ -68,11 +68,18 @@ fn sa_run(trial_path: &Path, trial: &experiment::Trial) -> Result<(u64, f64, Opt
     } else {
         None
     };
-    let prep = identify_sa::prepare_trial(trial, unloaded.as_ref(), &Default::default())?;
+    let prep = experiment::PreparedTrial::prepare(
+        trial,
+        unloaded.as_ref(),
+        &Default::default(),
+        &experiment::CrosstalkSettings::off(),
+        &trial_path.display().to_string(),
+    )?;
+    let problem = prep.standard_problem()?;
     let settings = identify_sa::SaIdentifySettings::default();
     let cpu0 = cpu_seconds();
     let start = Instant::now();
-    let fit = identify_sa::identify(&prep.problem, &settings, &identify_sa::NoObserver)?;
+    let fit = identify_sa::identify(&problem, &settings, &identify_sa::NoObserver)?;
     let wall = start.elapsed().as_secs_f64();
     let cpu = cpu_seconds().zip(cpu0).map(|(b, a)| b - a);
     eprintln!(
@@ -166,9 +173,7 @@ fn mcmc_session_run(root: &Path) -> Result<(u64, f64, Option<f64>, bool, f64, f6
         &surae_app::Reporter::silent(),
     )
     .map_err(|e| anyhow::anyhow!("{e}"))?;
-    let (problems, noises) = session
-        .mcmc_trials(&surae_app::Reporter::silent())
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let (problems, noises) = session.mcmc_trials().map_err(|e| anyhow::anyhow!("{e}"))?;
     let trials: Vec<identify_mcmc::SessionTrialLikelihood<'_>> = problems
         .iter()
         .zip(&noises)

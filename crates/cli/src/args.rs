@@ -62,9 +62,6 @@ pub struct DiagnoseArgs {
     /// subject XML), or an `identify.json` whose identified values are set over them.
     #[arg(long, requires = "session")]
     pub params: Option<PathBuf>,
-    /// Seed (the diagnosis itself is deterministic; kept for scripts that pass one).
-    #[arg(long, default_value_t = 42)]
-    pub seed: u64,
     /// The EMG columns are already normalised envelopes in [0, 1].
     #[arg(long)]
     pub emg_is_envelope: bool,
@@ -292,7 +289,6 @@ impl From<DiagnoseArgs> for surae_app::DiagnoseJob {
             unloaded: a.unloaded,
             session: a.session,
             params: a.params,
-            seed: a.seed,
             emg_is_envelope: a.emg_is_envelope,
             knee: a.knee.into(),
             out: a.out,

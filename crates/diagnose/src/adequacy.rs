@@ -19,7 +19,7 @@
 //! unweighted squared error): projecting out `J` removes what a small move of the
 //! identified parameters would explain, so the test sees only what the model cannot.
 
-use experiment::{Trial, Unloaded};
+use experiment::{PreparedTrial, UnloadedCorrection};
 use muscle_model::{Effects, ModelParams, ParamId, Problem};
 use serde::Serialize;
 
@@ -67,30 +67,38 @@ impl Adequacy {
     }
 }
 
-/// The structure test of the model `params` + `effects` on `trial` (prepared as
-/// [`crate::run`] prepares it), with the parameters `free` projected out.
+/// The structure test of the model `params` + `effects` on a prepared trial (its inputs, raw
+/// torque and dynamometer correction, [`PreparedTrial`]), with the parameters `free`
+/// projected out.
 ///
 /// # Errors
-/// Invalid settings or trial, an unloaded run that does not match, a model that cannot be
-/// simulated at the point.
+/// Invalid settings, an unloaded run that does not match, a model that cannot be simulated
+/// at the point.
 pub fn adequacy(
-    trial: &Trial,
-    unloaded: Option<&Unloaded>,
+    prepared: &PreparedTrial,
     params: &ModelParams,
     effects: &Effects,
     free: &[ParamId],
     settings: &DiagnoseSettings,
 ) -> Result<Adequacy, DiagnoseError> {
     settings.validate()?;
-    let (inputs, seg) = context::prepare(trial, settings)?;
+    let inputs = prepared.inputs.clone();
+    let seg = context::segment_motion(&inputs)?;
     let target = Target {
-        torque_nm: &trial.torque_nm,
+        torque_nm: prepared.raw_torque(),
         observed: None,
         params: *params,
         effects: *effects,
         emg: Default::default(),
     };
-    test_at(target, unloaded, inputs, seg, free, settings)
+    test_at(
+        target,
+        prepared.unloaded.as_ref(),
+        inputs,
+        seg,
+        free,
+        settings,
+    )
 }
 
 /// [`adequacy`] of a prepared recording (a session's trial, a CEINMS trial) at its model
@@ -100,7 +108,7 @@ pub fn adequacy(
 /// As [`adequacy`], and the recording's own checks ([`crate::run_prepared`]).
 pub fn adequacy_of_recording(
     recording: &DiagnosisRecording,
-    unloaded: Option<&Unloaded>,
+    unloaded: Option<&UnloadedCorrection>,
     free: &[ParamId],
     settings: &DiagnoseSettings,
 ) -> Result<Adequacy, DiagnoseError> {
@@ -120,7 +128,7 @@ pub fn adequacy_of_recording(
 
 fn test_at(
     target: Target<'_>,
-    unloaded: Option<&Unloaded>,
+    unloaded: Option<&UnloadedCorrection>,
     inputs: muscle_model::TrialInputs,
     seg: crate::Segmentation,
     free: &[ParamId],

@@ -2,7 +2,7 @@
 //! model whose systematic part is subtracted from the measured torque and whose random part
 //! whitens the residual (docs/diagnosis.md, docs/dynamometer.md).
 
-use experiment::{model_inputs, Trial, Unloaded};
+use experiment::UnloadedCorrection;
 use muscle_model::{Effects, ModelParams, Muscle, TrialInputs};
 use numerics::LevenbergMarquardtSettings;
 
@@ -10,17 +10,6 @@ use crate::fit::Context;
 use crate::noise::{NoiseModelSource, Transient, TrialNoiseModel, WhitenPlan};
 use crate::segment::Segmentation;
 use crate::{DiagnoseError, DiagnoseSettings};
-
-/// The model inputs of `trial` and the segmentation of its motion (the mean envelope marks
-/// the relaxed cycle).
-pub(crate) fn prepare(
-    trial: &Trial,
-    settings: &DiagnoseSettings,
-) -> Result<(TrialInputs, Segmentation), DiagnoseError> {
-    let inputs = model_inputs(trial, &settings.input_options)?;
-    let seg = segment_motion(&inputs)?;
-    Ok((inputs, seg))
-}
 
 /// The segmentation of `inputs`' motion; a recording whose angle never changes over the
 /// observed samples (no joint angle) is one hold.
@@ -44,7 +33,7 @@ pub(crate) fn segment(
 }
 
 /// The segmentation of a moving angle, the mean sol/gm/gl envelope marking relaxed cycles.
-fn segment_motion(inputs: &TrialInputs) -> Result<Segmentation, DiagnoseError> {
+pub(crate) fn segment_motion(inputs: &TrialInputs) -> Result<Segmentation, DiagnoseError> {
     let act: Vec<f64> = (0..inputs.len())
         .map(|i| {
             Muscle::ALL
@@ -84,7 +73,7 @@ pub(crate) struct Target<'a> {
 /// inside that span set to zero.
 pub(crate) fn trial_context(
     target: Target<'_>,
-    unloaded: Option<&Unloaded>,
+    unloaded: Option<&UnloadedCorrection>,
     inputs: TrialInputs,
     seg: Segmentation,
     settings: &DiagnoseSettings,
@@ -143,22 +132,13 @@ pub(crate) fn trial_context(
     };
     let noise = match unloaded {
         Some(u) => {
-            let fu = u.sample_rate_hz();
+            let fu = u.rate_hz;
             if (fu - fs).abs() > 1e-6 * fs || fu.is_nan() {
                 return Err(DiagnoseError::Unloaded {
                     reason: format!("sampled at {fu} Hz but the trial at {fs} Hz"),
                 });
             }
-            let correction = experiment::DynamometerCorrection::from_unloaded(u).map_err(|e| {
-                DiagnoseError::Unloaded {
-                    reason: e.to_string(),
-                }
-            })?;
-            TrialNoiseModel::from_correction(
-                &correction,
-                NoiseModelSource::Unloaded,
-                u.torque_nm.len(),
-            )
+            TrialNoiseModel::from_correction(&u.correction, NoiseModelSource::Unloaded, u.samples)
         }
         None => {
             // preliminary white-noise baseline, then the noise model from its residual

@@ -6,8 +6,8 @@
 //!
 //! 0. **EMG crosstalk** (`crosstalk`): with a raw `emg_ta` channel, each triceps channel's
 //!    share of the TA's raw signal is tested (weighted least squares over 100 ms blocks,
-//!    [`signal::crosstalk()`]) and, when `p < 10⁻⁵`, removed from the raw signal before the
-//!    envelopes are made; the final model is refitted on the uncorrected envelopes to measure
+//!    [`experiment::emg_crosstalk`]) and, when `p < 10⁻⁵`, removed from the raw signal before the
+//!    envelopes are made ([`experiment::PreparedTrial`]); the final model is refitted on the uncorrected envelopes to measure
 //!    what the correction is worth ([`EmgCorrection`]).
 //! 1. **Noise** ([`noise`]): on the unloaded run, fit the dynamometer's systematic part
 //!    `c + Σ_e e^{−(t−e)/τ}(B sin 2πf(t−e) + C cos 2πf(t−e))` (offset + event transients) and
@@ -118,14 +118,12 @@ mod settings;
 use std::ops::ControlFlow;
 use std::time::Instant;
 
-use experiment::{Trial, Unloaded};
+use experiment::{PreparedTrial, Trial, Unloaded, UnloadedCorrection};
 use muscle_model::{Effects, ModelParams};
 
 pub use adequacy::{adequacy, adequacy_of_recording, Adequacy};
 pub use analysis::{AcfPoint, Bin, ResidualAnalysis, Series};
-pub use crosstalk::{
-    crosstalk_summary_line, emg_crosstalk, remove_crosstalk, CrosstalkCheck, EmgCorrection,
-};
+pub use crosstalk::{crosstalk_summary_line, EmgCorrection};
 pub use error::DiagnoseError;
 pub use flexible::{
     FlexibleExtension, FlexibleTerm, Replacement, SearchedValue, StateVariable, Unexplained,
@@ -185,29 +183,50 @@ pub fn run_with_model(
     settings: &DiagnoseSettings,
     observer: &mut dyn FnMut(&DiagnosisProgress) -> ControlFlow<()>,
 ) -> Result<Diagnosis, DiagnoseError> {
+    settings.validate()?;
+    let prepared = settings.prepare(trial, unloaded)?;
+    run_trial(&prepared, params, effects, settings, observer)
+}
+
+/// [`run_with_model`] on a trial already prepared ([`DiagnoseSettings::prepare`], or as the
+/// identification prepared it with the same input options): its crosstalk decision, model
+/// inputs and dynamometer correction are used as they are.
+///
+/// # Errors
+/// As [`run`].
+pub fn run_trial(
+    prepared: &PreparedTrial,
+    params: &ModelParams,
+    effects: &Effects,
+    settings: &DiagnoseSettings,
+    observer: &mut dyn FnMut(&DiagnosisProgress) -> ControlFlow<()>,
+) -> Result<Diagnosis, DiagnoseError> {
     let t0 = Instant::now();
     // Settings and inputs: refuse what the decision rule cannot use before any simulation.
     settings.validate()?;
-    // The TA's crosstalk in the raw triceps EMG is removed before anything is fitted; the
-    // uncorrected envelopes are kept to say what the correction was worth.
-    let checks = emg_crosstalk(trial, settings)?;
-    let corrected = remove_crosstalk(trial, &checks);
-    let (inputs, seg) = context::prepare(corrected.as_ref().unwrap_or(trial), settings)?;
-    let uncorrected = match &corrected {
-        Some(_) => Some(context::prepare(trial, settings)?.0),
-        None => None,
-    };
+    let inputs = prepared.inputs.clone();
+    let seg = context::segment_motion(&inputs)?;
+    // The TA's crosstalk was removed from the raw triceps EMG before the envelopes were
+    // made; the uncorrected envelopes say what the correction was worth.
     let target = context::Target {
-        torque_nm: &trial.torque_nm,
+        torque_nm: prepared.raw_torque(),
         observed: None,
         params: *params,
         effects: *effects,
         emg: crosstalk::EmgInputs {
-            checks,
-            uncorrected,
+            checks: prepared.crosstalk.clone(),
+            uncorrected: prepared.uncorrected_inputs.clone(),
         },
     };
-    diagnose_target(target, unloaded, inputs, seg, settings, observer, t0)
+    diagnose_target(
+        target,
+        prepared.unloaded.as_ref(),
+        inputs,
+        seg,
+        settings,
+        observer,
+        t0,
+    )
 }
 
 /// Diagnoses a recording given as model inputs ([`DiagnosisRecording`]), such as a CEINMS
@@ -233,7 +252,7 @@ pub fn run_prepared(
 /// the session prepared them).
 pub(crate) fn run_member(
     recording: &DiagnosisRecording,
-    unloaded: Option<&Unloaded>,
+    unloaded: Option<&UnloadedCorrection>,
     settings: &DiagnoseSettings,
     observer: &mut dyn FnMut(&DiagnosisProgress) -> ControlFlow<()>,
 ) -> Result<Diagnosis, DiagnoseError> {
@@ -286,7 +305,7 @@ fn drop_causes(
 /// The stages of a diagnosis (module docs) on prepared inputs.
 fn diagnose_target(
     mut target: context::Target<'_>,
-    unloaded: Option<&Unloaded>,
+    unloaded: Option<&UnloadedCorrection>,
     inputs: muscle_model::TrialInputs,
     seg: Segmentation,
     settings: &DiagnoseSettings,
@@ -516,7 +535,7 @@ fn correction_worth(
     ctx: &fit::Context,
     model: &fit::Fit,
     raw: muscle_model::TrialInputs,
-    checks: &[CrosstalkCheck],
+    checks: &[experiment::CrosstalkCheck],
     settings: &DiagnoseSettings,
     observer: &mut dyn FnMut(&DiagnosisProgress) -> ControlFlow<()>,
     evaluations: &mut usize,

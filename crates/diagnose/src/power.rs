@@ -48,7 +48,7 @@
 use experiment::{DynamometerSettings, Trial};
 use muscle_model::{Ar1White, EffectKind};
 
-use crate::context::prepare;
+use crate::context::segment_motion;
 use crate::fit::{latin_hypercube, Context};
 use crate::noise::{NoiseModelSource, Transient, TrialNoiseModel};
 use crate::{DiagnoseError, DiagnoseSettings};
@@ -87,7 +87,8 @@ pub fn noncentrality(
     settings: &DiagnoseSettings,
 ) -> Result<Information, DiagnoseError> {
     settings.validate()?;
-    let (inputs, seg) = prepare(trial, settings)?;
+    let inputs = experiment::model_inputs(trial, &settings.input_options)?;
+    let seg = segment_motion(&inputs)?;
     let n = inputs.len();
     if clean_torque.len() != n || clean_torque.iter().any(|v| !v.is_finite()) {
         return Err(DiagnoseError::Settings {

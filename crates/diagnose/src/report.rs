@@ -249,7 +249,7 @@ pub struct Diagnosis {
     /// The raw-EMG test of each triceps channel for the TA's crosstalk (empty without a TA
     /// channel or raw EMG).
     #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub emg_crosstalk: Vec<crate::CrosstalkCheck>,
+    pub emg_crosstalk: Vec<experiment::CrosstalkCheck>,
     /// What removing the TA's share from the corrected channels was worth (only when a
     /// channel was corrected; every fit above used the corrected envelopes).
     #[serde(skip_serializing_if = "Option::is_none")]

@@ -1,7 +1,7 @@
 //! Settings of a diagnosis: the decision rule's thresholds and margins, the fits' budgets
 //! and the cross-validation folds (docs/diagnosis.md).
 
-use experiment::InputOptions;
+use experiment::{CrosstalkSettings, InputOptions, PreparedTrial, Trial, Unloaded};
 use muscle_model::EffectKind;
 use numerics::LevenbergMarquardtSettings;
 
@@ -237,6 +237,31 @@ impl Default for DiagnoseSettings {
 }
 
 impl DiagnoseSettings {
+    /// The EMG crosstalk test these settings ask for.
+    #[must_use]
+    pub fn crosstalk_settings(&self) -> CrosstalkSettings {
+        CrosstalkSettings::new(self.crosstalk_check, self.crosstalk_threshold)
+    }
+
+    /// `trial` and its optional unloaded run prepared as a diagnosis prepares them
+    /// ([`PreparedTrial::prepare`] with these settings' input options and crosstalk test).
+    ///
+    /// # Errors
+    /// As [`PreparedTrial::prepare`].
+    pub fn prepare(
+        &self,
+        trial: &Trial,
+        unloaded: Option<&Unloaded>,
+    ) -> Result<PreparedTrial, DiagnoseError> {
+        Ok(PreparedTrial::prepare(
+            trial,
+            unloaded,
+            &self.input_options,
+            &self.crosstalk_settings(),
+            "trial",
+        )?)
+    }
+
     /// Checks the settings the decision rule cannot use (a margin that is not finite, no
     /// refits, folds that hold nothing out, Levenberg–Marquardt or profile settings that
     /// cannot iterate) before any simulation.

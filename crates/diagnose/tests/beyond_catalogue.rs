@@ -27,7 +27,8 @@
 mod common;
 
 use diagnose::scenarios::{hidden_trial, uncatalogued_trial, Uncatalogued, UncataloguedTrial};
-use diagnose::{emg_crosstalk, DiagnoseSettings, StateVariable, Verdict};
+use diagnose::{DiagnoseSettings, StateVariable, Verdict};
+use experiment::emg_crosstalk;
 
 /// The default base seed.
 const BASE: u64 = 20_251_127;
@@ -211,8 +212,13 @@ fn crosstalk_check_is_quiet_without_crosstalk() {
             seed,
         )
         .unwrap_or_else(|e| panic!("seed {seed}: synthesis failed: {e}"));
-        let checks = emg_crosstalk(&t.synthetic.trial, &settings)
-            .unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+        let checks = emg_crosstalk(
+            &t.synthetic.trial,
+            &settings.crosstalk_settings(),
+            settings.input_options.emg_is_envelope,
+            "trial",
+        )
+        .unwrap_or_else(|e| panic!("seed {seed}: {e}"));
         assert_eq!(checks.len(), 3, "seed {seed}");
         for c in checks {
             assert!(!c.corrected, "seed {seed}: {c:?}");

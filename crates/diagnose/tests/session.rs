@@ -10,7 +10,10 @@ use diagnose::{
     HeldoutScheme, SessionDiagnosis, SessionMember, Verdict,
 };
 use experiment::synth_session::{session_trial_config, synthesize_session_configs};
-use experiment::{model_inputs, synthesize, InputOptions, SynthConfig, SynthProtocol, Synthetic};
+use experiment::{
+    model_inputs, synthesize, InputOptions, SynthConfig, SynthProtocol, Synthetic,
+    UnloadedCorrection,
+};
 use muscle_model::{Effects, ModelParams};
 
 /// The session's protocols and the names its trials take.
@@ -38,14 +41,19 @@ fn session(seed: u64, effects: impl Fn(usize) -> Effects) -> Vec<Synthetic> {
 
 /// The joint diagnosis with default settings, on the session-normalised inputs.
 fn diagnose(trials: &[Synthetic]) -> SessionDiagnosis {
+    let corrections: Vec<UnloadedCorrection> = trials
+        .iter()
+        .map(|s| UnloadedCorrection::fit(&s.unloaded).unwrap())
+        .collect();
     let members: Vec<SessionMember<'_>> = trials
         .iter()
+        .zip(&corrections)
         .zip(PROTOCOLS)
-        .map(|(s, (_, name))| SessionMember {
+        .map(|((s, c), (_, name))| SessionMember {
             name: name.to_string(),
             recording: DiagnosisRecording::new(s.inputs.clone(), s.trial.torque_nm.clone())
                 .with_model(ModelParams::nominal(), Effects::none()),
-            unloaded: Some(&s.unloaded),
+            unloaded: Some(c),
         })
         .collect();
     diagnose_session(&members, &DiagnoseSettings::default(), &mut no_observer).unwrap()
@@ -155,13 +163,14 @@ fn a_session_of_one_trial_is_its_own_diagnosis() {
     let cfg =
         SynthConfig::for_protocol(PROTOCOLS[0].0.parse().unwrap(), 7).with_effects(effects(DELAY));
     let s = &synthesize(&cfg).unwrap();
+    let correction = UnloadedCorrection::fit(&s.unloaded).unwrap();
     let one = SessionMember {
         name: "knee0_30".into(),
         recording: DiagnosisRecording::new(
             model_inputs(&s.trial, &InputOptions::default()).unwrap(),
             s.trial.torque_nm.clone(),
         ),
-        unloaded: Some(&s.unloaded),
+        unloaded: Some(&correction),
     };
     let settings = DiagnoseSettings::default();
     let d = diagnose_session(&[one], &settings, &mut no_observer).unwrap();

@@ -22,6 +22,10 @@
 //!   gastrocnemii's active drive is `f(k) = 1 − 0.3·(1 − cos k)` times the extended knee's.
 //! * [`rng`]: every random part is a `ChaCha8Rng` on its own stream of one seed.
 //! * [`model_inputs()`]: a trial → the model's inputs (angle in rad, envelopes of docs/model.md, section 1).
+//! * [`emg_crosstalk`] and [`remove_crosstalk`]: the TA's share in the raw triceps EMG, tested and
+//!   removed before the envelopes are made.
+//! * [`PreparedTrial`]: one trial prepared once for every job (crosstalk decision, model inputs,
+//!   dynamometer correction, the torque a fit is compared with).
 //! * [`synthesize`]: a whole synthetic experiment (trial, unloaded run, truth) from one seed.
 //! * [`read_ceinms_trial`] and [`ceinms_model_params`]: a CEINMS trial folder and subject XML as the model's inputs and parameters
 //!   (docs/real-data.md).
@@ -50,12 +54,14 @@
 
 mod ceinms;
 mod correction;
+mod crosstalk;
 mod dynamometer;
 mod emg;
 mod error;
 mod events;
 mod files;
 mod model_inputs;
+mod prepared;
 mod protocol;
 mod seeds;
 mod synth;
@@ -69,6 +75,7 @@ pub use ceinms::{
 pub use correction::{
     fit_ar1_white, CorrectedTorque, DynamometerCorrection, DynamometerReport, TransientReport,
 };
+pub use crosstalk::{emg_crosstalk, remove_crosstalk, CrosstalkCheck, CrosstalkSettings};
 pub use dynamometer::{
     dynamometer_error, quantise, quantise_in_place, random_error, random_error_with,
     systematic_error, systematic_error_at, unloaded_run, unloaded_run_with, DynamometerSettings,
@@ -90,6 +97,7 @@ pub use model_inputs::{
     envelope_peaks, model_inputs, model_inputs_named, model_inputs_referenced, EmgReferences,
     InputOptions, KNEE_AGREEMENT_DEG,
 };
+pub use prepared::{PreparedTrial, UnloadedCorrection};
 pub use protocol::{
     Events, MotionPhase, MotionSettings, Protocol, ProtocolTrace, Segment, SynthProtocol,
     KNEE_RANGE_DEG, NOMINAL_SPEED_DEG_S, SPEED_RANGE_DEG_S,

@@ -109,6 +109,31 @@ impl NoiseSpec {
         kind: NoiseKind,
     ) -> Result<Self, McmcError> {
         let systematic = correction.correct(trial)?.systematic_nm;
+        Self::with_systematic(correction, systematic, kind)
+    }
+
+    /// The noise side of a prepared trial: [`NoiseSpec::from_correction`] with the systematic
+    /// part the preparation already placed at the trial's events, or
+    /// [`NoiseSpec::from_residual`] without an unloaded run.
+    ///
+    /// # Errors
+    /// Invalid noise values.
+    pub fn from_prepared(
+        prepared: &experiment::PreparedTrial,
+        kind: NoiseKind,
+    ) -> Result<Self, McmcError> {
+        match (prepared.correction(), prepared.systematic()) {
+            (Some(c), Some(s)) => Self::with_systematic(c, s.to_vec(), kind),
+            _ => Ok(Self::from_residual(kind)),
+        }
+    }
+
+    /// [`NoiseSpec::from_correction`] with the trial's systematic part given.
+    fn with_systematic(
+        correction: &experiment::DynamometerCorrection,
+        systematic: Vec<f64>,
+        kind: NoiseKind,
+    ) -> Result<Self, McmcError> {
         let r = correction.random;
         let sigma = r.marginal_sd();
         let lag1 = r.autocorrelation(1);

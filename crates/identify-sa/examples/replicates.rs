@@ -7,8 +7,11 @@
 //! Replicate `k` uses truth `random_params(ChaCha8Rng::seed_from_u64(1000 + k))` and synthesis
 //! seed `1000 + k`; the identification uses the default settings.
 
-use experiment::{random_params, synthesize, InputOptions, Protocol, SynthConfig};
-use identify_sa::{identify, prepare_trial, NoObserver, SaIdentifySettings};
+use experiment::{
+    random_params, synthesize, CrosstalkSettings, InputOptions, PreparedTrial, Protocol,
+    SynthConfig,
+};
+use identify_sa::{identify, NoObserver, SaIdentifySettings};
 use muscle_model::{Effects, ModelParams};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -38,14 +41,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             &ModelParams::nominal(),
         );
         let syn = synthesize(&SynthConfig::new(Protocol::Seed, seed).with_params(truth))?;
-        let prep = prepare_trial(&syn.trial, Some(&syn.unloaded), &InputOptions::default())?;
-        let id = identify(&prep.problem, &SaIdentifySettings::default(), &NoObserver)?;
-        let floor = prep
-            .problem
-            .rms(&prep.problem.vector_from(&truth, &Effects::none()))?;
+        let prep = PreparedTrial::prepare(
+            &syn.trial,
+            Some(&syn.unloaded),
+            &InputOptions::default(),
+            &CrosstalkSettings::off(),
+            "synthetic trial",
+        )?;
+        let problem = prep.standard_problem()?;
+        let id = identify(&problem, &SaIdentifySettings::default(), &NoObserver)?;
+        let floor = problem.rms(&problem.vector_from(&truth, &Effects::none()))?;
         let e = id.errors_pct(&truth);
         if names.is_empty() {
-            names = prep.problem.names().to_vec();
+            names = problem.names().to_vec();
             errs = vec![Vec::new(); names.len()];
         }
         for (j, name) in names.iter().enumerate() {

@@ -7,12 +7,12 @@
 //! dissertation's eq. 12, a failed simulation = a rejected move); the annealer itself does
 //! not depend on the model.
 //!
-//! # Identification ([`identify()`], [`prepare_trial`])
+//! # Identification ([`identify()`])
 //!
-//! * [`prepare_trial`] builds the standard problem from a trial; with an unloaded run it
-//!   subtracts the dynamometer's cycle-locked error (offset + damped-sinusoid transient after
-//!   each motion event, `experiment::DynamometerCorrection`, placed at the trial's own events
-//!   detected from its angle) from the measured torque and returns what it subtracted.
+//! * The problem comes from `experiment::PreparedTrial`: its `standard_problem` is the
+//!   standard problem on the torque with the dynamometer's cycle-locked error subtracted
+//!   (offset + damped-sinusoid transient after each motion event, placed at the trial's own
+//!   events detected from its angle) when an unloaded run was given.
 //! * [`identify()`] runs `chains` = 4 independent annealing chains in parallel (rayon; chain
 //!   0 from the nominal values, the others from random points; chain `k` seeded with
 //!   [`chain_seed`]), each with [`SaIdentifySettings::default_annealer`] (6 000 evaluations,
@@ -21,8 +21,8 @@
 //!   residual vector ([`SaIdentifySettings::default_polish`]: ≤ 40 iterations, central
 //!   differences of 10⁻³ of each range; `numerics::lm`) and keeps the best. The result does not depend on the thread count.
 //! * `rms_nm` is the RMS of (torque fitted − model), the torque fitted being the corrected
-//!   one when an unloaded run was given; [`PreparedTrial::raw_rms_nm`] gives the model
-//!   against the raw torque.
+//!   one when an unloaded run was given (`experiment::PreparedTrial::raw_torque` is the torque
+//!   as measured).
 //!
 //! Budget: one simulation of the seed trial (6 828 samples) takes about 0.7 ms on one core
 //! of the 2-core machine; the default ≈ 26 000 evaluations take ≈ 9 s of wall time on two
@@ -182,9 +182,8 @@ pub use annealer::{reflect_into_unit, AnnealStopReason, Annealer, StageRecord};
 pub use error::Error;
 pub use executor::{run, AnnealPhase, AnnealProgress, NoObserver, Observer, Outcome};
 pub use identify::{
-    chain_seed, errors_pct, identify, identify_set, prepare_trial, truth_values, ChainSummary,
-    Identification, IdentifyEvent, IdentifyObserver, PreparedTrial, ProblemObjective,
-    ProblemSetObjective, SaIdentifySettings,
+    chain_seed, errors_pct, identify, identify_set, truth_values, ChainSummary, Identification,
+    IdentifyEvent, IdentifyObserver, ProblemObjective, ProblemSetObjective, SaIdentifySettings,
 };
 /// Nelder–Mead and the objective trait live in `numerics`; they are part of this crate's API.
 pub use numerics::{nelder_mead, FnObjective, NelderMeadOutcome, NelderMeadSettings, Objective};

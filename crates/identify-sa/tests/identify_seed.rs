@@ -13,10 +13,11 @@
 use std::path::PathBuf;
 
 use experiment::{
-    random_params, read_trial, read_unloaded, synthesize, InputOptions, Protocol, SynthConfig,
+    random_params, read_trial, read_unloaded, synthesize, CrosstalkSettings, InputOptions,
+    PreparedTrial, Protocol, SynthConfig, Trial, Unloaded,
 };
-use identify_sa::{identify, prepare_trial, NoObserver, PreparedTrial, SaIdentifySettings};
-use muscle_model::ModelParams;
+use identify_sa::{identify, NoObserver, SaIdentifySettings};
+use muscle_model::{ModelParams, Problem};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
@@ -39,14 +40,36 @@ struct Checked {
     evaluations: u64,
 }
 
-fn fit_and_check(prep: &PreparedTrial, truth: &ModelParams, label: &str) -> Checked {
-    let id = identify(&prep.problem, &SaIdentifySettings::default(), &NoObserver).unwrap();
-    let truth_x = prep
-        .problem
-        .vector_from(truth, &muscle_model::Effects::none());
-    let floor = prep.problem.rms(&truth_x).unwrap();
-    let raw_floor = prep.raw_rms_nm(&truth_x).unwrap();
-    let raw_fit = prep.raw_rms_nm(&id.x).unwrap();
+/// The trial prepared as the identification prepares it, without the crosstalk test (the
+/// synthetic trials carry none), and its standard problem.
+fn prepare(trial: &Trial, unloaded: Option<&Unloaded>) -> (PreparedTrial, Problem) {
+    let prep = PreparedTrial::prepare(
+        trial,
+        unloaded,
+        &InputOptions::default(),
+        &CrosstalkSettings::off(),
+        "trial.csv",
+    )
+    .unwrap();
+    let problem = prep.standard_problem().unwrap();
+    (prep, problem)
+}
+
+/// RMS of the raw torque − model(x) (N·m): the fit judged against the torque as measured.
+fn raw_rms_nm(prep: &PreparedTrial, problem: &Problem, x: &[f64]) -> f64 {
+    numerics::rms_diff(&problem.predict(x).unwrap(), prep.raw_torque())
+}
+
+fn fit_and_check(
+    (prep, problem): &(PreparedTrial, Problem),
+    truth: &ModelParams,
+    label: &str,
+) -> Checked {
+    let id = identify(problem, &SaIdentifySettings::default(), &NoObserver).unwrap();
+    let truth_x = problem.vector_from(truth, &muscle_model::Effects::none());
+    let floor = problem.rms(&truth_x).unwrap();
+    let raw_floor = raw_rms_nm(prep, problem, &truth_x);
+    let raw_fit = raw_rms_nm(prep, problem, &id.x);
     let errors = id.errors_pct(truth);
     println!(
         "{label}: rms {:.4} N·m, floor {:.4} (ratio {:.4}); raw model-only {:.4} vs {:.4} (ratio {:.4}); \
@@ -60,13 +83,13 @@ fn fit_and_check(prep: &PreparedTrial, truth: &ModelParams, label: &str) -> Chec
         prep.subtracted_rms_nm(),
         id.evaluations,
         id.wall_s,
-        id.chains.iter().map(|c| (c.cost / prep.problem.inputs().len() as f64).sqrt()).collect::<Vec<_>>()
+        id.chains.iter().map(|c| (c.cost / problem.inputs().len() as f64).sqrt()).collect::<Vec<_>>()
     );
     for (k, v) in &errors {
         println!("  {k:16} {:12.6} error {v:6.2} %", id.params[k]);
     }
     assert_eq!(id.params.len(), 9);
-    assert!(prep.problem.in_bounds(&id.x));
+    assert!(problem.in_bounds(&id.x));
     Checked {
         ratio: id.rms_nm / floor,
         acceptance_ratio: id.rms_nm / raw_floor,
@@ -83,9 +106,9 @@ fn seed_fixture_reaches_the_noise_floor_and_recovers_soleus_lst() {
     let truth_json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(fixture("truth.json")).unwrap()).unwrap();
     let truth = ModelParams::from_json_str(&truth_json["params"].to_string()).unwrap();
-    let prep = prepare_trial(&trial, Some(&unloaded), &InputOptions::default()).unwrap();
-    assert!(prep.subtracted.is_some());
-    assert_eq!(prep.events.as_ref().unwrap().reversals.len(), 1);
+    let prep = prepare(&trial, Some(&unloaded));
+    assert!(prep.0.systematic().is_some());
+    assert_eq!(prep.0.events().unwrap().reversals.len(), 1);
     let c = fit_and_check(&prep, &truth, "fixtures/seed");
     assert!(c.ratio <= 1.02, "fitted RMS / noise floor = {}", c.ratio);
     assert!(
@@ -122,7 +145,7 @@ fn off_nominal_fixture_recovers_the_tendon_slack_lengths() {
     )
     .unwrap();
     let truth = ModelParams::from_json_str(&truth_json["params"].to_string()).unwrap();
-    let prep = prepare_trial(&trial, Some(&unloaded), &InputOptions::default()).unwrap();
+    let prep = prepare(&trial, Some(&unloaded));
     let c = fit_and_check(&prep, &truth, "fixtures/offnominal");
     // the same fit-quality acceptance as the seed fixture
     assert!(c.ratio <= 1.02, "fitted RMS / noise floor = {}", c.ratio);
@@ -148,8 +171,7 @@ fn random_truths_meet_the_acceptance() {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let truth = random_params(&mut rng, &ModelParams::nominal());
         let syn = synthesize(&SynthConfig::new(Protocol::Seed, seed).with_params(truth)).unwrap();
-        let prep =
-            prepare_trial(&syn.trial, Some(&syn.unloaded), &InputOptions::default()).unwrap();
+        let prep = prepare(&syn.trial, Some(&syn.unloaded));
         let c = fit_and_check(&prep, &truth, &format!("random truth {seed}"));
         assert!(c.ratio <= 1.02, "seed {seed}: ratio {}", c.ratio);
         assert!(
@@ -169,7 +191,7 @@ fn random_truths_meet_the_acceptance() {
 fn identification_is_deterministic_and_thread_count_independent() {
     // Small budget: the point is reproducibility, not accuracy.
     let trial = read_trial(fixture("trial.csv")).unwrap();
-    let prep = prepare_trial(&trial, None, &InputOptions::default()).unwrap();
+    let (prep, problem) = prepare(&trial, None);
     let s = SaIdentifySettings::default()
         .with_chain_evaluations(600)
         .with_chains(3);
@@ -177,17 +199,17 @@ fn identification_is_deterministic_and_thread_count_independent() {
         .num_threads(1)
         .build()
         .unwrap()
-        .install(|| identify(&prep.problem, &s, &NoObserver).unwrap());
+        .install(|| identify(&problem, &s, &NoObserver).unwrap());
     let two = rayon::ThreadPoolBuilder::new()
         .num_threads(2)
         .build()
         .unwrap()
-        .install(|| identify(&prep.problem, &s, &NoObserver).unwrap());
+        .install(|| identify(&problem, &s, &NoObserver).unwrap());
     assert_eq!(one.x, two.x);
     assert_eq!(one.sse, two.sse);
     assert_eq!(one.evaluations, two.evaluations);
     assert_eq!(one.chains.len(), 3);
     // Without the unloaded run nothing is subtracted.
-    assert!(prep.subtracted.is_none());
+    assert!(prep.systematic().is_none());
     assert_eq!(prep.subtracted_rms_nm(), 0.0);
 }

@@ -2,11 +2,12 @@
 //! effect explains it, and what the extension buys out of sample; with `--session`, the
 //! session's trials jointly and every trial on its own (`session_run`).
 
-use super::{load_trial, load_unloaded, trial_inputs, ModelSettings};
+use super::{load_trial, load_unloaded, prepare_trial, ModelSettings};
 use crate::error::{AppError, AppResult};
 use crate::output::OutDir;
 use crate::Reporter;
 use diagnose::{DiagnoseSettings, Diagnosis};
+use muscle_model::{Effects, ModelParams};
 use std::path::{Path, PathBuf};
 
 mod pages;
@@ -49,8 +50,6 @@ pub struct DiagnoseJob {
     /// With `--session`: parameters replacing the session's (parameters JSON, `.osim`, CEINMS
     /// subject XML), or an `identify.json` whose identified values are set over them.
     pub params: Option<PathBuf>,
-    /// Seed (the diagnosis itself is deterministic; kept for scripts that pass one).
-    pub seed: u64,
     /// The EMG columns are already normalised envelopes in [0, 1].
     pub emg_is_envelope: bool,
     pub knee: super::KneeSettings,
@@ -89,8 +88,23 @@ pub fn run(args: DiagnoseJob, rep: &Reporter) -> AppResult {
         knee: args.knee,
         ..ModelSettings::default()
     };
-    // validates the inputs with messages that name the file
-    let inputs = trial_inputs(&loaded, &model_args)?;
+    let settings = DiagnoseSettings {
+        input_options: args.knee.input_options(emg_is_envelope),
+        ..DiagnoseSettings::default()
+    };
+    // the trial prepared once, its errors naming the file: crosstalk decision, model inputs
+    // and the unloaded run's correction
+    let prepared = prepare_trial(
+        &loaded,
+        unloaded.as_ref().map(|(u, n)| (u, n.as_str())),
+        &model_args,
+        &settings.crosstalk_settings(),
+    )?;
+    // the figures draw the envelopes as recorded
+    let inputs = prepared
+        .uncorrected_inputs
+        .as_ref()
+        .unwrap_or(&prepared.inputs);
     let mut inputs_read: Vec<&Path> = loaded.path.iter().map(|p| p.as_path()).collect();
     inputs_read.extend(loaded.data_files.iter().map(|p| p.as_path()));
     if let Some(p) = &args.unloaded {
@@ -102,19 +116,16 @@ pub fn run(args: DiagnoseJob, rep: &Reporter) -> AppResult {
         .unwrap_or_else(|| crate::default_out("diagnose"));
     let out = OutDir::prepare(&out_dir, &inputs_read, PLANNED)?;
 
-    let settings = DiagnoseSettings {
-        input_options: args.knee.input_options(emg_is_envelope),
-        ..DiagnoseSettings::default()
-    };
     let show = rep.show();
     let progress = rep.progress(0, "diag");
     let mut observer = |p: &diagnose::DiagnosisProgress| {
         progress.message(format!("{} ({} simulations)", p.message, p.evaluations));
         progress.flow()
     };
-    let d = diagnose::run(
-        &loaded.trial,
-        unloaded.as_ref().map(|(u, _)| u),
+    let d = diagnose::run_trial(
+        &prepared,
+        &ModelParams::nominal(),
+        &Effects::none(),
         &settings,
         &mut observer,
     )
@@ -152,7 +163,7 @@ pub fn run(args: DiagnoseJob, rep: &Reporter) -> AppResult {
         &out,
         &loaded.name,
         &loaded.trial.torque_nm,
-        &inputs,
+        inputs,
         &d,
         0..inputs.len(),
         &closing,

@@ -15,9 +15,7 @@ pub use reports::{
     SessionTrialReport,
 };
 
-use super::{
-    load_model_config, load_trial, load_unloaded, trial_inputs, LoadedTrial, ModelSettings,
-};
+use super::{load_model_config, load_trial, load_unloaded, LoadedTrial, ModelSettings};
 use crate::error::{AppError, AppResult};
 use crate::figures::{self, FigureSet};
 use crate::output::OutDir;
@@ -137,8 +135,9 @@ pub struct Prepared {
     pub loaded: LoadedTrial,
     /// The identification problem (measured torque corrected by the unloaded run).
     pub problem: Problem,
-    /// The measured torque as recorded.
-    pub measured_raw: Vec<f64>,
+    /// The trial prepared once: crosstalk decision, model inputs, dynamometer correction and
+    /// the torque as measured and as corrected.
+    pub prepared: experiment::PreparedTrial,
     /// How the unloaded run was used, for the JSON.
     pub noise: NoiseUseReport,
     /// The dynamometer correction subtracted (`"dynamometer"` in the JSON; `null` without an
@@ -146,20 +145,10 @@ pub struct Prepared {
     pub dynamometer: Option<experiment::DynamometerReport>,
     /// True parameters and effects, if known.
     pub truth: Option<(ModelParams, Effects)>,
-    /// The dynamometer correction estimated from the unloaded run, if any (MCMC takes its
-    /// noise model from it).
-    pub correction: Option<experiment::DynamometerCorrection>,
     /// Files read (never overwritten).
     pub inputs: Vec<PathBuf>,
-    /// The unloaded run, if any (the adequacy test corrects the trial with it).
-    pub unloaded: Option<experiment::Unloaded>,
-    /// How the trial's EMG and knee angle were read.
-    pub options: experiment::InputOptions,
     /// The effects `--with` added to the identified parameters.
     pub with: Vec<EffectKind>,
-    /// The raw-EMG crosstalk tests of the triceps channels against `emg_ta` (empty without
-    /// one); a corrected channel is already corrected in `loaded.trial`.
-    pub crosstalk: Vec<diagnose::CrosstalkCheck>,
 }
 
 /// Loads the trial, unloaded run and truth and builds the problem: the 9 muscle parameters and
@@ -198,24 +187,21 @@ pub fn prepare(
         inputs_read.push(p.clone());
     }
     inputs_read.extend(loaded.data_files.iter().cloned());
-    // validates the EMG columns with messages that name the file
-    trial_inputs(&loaded, model)?;
     let opts = model
         .knee
         .input_options(model.emg_is_envelope || loaded.emg_is_envelope);
     // the TA's crosstalk is removed from the raw triceps EMG as `surae diagnose` removes it
-    let crosstalk = diagnose::emg_crosstalk(&loaded.trial, &with::settings(opts))
-        .map_err(|e| AppError::bad(format!("{}: {e}", loaded.name)))?;
-    if let Some(t) = diagnose::remove_crosstalk(&loaded.trial, &crosstalk) {
-        loaded.trial = t;
+    let prepared = super::prepare_trial(
+        &loaded,
+        unloaded.as_ref().map(|(u, n)| (u, n.as_str())),
+        model,
+        &with::settings(opts).crosstalk_settings(),
+    )?;
+    if prepared.uncorrected_inputs.is_some() {
+        loaded.trial = prepared.trial.clone();
     }
     let unloaded_name = unloaded.as_ref().map(|(_, n)| n.clone());
-    let prep = identify_sa::prepare_trial(&loaded.trial, unloaded.as_ref().map(|(u, _)| u), &opts)
-        .map_err(|e| match &unloaded_name {
-            Some(n) => AppError::bad(format!("{} / {n}: {e}", loaded.name)),
-            None => AppError::bad(format!("{}: {e}", loaded.name)),
-        })?;
-    let noise = match &prep.correction {
+    let noise = match prepared.correction() {
         Some(c) => NoiseUseReport {
             unloaded: unloaded_name,
             correction: Some(NoiseCorrectionReport {
@@ -223,7 +209,7 @@ pub fn prepare(
                 sigma_nm: c.random.marginal_sd(),
                 lag1_autocorrelation: c.random.autocorrelation(1),
                 ar1_phi: c.random.phi,
-                subtracted_rms_nm: prep.subtracted_rms_nm(),
+                subtracted_rms_nm: prepared.subtracted_rms_nm(),
             }),
         },
         None => NoiseUseReport {
@@ -231,11 +217,10 @@ pub fn prepare(
             correction: None,
         },
     };
-    let dynamometer = prep.correction.as_ref().map(|c| c.report());
-    let measured_raw = prep.raw_torque.clone();
+    let dynamometer = prepared.correction().map(|c| c.report());
     let problem = Problem::new(
-        prep.problem.inputs().clone(),
-        prep.problem.measured().to_vec(),
+        prepared.inputs.clone(),
+        prepared.measured().to_vec(),
         params,
         with::with_effects(effects, with),
         with::with_free(ParamId::identified().to_vec(), with),
@@ -251,15 +236,11 @@ pub fn prepare(
     Ok(Prepared {
         loaded,
         problem,
-        measured_raw,
+        prepared,
         noise,
         dynamometer,
         truth,
-        correction: prep.correction,
         inputs: inputs_read,
-        unloaded: unloaded.map(|(u, _)| u),
-        options: opts,
-        crosstalk,
         with: with.to_vec(),
     })
 }
@@ -391,7 +372,7 @@ pub fn run(args: IdentifyJob, rep: &Reporter) -> AppResult {
                 }
             }
         }
-        if let Some(l) = diagnose::crosstalk_summary_line(&prep.crosstalk, None) {
+        if let Some(l) = diagnose::crosstalk_summary_line(&prep.prepared.crosstalk, None) {
             say(&l);
         }
         for l in &adequacy_lines {
@@ -435,12 +416,11 @@ fn identify_report(
         &estimate.params,
     )?;
     let adequacy = diagnose::adequacy(
-        &prep.loaded.trial,
-        prep.unloaded.as_ref(),
+        &prep.prepared,
         &point_params,
         &point_effects,
         prep.problem.free(),
-        &with::settings(prep.options),
+        &with::settings(prep.prepared.options),
     )
     .map_err(|e| e.to_string());
     let adequacy_lines = with::adequacy_lines(&adequacy, None);
@@ -458,7 +438,7 @@ fn identify_report(
         with: prep.with.iter().map(|k| k.name()).collect(),
         effects: (!point_effects.enabled().is_empty()).then(|| point_effects.to_json_value()),
         adequacy: AdequacyReport::of(&adequacy),
-        emg_crosstalk: prep.crosstalk.clone(),
+        emg_crosstalk: prep.prepared.crosstalk.clone(),
         trial: prep.loaded.name.clone(),
         seed,
         noise: prep.noise.clone(),
@@ -514,7 +494,7 @@ fn run_sa(prep: &Prepared, seed: u64, chains: Option<u32>, rep: &Reporter) -> Ap
         .problem
         .predict(&fit.x)
         .map_err(|e| AppError::internal(format!("simulation of the fit failed: {e}")))?;
-    let rms_raw = numerics::rms_diff(&prep.measured_raw, &prediction);
+    let rms_raw = numerics::rms_diff(prep.prepared.raw_torque(), &prediction);
     let estimate = Estimate {
         method: Method::Sa,
         params: fit.params.iter().map(|(k, v)| (k.clone(), *v)).collect(),

@@ -314,12 +314,8 @@ pub fn osim_names(args: &ModelSettings) -> AppResult<opensim_files::OsimMuscleNa
     opensim_files::OsimMuscleNames::renamed(pairs).map_err(AppError::bad)
 }
 
-/// The model inputs of a loaded trial (angle in rad, normalised envelopes, knee angle from
-/// the file or `--knee-angle-deg`).
-pub fn trial_inputs(
-    loaded: &LoadedTrial,
-    args: &ModelSettings,
-) -> AppResult<muscle_model::TrialInputs> {
+/// Refuses a constant knee angle outside the knee's range.
+fn check_knee_angle(args: &ModelSettings) -> AppResult<()> {
     if let Some(k) = args.knee.knee_angle_deg {
         let (lo, hi) = experiment::KNEE_RANGE_DEG;
         if !(k.is_finite() && (lo..=hi).contains(&k)) {
@@ -328,16 +324,57 @@ pub fn trial_inputs(
             )));
         }
     }
+    Ok(())
+}
+
+/// An error of preparing `loaded`: a bad input when the trial is the user's, ours when it is
+/// the bundled one.
+fn input_error(loaded: &LoadedTrial, msg: String) -> AppError {
+    if loaded.path.is_some() {
+        AppError::bad(msg)
+    } else {
+        AppError::internal(msg)
+    }
+}
+
+/// The model inputs of a loaded trial (angle in rad, normalised envelopes, knee angle from
+/// the file or `--knee-angle-deg`).
+pub fn trial_inputs(
+    loaded: &LoadedTrial,
+    args: &ModelSettings,
+) -> AppResult<muscle_model::TrialInputs> {
+    check_knee_angle(args)?;
     let opts = args
         .knee
         .input_options(args.emg_is_envelope || loaded.emg_is_envelope);
-    experiment::model_inputs_named(&loaded.trial, &opts, &loaded.name).map_err(|e| {
-        let msg = e.to_string();
-        // errors from a bundled trial are ours, not the user's
-        if loaded.path.is_some() {
-            AppError::bad(msg)
-        } else {
-            AppError::internal(msg)
-        }
+    experiment::model_inputs_named(&loaded.trial, &opts, &loaded.name)
+        .map_err(|e| input_error(loaded, e.to_string()))
+}
+
+/// A loaded trial prepared once for a job ([`experiment::PreparedTrial`]): the crosstalk test
+/// `crosstalk`, the model inputs and, with an unloaded run (`unloaded`, its name for errors),
+/// the dynamometer correction. Errors name the trial's file, and the unloaded run's when it is
+/// the one at fault.
+pub fn prepare_trial(
+    loaded: &LoadedTrial,
+    unloaded: Option<(&experiment::Unloaded, &str)>,
+    args: &ModelSettings,
+    crosstalk: &experiment::CrosstalkSettings,
+) -> AppResult<experiment::PreparedTrial> {
+    check_knee_angle(args)?;
+    let opts = args
+        .knee
+        .input_options(args.emg_is_envelope || loaded.emg_is_envelope);
+    experiment::PreparedTrial::prepare(
+        &loaded.trial,
+        unloaded.map(|(u, _)| u),
+        &opts,
+        crosstalk,
+        &loaded.name,
+    )
+    .map_err(|e| match (e.path(), unloaded) {
+        (Some(_), _) => input_error(loaded, e.to_string()),
+        (None, Some((_, n))) => input_error(loaded, format!("{} / {n}: {e}", loaded.name)),
+        (None, None) => input_error(loaded, format!("{}: {e}", loaded.name)),
     })
 }

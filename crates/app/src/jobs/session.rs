@@ -25,7 +25,6 @@ mod read;
 use emg::session_emg_references;
 pub use emg::{EmgNormalisationReport, SessionEmgNormalisation};
 pub use read::read_session_trial;
-use read::read_trial_or_map;
 
 /// One trial of a session, ready to fit or to predict.
 pub struct SessionTrial {
@@ -38,8 +37,9 @@ pub struct SessionTrial {
     pub problem: Problem,
     /// The measured torque as recorded, on the inputs' grid.
     pub raw_torque: Vec<f64>,
-    /// The trial's dynamometer correction, when it has an unloaded run.
-    pub correction: Option<experiment::DynamometerCorrection>,
+    /// A trial file prepared once (crosstalk decision, inputs by the session's EMG references,
+    /// dynamometer correction); `None` for a CEINMS folder.
+    pub prepared: Option<experiment::PreparedTrial>,
     /// For a CEINMS trial: the moment file's own times and values, where fits are judged.
     pub ceinms: Option<CeinmsModelTrial>,
     /// The recording checks of a trial file or map (docs/formats.md); none for a CEINMS
@@ -48,7 +48,7 @@ pub struct SessionTrial {
     /// The raw-EMG crosstalk tests of the triceps channels against `emg_ta` (empty without
     /// one, for envelopes and for a CEINMS folder); a corrected channel is already corrected
     /// in `problem`, as `surae identify --trial` and `surae diagnose` correct it.
-    pub crosstalk: Vec<diagnose::CrosstalkCheck>,
+    pub crosstalk: Vec<experiment::CrosstalkCheck>,
 }
 
 impl SessionTrial {
@@ -73,9 +73,14 @@ impl SessionTrial {
         Ok(experiment::moment_fit(&m, &p))
     }
 
+    /// The trial's dynamometer correction, when it has an unloaded run.
+    pub fn correction(&self) -> Option<&experiment::UnloadedCorrection> {
+        self.prepared.as_ref().and_then(|p| p.unloaded.as_ref())
+    }
+
     /// The trial's dynamometer report (`null` without an unloaded run).
     pub fn dynamometer(&self) -> Option<experiment::DynamometerReport> {
-        self.correction.as_ref().map(|c| c.report())
+        self.correction().map(|c| c.correction.report())
     }
 }
 
@@ -114,14 +119,11 @@ impl LoadedSession {
     /// sampler subtracts the systematic part itself) and its noise side: the unloaded run's
     /// correction and AR(1)+white noise, or, without one, AR(1)+white fitted to the trial's own
     /// residual.
-    pub fn mcmc_trials(
-        &self,
-        rep: &Reporter,
-    ) -> AppResult<(Vec<Problem>, Vec<identify_mcmc::NoiseSpec>)> {
+    pub fn mcmc_trials(&self) -> AppResult<(Vec<Problem>, Vec<identify_mcmc::NoiseSpec>)> {
         use identify_mcmc::{NoiseKind, NoiseSpec};
         let mut problems = Vec::with_capacity(self.trials.len());
         let mut noises = Vec::with_capacity(self.trials.len());
-        for (t, entry) in self.trials.iter().zip(&self.manifest.trials) {
+        for t in &self.trials {
             let bad = |e: &dyn std::fmt::Display| AppError::bad(format!("{}: {e}", t.source));
             let p = &t.problem;
             let mut raw = Problem::new(
@@ -137,12 +139,10 @@ impl LoadedSession {
             if let Some(w) = p.weights() {
                 raw = raw.with_weights(w.to_vec()).map_err(|e| bad(&e))?;
             }
-            let noise = match &t.correction {
-                Some(c) => {
-                    // the correction is placed at the trial's own motion events
-                    let (trial, _, _) = read_trial_or_map(entry.source.path(), rep)?;
-                    NoiseSpec::from_correction(&trial, c, NoiseKind::Ar1White)
-                        .map_err(|e| bad(&e))?
+            // the correction placed at the trial's own motion events when it was prepared
+            let noise = match &t.prepared {
+                Some(prepared) => {
+                    NoiseSpec::from_prepared(prepared, NoiseKind::Ar1White).map_err(|e| bad(&e))?
                 }
                 None => NoiseSpec::from_residual(NoiseKind::Ar1White),
             };
@@ -341,6 +341,7 @@ fn session_csv_trial(
     let bad = |e: &dyn std::fmt::Display| AppError::bad(format!("{source}: {e}"));
     let LoadedCsv {
         trial,
+        as_recorded,
         unloaded,
         geometry: mapped_geometry,
         checks,
@@ -351,9 +352,20 @@ fn session_csv_trial(
         knee_angle_deg: entry.knee_angle_deg,
         ..experiment::InputOptions::default()
     };
-    let prep = identify_sa::prepare_trial(&trial, unloaded.as_ref(), &opts).map_err(|e| bad(&e))?;
-    let mut inputs = experiment::model_inputs_referenced(&trial, &opts, &emg.references, &source)
-        .map_err(AppError::bad)?;
+    let prepared = experiment::PreparedTrial::referenced(
+        &trial,
+        as_recorded.as_ref(),
+        crosstalk,
+        unloaded.as_ref(),
+        &opts,
+        &emg.references,
+        &source,
+    )
+    .map_err(|e| match e.path() {
+        Some(_) => AppError::bad(e),
+        None => bad(&e),
+    })?;
+    let mut inputs = prepared.inputs.clone();
     if let Some(g) = &entry.geometry {
         inputs = with_muscle_analysis(inputs, g, &m.params, m.osim)?;
     }
@@ -371,7 +383,7 @@ fn session_csv_trial(
     }
     let problem = Problem::new(
         inputs,
-        prep.problem.measured().to_vec(),
+        prepared.measured().to_vec(),
         m.params,
         m.effects,
         m.free.to_vec(),
@@ -382,11 +394,11 @@ fn session_csv_trial(
         name: entry.name.clone(),
         source,
         problem,
-        raw_torque: prep.raw_torque,
-        correction: prep.correction,
+        raw_torque: prepared.raw_torque().to_vec(),
         ceinms: None,
         checks: Some(checks),
-        crosstalk,
+        crosstalk: prepared.crosstalk.clone(),
+        prepared: Some(prepared),
     })
 }
 
@@ -413,7 +425,7 @@ fn session_ceinms_trial(
         source,
         problem,
         raw_torque: c.torque_nm.clone(),
-        correction: None,
+        prepared: None,
         ceinms: Some(c),
         checks: None,
         crosstalk: Vec::new(),
@@ -505,15 +517,22 @@ fn load_csv_trial(
         },
         ..diagnose::DiagnoseSettings::default()
     };
-    let crosstalk = diagnose::emg_crosstalk(&trial, &settings).map_err(|e| {
+    let crosstalk = experiment::emg_crosstalk(
+        &trial,
+        &settings.crosstalk_settings(),
+        settings.input_options.emg_is_envelope,
+        &p.display().to_string(),
+    )
+    .map_err(|e| {
         AppError::bad(format!(
             "{}: trial {}: {e}",
             manifest.path.display(),
             t.name
         ))
     })?;
-    if let Some(c) = diagnose::remove_crosstalk(&trial, &crosstalk) {
-        trial = c;
+    let mut as_recorded = None;
+    if let Some(c) = experiment::remove_crosstalk(&trial, &crosstalk) {
+        as_recorded = Some(std::mem::replace(&mut trial, c));
     }
     let unloaded = match &t.unloaded {
         Some(u) => {
@@ -531,6 +550,7 @@ fn load_csv_trial(
     };
     Ok(LoadedCsv {
         trial,
+        as_recorded,
         unloaded,
         geometry,
         checks,
@@ -543,10 +563,12 @@ fn load_csv_trial(
 /// recorded) and its crosstalk tests.
 struct LoadedCsv {
     trial: experiment::Trial,
+    /// The trial before its crosstalk was removed, when a channel carried it.
+    as_recorded: Option<experiment::Trial>,
     unloaded: Option<experiment::Unloaded>,
     geometry: Vec<recording::MappedGeometry>,
     checks: recording::checks::TrialChecks,
-    crosstalk: Vec<diagnose::CrosstalkCheck>,
+    crosstalk: Vec<experiment::CrosstalkCheck>,
 }
 
 /// Reads a session and prepares its trials. `model` may override the session's parameters

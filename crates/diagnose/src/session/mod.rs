@@ -22,7 +22,7 @@ use std::collections::BTreeMap;
 use std::ops::ControlFlow;
 use std::time::Instant;
 
-use experiment::Unloaded;
+use experiment::UnloadedCorrection;
 use muscle_model::ParamId;
 
 use crate::analysis;
@@ -48,7 +48,7 @@ pub struct SessionMember<'a> {
     /// The trial as model inputs and measured torque.
     pub recording: DiagnosisRecording,
     /// Its unloaded run (the noise model and the dynamometer's systematic part), if any.
-    pub unloaded: Option<&'a Unloaded>,
+    pub unloaded: Option<&'a UnloadedCorrection>,
 }
 
 /// Diagnoses a session jointly (module docs); a session of one trial is that trial's own

@@ -37,8 +37,8 @@ struct Diagnosed {
     inputs: TrialInputs,
     /// The unloaded run's file, when the trial has one.
     unloaded: Option<String>,
-    /// The unloaded run itself.
-    unloaded_run: Option<experiment::Unloaded>,
+    /// The dynamometer correction fitted to it.
+    correction: Option<experiment::UnloadedCorrection>,
     /// Sampling rate of the recording the noise model was fitted on (Hz).
     fitted_on_hz: f64,
     /// The samples compared with the model (figures are drawn over them).
@@ -70,7 +70,7 @@ pub(super) fn run(args: &DiagnoseJob, session_path: &Path, rep: &Reporter) -> Ap
     let mut done = Vec::with_capacity(session.trials.len());
     for (k, (t, stem)) in session.trials.iter().zip(&stems).enumerate() {
         let label = format!("diag {}/{}", k + 1, session.trials.len());
-        done.push(diagnose_trial(&session, k, t, stem, args, &label, rep)?);
+        done.push(diagnose_trial(&session, k, t, stem, &label, rep)?);
     }
     let joint = diagnose_jointly(&session, &done, rep)?;
 
@@ -182,7 +182,6 @@ fn diagnose_trial(
     k: usize,
     t: &SessionTrial,
     stem: &str,
-    args: &DiagnoseJob,
     label: &str,
     rep: &Reporter,
 ) -> AppResult<Diagnosed> {
@@ -215,55 +214,42 @@ fn diagnose_trial(
                 measured: c.torque_nm.clone(),
                 inputs: c.inputs.clone(),
                 unloaded: None,
-                unloaded_run: None,
+                correction: None,
                 fitted_on_hz: c.inputs.fs(),
                 span: weighted_span(&c.weights),
             }
         }
         None => {
-            // the trial as `--trial`/`--unloaded` read it, so that its diagnosis is theirs
-            let path = entry.source.path();
-            let model = crate::jobs::ModelSettings {
-                emg_is_envelope: args.emg_is_envelope,
-                ..crate::jobs::ModelSettings::default()
-            };
-            let (trial, _) = crate::jobs::session::read_session_trial(path, &model, rep)?;
-            let unloaded = match &entry.unloaded {
-                Some(u) => Some(crate::jobs::read_unloaded_any(u, rep)?),
-                None => None,
-            };
-            let settings = DiagnoseSettings {
-                input_options: experiment::InputOptions {
-                    emg_is_envelope: args.emg_is_envelope,
-                    knee_angle_deg: entry.knee_angle_deg,
-                    // the session's references, so that each trial is read as in the joint
-                    // diagnosis (a session of one: its own maxima, exactly as `--trial`)
-                    mvc: experiment::EmgMuscle::ALL.map(|m| session.emg.references.get(m.name())),
-                },
-                ..DiagnoseSettings::default()
-            };
-            let d = diagnose::run_with_model(
-                &trial,
-                unloaded.as_ref(),
+            // the trial as the session prepared it: its crosstalk decision, its EMG by the
+            // session's references (a session of one: its own maxima, exactly as `--trial`)
+            // and its unloaded run's correction
+            let prepared = t.prepared.as_ref().ok_or_else(|| {
+                AppError::internal(format!("{}: trial file not prepared", t.source))
+            })?;
+            let d = diagnose::run_trial(
+                prepared,
                 &session.params,
                 &session.effects,
-                &settings,
+                &DiagnoseSettings {
+                    input_options: prepared.options,
+                    ..DiagnoseSettings::default()
+                },
                 &mut observer,
             )
             .map_err(|e| fail(e, &progress))?;
-            let fitted_on_hz = unloaded
+            let fitted_on_hz = prepared
+                .unloaded
                 .as_ref()
-                .map_or(trial.sample_rate_hz(), |u| u.sample_rate_hz());
-
+                .map_or(prepared.trial.sample_rate_hz(), |u| u.rate_hz);
             let inputs = t.problem.inputs().clone();
             let n = inputs.len();
             Diagnosed {
                 stem: stem.to_string(),
                 d,
-                measured: trial.torque_nm,
+                measured: prepared.raw_torque().to_vec(),
                 inputs,
                 unloaded: entry.unloaded.as_ref().map(|p| p.display().to_string()),
-                unloaded_run: unloaded,
+                correction: prepared.unloaded,
                 fitted_on_hz,
                 span: 0..n,
             }
@@ -297,7 +283,7 @@ fn diagnose_jointly(
             SessionMember {
                 name: t.name.clone(),
                 recording: rec,
-                unloaded: r.unloaded_run.as_ref(),
+                unloaded: r.correction.as_ref(),
             }
         })
         .collect();

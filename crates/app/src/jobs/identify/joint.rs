@@ -80,7 +80,7 @@ pub(super) fn run(
     let (params, effects) = set
         .params_from_vector(&fit.x)
         .map_err(|e| AppError::internal(e.to_string()))?;
-    let adequacy = trials_adequacy(&session, &params, &effects, set.free(), rep);
+    let adequacy = trials_adequacy(&session, &params, &effects, set.free());
     let (trials, predictions) = sa_trials(&session, &set, &fit.x, &adequacy)?;
     let adequacy_lines = adequacy_lines(&session, &adequacy);
     let (errors_pct, truth_lines) = session_errors(&fit.params, truth.as_ref());
@@ -585,19 +585,11 @@ fn trials_adequacy(
     params: &ModelParams,
     effects: &Effects,
     free: &[ParamId],
-    rep: &Reporter,
 ) -> Vec<Result<diagnose::Adequacy, String>> {
     session
         .trials
         .iter()
-        .zip(&session.manifest.trials)
-        .map(|(t, entry)| {
-            let unloaded = match &entry.unloaded {
-                Some(u) => {
-                    Some(super::super::read_unloaded_any(u, rep).map_err(|e| e.to_string())?)
-                }
-                None => None,
-            };
+        .map(|t| {
             let mut rec =
                 diagnose::DiagnosisRecording::new(t.problem.inputs().clone(), t.raw_torque.clone())
                     .with_model(*params, *effects);
@@ -606,7 +598,7 @@ fn trials_adequacy(
             }
             diagnose::adequacy_of_recording(
                 &rec,
-                unloaded.as_ref(),
+                t.correction(),
                 free,
                 &diagnose::DiagnoseSettings::default(),
             )
@@ -676,7 +668,7 @@ fn run_mcmc(
     );
     let planned_refs: Vec<&str> = planned.iter().map(String::as_str).collect();
 
-    let (problems, noises) = session.mcmc_trials(rep)?;
+    let (problems, noises) = session.mcmc_trials()?;
     let likelihoods: Vec<SessionTrialLikelihood<'_>> = problems
         .iter()
         .zip(&noises)
@@ -692,7 +684,7 @@ fn run_mcmc(
     let (params, effects) = set
         .params_from_vector(&mean)
         .map_err(|e| AppError::internal(e.to_string()))?;
-    let adequacy = trials_adequacy(&session, &params, &effects, set.free(), rep);
+    let adequacy = trials_adequacy(&session, &params, &effects, set.free());
     let (trials, fits, predictions) = mcmc_trials(&session, &m, (&mean, &start), &adequacy)?;
     let lines = super::mcmc::summary_lines(
         &format!("session {what}, {} trials", session.trials.len()),

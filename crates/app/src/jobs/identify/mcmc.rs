@@ -338,17 +338,14 @@ pub(super) fn run_mcmc(
     // systematic part), so it gets the problem on the torque as measured.
     let problem = Problem::new(
         prep.problem.inputs().clone(),
-        prep.measured_raw.clone(),
+        prep.prepared.raw_torque().to_vec(),
         *prep.problem.base_params(),
         *prep.problem.base_effects(),
         prep.problem.free().to_vec(),
     )
     .map_err(|e| AppError::internal(e.to_string()))?;
-    let noise = match &prep.correction {
-        Some(c) => NoiseSpec::from_correction(&prep.loaded.trial, c, NoiseKind::Ar1White)
-            .map_err(|e| AppError::bad(format!("{}: {e}", prep.loaded.name)))?,
-        None => NoiseSpec::from_residual(NoiseKind::Ar1White),
-    };
+    let noise = NoiseSpec::from_prepared(&prep.prepared, NoiseKind::Ar1White)
+        .map_err(|e| AppError::bad(format!("{}: {e}", prep.loaded.name)))?;
     let settings = mcmc_settings(seed, max_iterations)?;
     let trial = SessionTrialLikelihood {
         problem: &problem,

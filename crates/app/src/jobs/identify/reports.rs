@@ -35,7 +35,7 @@ pub struct IdentifyReport {
     pub adequacy: AdequacyReport,
     /// The raw-EMG crosstalk tests of the triceps channels against `emg_ta` (none without one).
     #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub emg_crosstalk: Vec<diagnose::CrosstalkCheck>,
+    pub emg_crosstalk: Vec<experiment::CrosstalkCheck>,
     /// The trial's name (its path, or `bundled:…`).
     pub trial: String,
     /// The seed of every random choice.
@@ -365,7 +365,7 @@ pub struct SessionTrialReport {
     pub checks: Option<recording::checks::TrialChecks>,
     /// The raw-EMG crosstalk tests (none without `emg_ta`).
     #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub emg_crosstalk: Vec<diagnose::CrosstalkCheck>,
+    pub emg_crosstalk: Vec<experiment::CrosstalkCheck>,
     /// The structure test of this trial's residual.
     pub adequacy: AdequacyReport,
 }
