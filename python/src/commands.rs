@@ -1,87 +1,42 @@
 //! `identify`, `diagnose` and `design`: the application library's jobs, the ones the command
-//! line runs, with the JSON they wrote returned as a dict. Equality with `surae identify` /
+//! line runs, with their JSON result returned as a dict. Equality with `surae identify` /
 //! `surae diagnose` therefore holds by construction (apart from `wall_s`, a measured time).
 //!
 //! Inputs given as dicts (a trial or unloaded run as columns, parameters / effects / truth as
-//! JSON objects) are written into a temporary folder in the command line's file formats first;
-//! messages and the result name them `<trial dict>`, `<params dict>`, … instead of the
-//! temporary path. Without `out` the results go to the temporary folder too, which is removed
-//! afterwards.
+//! JSON objects) go to the job in memory ([`surae_app::InMemory`]), checked as the file readers
+//! check a file; messages and the result name them `<trial dict>`, `<params dict>`, … where the
+//! command line names the file. Without `out` the job writes no file: its result comes back
+//! through the observer ([`surae_app::JobObserver::result_json`]).
 
 use crate::bad;
 use crate::convert::{json_arg, json_to_py, path_arg, vec1, JsonArg};
 use crate::run::{run_command, ProgressMode};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use surae_app::{
-    AppError, AppResult, DesignJob, DiagnoseJob, IdentifyJob, KneeSettings, Method, ModelSettings,
+    AppResult, DesignJob, DiagnoseJob, IdentifyJob, InMemory, KneeSettings, Method, ModelSettings,
     Reporter,
 };
 
-/// A temporary folder for dict inputs and default outputs, and the names that replace its
-/// paths in messages and results.
-struct Staging {
-    dir: tempfile::TempDir,
-    renames: Vec<(String, String)>,
-}
-
-impl Staging {
-    fn new() -> PyResult<Self> {
-        let dir = tempfile::Builder::new()
-            .prefix("surae-py-")
-            .tempdir()
-            .map_err(|e| {
-                pyo3::exceptions::PyOSError::new_err(format!("cannot make a temporary folder: {e}"))
-            })?;
-        Ok(Self {
-            dir,
-            renames: Vec::new(),
-        })
-    }
-
-    /// Where a staged file goes; `label` replaces its path in messages.
-    fn file(&mut self, name: &str, label: &str) -> PathBuf {
-        let p = self.dir.path().join(name);
-        self.renames
-            .push((p.display().to_string(), label.to_string()));
-        p
-    }
-
-    fn rename(&self, text: &str) -> String {
-        self.renames
-            .iter()
-            .fold(text.to_string(), |t, (from, to)| t.replace(from, to))
-    }
-
-    fn rename_failure(&self, f: AppError) -> AppError {
-        match f {
-            AppError::BadInput(m) => AppError::BadInput(self.rename(&m)),
-            AppError::Internal(m) => AppError::Internal(self.rename(&m)),
-            other => other,
-        }
-    }
-
-    /// A JSON argument as a file the command reads.
-    fn json(&mut self, arg: Option<JsonArg>, what: &str) -> PyResult<Option<PathBuf>> {
-        match arg {
-            None => Ok(None),
-            Some(JsonArg::Path(p)) => Ok(Some(p)),
-            Some(JsonArg::Value(v)) => {
-                let p = self.file(&format!("{what}.json"), &format!("<{what} dict>"));
-                let text =
-                    serde_json::to_string_pretty(&v).map_err(|e| bad(format!("{what}: {e}")))?;
-                write(&p, &text)?;
-                Ok(Some(p))
-            }
-        }
-    }
-}
-
-fn write(p: &Path, text: &str) -> PyResult<()> {
-    std::fs::write(p, text).map_err(|e| {
-        pyo3::exceptions::PyOSError::new_err(format!("{}: cannot write: {e}", p.display()))
+/// A JSON argument: a file the job reads, or an object it takes in memory as `<what dict>`.
+fn json_input(
+    obj: Option<&Bound<'_, PyAny>>,
+    what: &str,
+) -> PyResult<(Option<PathBuf>, Option<InMemory<serde_json::Value>>)> {
+    Ok(match json_arg(obj, what)? {
+        None => (None, None),
+        Some(JsonArg::Path(p)) => (Some(p), None),
+        Some(JsonArg::Value(v)) => (None, Some(InMemory::new(v, format!("<{what} dict>")))),
     })
+}
+
+/// The output folder: `out` when given; without it none, and the job writes no file.
+fn out_arg(out: Option<&Bound<'_, PyAny>>) -> PyResult<Option<PathBuf>> {
+    match out.filter(|o| !o.is_none()) {
+        Some(o) => path_arg(o, "out").map(Some),
+        None => Ok(None),
+    }
 }
 
 /// Columns of a dict, by the names of the file format; `fs` is accepted (and not used: the
@@ -117,13 +72,16 @@ fn columns(
     Ok(out)
 }
 
-/// A trial argument: `None` (the bundled trial), a CSV path, or a dict of columns.
-fn trial_arg(obj: Option<&Bound<'_, PyAny>>, staging: &mut Staging) -> PyResult<Option<PathBuf>> {
+/// A trial argument: `None` (the bundled trial), a CSV path, or a dict of columns (taken in
+/// memory as `<trial dict>`).
+fn trial_arg(
+    obj: Option<&Bound<'_, PyAny>>,
+) -> PyResult<(Option<PathBuf>, Option<InMemory<experiment::Trial>>)> {
     let Some(obj) = obj.filter(|o| !o.is_none()) else {
-        return Ok(None);
+        return Ok((None, None));
     };
     let Ok(d) = obj.cast::<PyDict>() else {
-        return path_arg(obj, "trial").map(Some);
+        return path_arg(obj, "trial").map(|p| (Some(p), None));
     };
     let mut c = columns(
         d,
@@ -144,21 +102,19 @@ fn trial_arg(obj: Option<&Bound<'_, PyAny>>, staging: &mut Staging) -> PyResult<
         knee_angle_deg: next(),
         ..experiment::Trial::default()
     };
-    let p = staging.file("trial.csv", "<trial dict>");
-    experiment::write_trial(&p, &trial).map_err(|e| bad(staging.rename(&e.to_string())))?;
-    Ok(Some(p))
+    Ok((None, Some(InMemory::new(trial, "<trial dict>"))))
 }
 
-/// An unloaded-run argument: `None`, a CSV path, or a dict of columns.
+/// An unloaded-run argument: `None`, a CSV path, or a dict of columns (in memory as
+/// `<unloaded dict>`).
 fn unloaded_arg(
     obj: Option<&Bound<'_, PyAny>>,
-    staging: &mut Staging,
-) -> PyResult<Option<PathBuf>> {
+) -> PyResult<(Option<PathBuf>, Option<InMemory<experiment::Unloaded>>)> {
     let Some(obj) = obj.filter(|o| !o.is_none()) else {
-        return Ok(None);
+        return Ok((None, None));
     };
     let Ok(d) = obj.cast::<PyDict>() else {
-        return path_arg(obj, "unloaded").map(Some);
+        return path_arg(obj, "unloaded").map(|p| (Some(p), None));
     };
     let mut c = columns(d, "unloaded", &experiment::UNLOADED_REQUIRED, &[])?.into_iter();
     let mut next = || c.next().flatten().unwrap_or_default();
@@ -168,33 +124,20 @@ fn unloaded_arg(
         torque_nm: next(),
         ..experiment::Unloaded::default()
     };
-    let p = staging.file("unloaded.csv", "<unloaded dict>");
-    experiment::write_unloaded(&p, &run).map_err(|e| bad(staging.rename(&e.to_string())))?;
-    Ok(Some(p))
+    Ok((None, Some(InMemory::new(run, "<unloaded dict>"))))
 }
 
-/// Runs a command that writes `file` into `out` and returns that file as a dict.
-fn run_to_json<'py, F>(
+/// Runs a job and returns its JSON result as a dict.
+fn run_to_dict<'py, F>(
     py: Python<'py>,
-    staging: Staging,
-    out: PathBuf,
-    file: &str,
     progress: ProgressMode,
-    command: F,
+    job: F,
 ) -> PyResult<Bound<'py, PyAny>>
 where
     F: FnOnce(&Reporter) -> AppResult + Send + 'static,
 {
-    let staging = std::sync::Arc::new(staging);
-    let s = staging.clone();
-    run_command(py, progress, move |rep| {
-        command(rep).map_err(|f| s.rename_failure(f))
-    })?;
-    let path = out.join(file);
-    let text = std::fs::read_to_string(&path).map_err(|e| {
-        pyo3::exceptions::PyOSError::new_err(format!("{}: cannot read: {e}", path.display()))
-    })?;
-    json_to_py(py, &staging.rename(&text))
+    let text = run_command(py, progress, job)?;
+    json_to_py(py, &text)
 }
 
 /// Identifies LST, F0 and α0 of sol, gm and gl, as `surae identify` does, and returns the
@@ -219,8 +162,8 @@ where
 /// with_effects: catalogued effects whose parameters are identified with the muscles' (e.g.
 ///     ["electromechanical_delay"], as `surae identify --with`; uniform priors on their ranges).
 /// chains: "sa" only, the number of annealing chains (starts; default 4).
-/// out: folder keeping identify.json, the figures and report.html (default: a temporary
-///     folder, removed afterwards).
+/// out: folder keeping identify.json, the figures and report.html (default: no files are
+///     written).
 /// progress: None/False shows nothing; True one line on sys.stderr; a callable is called as
 ///     progress(label, position, total, message).
 ///
@@ -258,16 +201,12 @@ pub fn identify<'py>(
         other => return Err(bad(format!("method '{other}': expected 'sa' or 'mcmc'"))),
     };
     let progress = ProgressMode::from_arg(progress)?;
-    let mut staging = Staging::new()?;
-    let trial = trial_arg(trial, &mut staging)?;
-    let unloaded = unloaded_arg(unloaded, &mut staging)?;
-    let truth = staging.json(json_arg(truth, "truth")?, "truth")?;
-    let params = staging.json(json_arg(params, "params")?, "params")?;
-    let effects = staging.json(json_arg(effects, "effects")?, "effects")?;
-    let out = match out.filter(|o| !o.is_none()) {
-        Some(o) => path_arg(o, "out")?,
-        None => staging.dir.path().join("out"),
-    };
+    let (trial, trial_data) = trial_arg(trial)?;
+    let (unloaded, unloaded_data) = unloaded_arg(unloaded)?;
+    let (truth, truth_data) = json_input(truth, "truth")?;
+    let (params, params_data) = json_input(params, "params")?;
+    let (effects, effects_data) = json_input(effects, "effects")?;
+    let out = out_arg(out)?;
     let session = match session.filter(|s| !s.is_none()) {
         Some(s) => Some(path_arg(s, "session")?),
         None => None,
@@ -286,15 +225,19 @@ pub fn identify<'py>(
         model: ModelSettings {
             params,
             effects,
+            params_data,
+            effects_data,
             emg_is_envelope,
             knee: KneeSettings { knee_angle_deg },
             ..ModelSettings::default()
         },
-        out: Some(out.clone()),
+        discard_files: out.is_none(),
+        out,
+        trial_data,
+        unloaded_data,
+        truth_data,
     };
-    run_to_json(py, staging, out, "identify.json", progress, move |rep| {
-        surae_app::identify(args, rep)
-    })
+    run_to_dict(py, progress, move |rep| surae_app::identify(args, rep))
 }
 
 /// What the model gets wrong, as `surae diagnose` finds it; returns the `diagnosis.json` it
@@ -324,23 +267,14 @@ pub fn diagnose<'py>(
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let progress = ProgressMode::from_arg(progress)?;
-    let mut staging = Staging::new()?;
-    let trial = trial_arg(trial, &mut staging)?;
-    let unloaded = unloaded_arg(unloaded, &mut staging)?;
+    let (trial, trial_data) = trial_arg(trial)?;
+    let (unloaded, unloaded_data) = unloaded_arg(unloaded)?;
     let session = match session.filter(|s| !s.is_none()) {
         Some(s) => Some(path_arg(s, "session")?),
         None => None,
     };
-    let params = staging.json(json_arg(params, "params")?, "params")?;
-    let out = match out.filter(|o| !o.is_none()) {
-        Some(o) => path_arg(o, "out")?,
-        None => staging.dir.path().join("out"),
-    };
-    let file = if session.is_some() {
-        "diagnosis_session.json"
-    } else {
-        "diagnosis.json"
-    };
+    let (params, params_data) = json_input(params, "params")?;
+    let out = out_arg(out)?;
     let args = DiagnoseJob {
         trial,
         unloaded,
@@ -348,11 +282,13 @@ pub fn diagnose<'py>(
         params,
         emg_is_envelope,
         knee: KneeSettings { knee_angle_deg },
-        out: Some(out.clone()),
+        discard_files: out.is_none(),
+        out,
+        trial_data,
+        unloaded_data,
+        params_data,
     };
-    run_to_json(py, staging, out, file, progress, move |rep| {
-        surae_app::diagnose(args, rep)
-    })
+    run_to_dict(py, progress, move |rep| surae_app::diagnose(args, rep))
 }
 
 // The defaults are written as literals so that Python's signature shows them; they are the
@@ -373,7 +309,7 @@ const _: () = assert!(::design::DEFAULT_EMG_SEED == 1);
 /// offset_sd: prior sd (N·m) of each trial's constant torque offset; 0 treats it as known.
 /// emg_draws, emg_seed: how many synthetic EMG realisations the information is averaged over,
 ///     and the first seed.
-/// out: folder keeping design.json and design.svg (default: a temporary folder).
+/// out: folder keeping design.json and design.svg (default: no files are written).
 /// progress: as for identify.
 #[pyfunction]
 #[pyo3(signature = (
@@ -396,13 +332,9 @@ pub fn design<'py>(
         return Err(bad("protocols: give at least one protocol".to_string()));
     }
     let progress = ProgressMode::from_arg(progress)?;
-    let mut staging = Staging::new()?;
-    let unloaded = unloaded_arg(unloaded, &mut staging)?;
-    let params = staging.json(json_arg(params, "params")?, "params")?;
-    let out = match out.filter(|o| !o.is_none()) {
-        Some(o) => path_arg(o, "out")?,
-        None => staging.dir.path().join("out"),
-    };
+    let (unloaded, unloaded_data) = unloaded_arg(unloaded)?;
+    let (params, params_data) = json_input(params, "params")?;
+    let out = out_arg(out)?;
     let args = DesignJob {
         protocol: protocols,
         unloaded,
@@ -411,9 +343,10 @@ pub fn design<'py>(
         offset_sd,
         emg_draws,
         emg_seed,
-        out: Some(out.clone()),
+        discard_files: out.is_none(),
+        out,
+        unloaded_data,
+        params_data,
     };
-    run_to_json(py, staging, out, "design.json", progress, move |rep| {
-        surae_app::design(args, rep)
-    })
+    run_to_dict(py, progress, move |rep| surae_app::design(args, rep))
 }

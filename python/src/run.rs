@@ -59,6 +59,8 @@ struct LatestUpdate {
     changes: AtomicU64,
     stop: AtomicBool,
     warnings: Mutex<Vec<String>>,
+    /// The job's JSON result.
+    result: Mutex<Option<String>>,
 }
 
 impl JobObserver for LatestUpdate {
@@ -81,6 +83,12 @@ impl JobObserver for LatestUpdate {
     fn warning(&self, message: &str) {
         if let Ok(mut w) = self.warnings.lock() {
             w.push(message.to_string());
+        }
+    }
+
+    fn result_json(&self, text: &str) {
+        if let Ok(mut r) = self.result.lock() {
+            *r = Some(text.to_string());
         }
     }
 }
@@ -131,9 +139,9 @@ impl Shower {
 }
 
 /// Runs `work` (a job of the application library, given the reporter it reports to) as
-/// described in the module documentation. Warnings the job recorded become Python
-/// `UserWarning`s after a success.
-pub(crate) fn run_command<F>(py: Python<'_>, progress: ProgressMode, work: F) -> PyResult<()>
+/// described in the module documentation and returns the JSON result it reported. Warnings the
+/// job recorded become Python `UserWarning`s after a success.
+pub(crate) fn run_command<F>(py: Python<'_>, progress: ProgressMode, work: F) -> PyResult<String>
 where
     F: FnOnce(&Reporter) -> AppResult + Send + 'static,
 {
@@ -203,7 +211,10 @@ where
             for w in warnings {
                 warn.call_method1("warn", (w,))?;
             }
-            Ok(())
+            let result = obs.result.lock().ok().and_then(|mut r| r.take());
+            result.ok_or_else(|| {
+                PyRuntimeError::new_err("internal error: the job reported no result")
+            })
         }
         Ok(Err(f)) => Err(crate::failure_to_py(f)),
         Err(_) => Err(PyRuntimeError::new_err(

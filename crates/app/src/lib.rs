@@ -6,7 +6,9 @@
 //! `Ok` once everything it writes is written, or an [`AppError`] that says whose fault the
 //! failure is. Loading (a trial CSV, a recording map, a CEINMS trial folder, a session
 //! manifest) is shared by every job, so a user's file reads the same whichever command reads
-//! it.
+//! it. A program may give a trial, an unloaded run or a parameters object in memory
+//! ([`InMemory`]) in place of its file, and ask for no files at all (`discard_files`): the job's
+//! JSON result then reaches it through [`JobObserver::result_json`] alone.
 //!
 //! | job | settings | writes |
 //! |---|---|---|
@@ -22,6 +24,7 @@ pub mod bundled;
 mod error;
 mod figures;
 mod jobs;
+mod memory;
 mod output;
 mod progress;
 
@@ -51,6 +54,7 @@ pub use jobs::simulate::{
     run as simulate, SessionSimulationReport, SimulateJob, SimulatedTrialReport,
 };
 pub use jobs::{read_json, KneeSettings, ModelSettings};
+pub use memory::InMemory;
 pub use output::write_file_checked;
 pub use progress::{JobObserver, ProgressDisplay, Reporter, SilentObserver};
 

@@ -4,11 +4,13 @@ use crate::error::{AppError, AppResult};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-/// Where a command writes its results.
+/// Where a command writes its results, or, for a program that reads the typed report and
+/// wants no files ([`OutDir::discard`]), nowhere.
 #[derive(Debug, Clone)]
 pub struct OutDir {
     dir: PathBuf,
     inputs: Vec<PathBuf>,
+    discard: bool,
 }
 
 fn canonical_or_self(p: &Path) -> PathBuf {
@@ -45,7 +47,42 @@ impl OutDir {
         Ok(Self {
             dir: dir.to_path_buf(),
             inputs: canon_inputs,
+            discard: false,
         })
+    }
+
+    /// An output that writes nothing: [`OutDir::write`] returns the file's name alone.
+    pub fn discard() -> Self {
+        Self {
+            dir: PathBuf::new(),
+            inputs: Vec::new(),
+            discard: true,
+        }
+    }
+
+    /// `dir` prepared as [`OutDir::prepare`] prepares it, or [`OutDir::discard`] when
+    /// `discard` is set (then nothing is checked or created).
+    pub fn prepare_or_discard(
+        dir: &Path,
+        inputs: &[&Path],
+        planned: &[&str],
+        discard: bool,
+    ) -> AppResult<Self> {
+        if discard {
+            Ok(Self::discard())
+        } else {
+            Self::prepare(dir, inputs, planned)
+        }
+    }
+
+    /// The folder `name` inside this one, prepared likewise (discarding when this one does).
+    pub fn sub(&self, name: &str, inputs: &[&Path], planned: &[&str]) -> AppResult<Self> {
+        Self::prepare_or_discard(&self.path(name), inputs, planned, self.discard)
+    }
+
+    /// Whether this output writes nothing ([`OutDir::discard`]).
+    pub fn discards(&self) -> bool {
+        self.discard
     }
 
     /// Path of a file in the folder.
@@ -53,10 +90,13 @@ impl OutDir {
         self.dir.join(name)
     }
 
-    /// Writes `name` in the folder atomically, refusing to overwrite an input.
+    /// Writes `name` in the folder atomically, refusing to overwrite an input (nothing when
+    /// discarding).
     pub fn write(&self, name: &str, bytes: &[u8]) -> AppResult<PathBuf> {
         let target = self.path(name);
-        write_file_checked(&target, bytes, &self.inputs)?;
+        if !self.discard {
+            write_file_checked(&target, bytes, &self.inputs)?;
+        }
         Ok(target)
     }
 }

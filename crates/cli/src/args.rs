@@ -278,6 +278,9 @@ impl From<DesignArgs> for surae_app::DesignJob {
             emg_draws: a.emg_draws,
             emg_seed: a.emg_seed,
             out: a.out,
+            unloaded_data: None,
+            params_data: None,
+            discard_files: false,
         }
     }
 }
@@ -292,6 +295,10 @@ impl From<DiagnoseArgs> for surae_app::DiagnoseJob {
             emg_is_envelope: a.emg_is_envelope,
             knee: a.knee.into(),
             out: a.out,
+            trial_data: None,
+            unloaded_data: None,
+            params_data: None,
+            discard_files: false,
         }
     }
 }
@@ -330,6 +337,10 @@ impl From<IdentifyArgs> for surae_app::IdentifyJob {
             max_iterations: a.max_iterations,
             model: a.model.into(),
             out: a.out,
+            trial_data: None,
+            unloaded_data: None,
+            truth_data: None,
+            discard_files: false,
         }
     }
 }
@@ -351,6 +362,8 @@ impl From<ModelArgs> for surae_app::ModelSettings {
             effects: a.effects,
             emg_is_envelope: a.emg_is_envelope,
             knee: a.knee.into(),
+            params_data: None,
+            effects_data: None,
         }
     }
 }

@@ -12,6 +12,7 @@ use design::{
 
 use super::{load_model_config, ModelSettings};
 use crate::error::{AppError, AppResult};
+use crate::memory::InMemory;
 use crate::output::OutDir;
 
 /// Arguments of `surae design`.
@@ -38,6 +39,12 @@ pub struct DesignJob {
     pub emg_seed: u64,
     /// Output folder (default `out/design`): `design.json`, `design.svg`.
     pub out: Option<PathBuf>,
+    /// The unloaded run given in memory, in place of `unloaded`.
+    pub unloaded_data: Option<InMemory<experiment::Unloaded>>,
+    /// The design point given in memory, in place of `params`.
+    pub params_data: Option<InMemory<serde_json::Value>>,
+    /// Write no files: the result reaches the caller as [`crate::JobObserver::result_json`].
+    pub discard_files: bool,
 }
 
 /// Runs the command.
@@ -64,6 +71,7 @@ pub fn run(args: DesignJob, rep: &Reporter) -> AppResult {
     }
     let model = ModelSettings {
         params: args.params.clone(),
+        params_data: args.params_data.clone(),
         osim_muscles: args.osim_muscles.clone(),
         ..ModelSettings::default()
     };
@@ -80,9 +88,19 @@ pub fn run(args: DesignJob, rep: &Reporter) -> AppResult {
         ));
         params.fixed = Default::default();
     }
-    let (noise, noise_source) = match &args.unloaded {
-        Some(p) => (noise_of_unloaded(p, rep)?, p.display().to_string()),
-        None => (DesignNoise::synthetic(), "synthetic".to_string()),
+    let (noise, noise_source) = match (&args.unloaded_data, &args.unloaded) {
+        (Some(d), _) => {
+            d.value.validate(&d.label).map_err(AppError::bad)?;
+            (noise_of_run(&d.value, &d.label)?, d.label.clone())
+        }
+        (None, Some(p)) => {
+            let u = super::read_unloaded_any(p, rep)?;
+            (
+                noise_of_run(&u, &p.display().to_string())?,
+                p.display().to_string(),
+            )
+        }
+        (None, None) => (DesignNoise::synthetic(), "synthetic".to_string()),
     };
     let offset = if args.offset_sd > 0.0 {
         OffsetTreatment::Prior {
@@ -104,7 +122,12 @@ pub fn run(args: DesignJob, rep: &Reporter) -> AppResult {
         .unwrap_or_else(|| crate::default_out("design"));
     let mut inputs: Vec<&Path> = read.iter().map(PathBuf::as_path).collect();
     inputs.extend(args.unloaded.as_deref());
-    let out = OutDir::prepare(&out_dir, &inputs, &["design.json", "design.svg"])?;
+    let out = OutDir::prepare_or_discard(
+        &out_dir,
+        &inputs,
+        &["design.json", "design.svg"],
+        args.discard_files,
+    )?;
 
     let distinct: std::collections::BTreeSet<String> = protocols
         .iter()
@@ -220,12 +243,12 @@ fn write_design_figure(
     Ok(())
 }
 
-/// The random part of an unloaded run's dynamometer correction.
-fn noise_of_unloaded(path: &Path, rep: &Reporter) -> AppResult<DesignNoise> {
-    let u = super::read_unloaded_any(path, rep)?;
-    let c = experiment::DynamometerCorrection::from_unloaded(&u)
-        .map_err(|e| AppError::bad(format!("{}: {e}", path.display())))?;
-    DesignNoise::from_correction(&c).map_err(|e| AppError::bad(format!("{}: {e}", path.display())))
+/// The random part of an unloaded run's dynamometer correction (`name` names the run in
+/// errors).
+fn noise_of_run(u: &experiment::Unloaded, name: &str) -> AppResult<DesignNoise> {
+    let c = experiment::DynamometerCorrection::from_unloaded(u)
+        .map_err(|e| AppError::bad(format!("{name}: {e}")))?;
+    DesignNoise::from_correction(&c).map_err(|e| AppError::bad(format!("{name}: {e}")))
 }
 
 /// `design.json`: each candidate protocol's expected posterior sd of every parameter, and what

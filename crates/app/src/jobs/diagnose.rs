@@ -4,6 +4,7 @@
 
 use super::{load_trial, load_unloaded, prepare_trial, ModelSettings};
 use crate::error::{AppError, AppResult};
+use crate::memory::InMemory;
 use crate::output::OutDir;
 use crate::Reporter;
 use diagnose::{DiagnoseSettings, Diagnosis};
@@ -55,6 +56,14 @@ pub struct DiagnoseJob {
     pub knee: super::KneeSettings,
     /// Output folder (default `out/diagnose`).
     pub out: Option<PathBuf>,
+    /// The trial given in memory, in place of `trial`.
+    pub trial_data: Option<InMemory<experiment::Trial>>,
+    /// The unloaded run given in memory, in place of `unloaded`.
+    pub unloaded_data: Option<InMemory<experiment::Unloaded>>,
+    /// With `session`: parameters given in memory, in place of `params`.
+    pub params_data: Option<InMemory<serde_json::Value>>,
+    /// Write no files: the result reaches the caller as [`crate::JobObserver::result_json`].
+    pub discard_files: bool,
 }
 
 /// Runs the command.
@@ -77,8 +86,13 @@ pub fn run(args: DiagnoseJob, rep: &Reporter) -> AppResult {
         }
         return session_run::run(&args, folder, rep);
     }
-    let loaded = load_trial(args.trial.as_deref(), rep)?;
-    let unloaded = load_unloaded(args.unloaded.as_deref(), args.trial.is_some(), rep)?;
+    let loaded = load_trial(args.trial.as_deref(), args.trial_data.as_ref(), rep)?;
+    let unloaded = load_unloaded(
+        args.unloaded.as_deref(),
+        args.unloaded_data.as_ref(),
+        !loaded.bundled,
+        rep,
+    )?;
     if let Some((u, name)) = &unloaded {
         super::check_unloaded(&loaded.trial, &loaded.name, u, name)?;
     }
@@ -114,7 +128,7 @@ pub fn run(args: DiagnoseJob, rep: &Reporter) -> AppResult {
         .out
         .clone()
         .unwrap_or_else(|| crate::default_out("diagnose"));
-    let out = OutDir::prepare(&out_dir, &inputs_read, PLANNED)?;
+    let out = OutDir::prepare_or_discard(&out_dir, &inputs_read, PLANNED, args.discard_files)?;
 
     let show = rep.show();
     let progress = rep.progress(0, "diag");

@@ -58,7 +58,7 @@ fn parse_mvc(items: &[String]) -> AppResult<Vec<(String, f64)>> {
 /// Runs the command.
 pub fn run(args: EnvelopeJob, rep: &Reporter) -> AppResult {
     let mvc = parse_mvc(&args.mvc)?;
-    let loaded = load_trial(args.trial.as_deref(), rep)?;
+    let loaded = load_trial(args.trial.as_deref(), None, rep)?;
     let trial = &loaded.trial;
     let fs = trial.sample_rate_hz();
     let mut opts = experiment::InputOptions::default();

@@ -18,6 +18,7 @@ pub use reports::{
 use super::{load_model_config, load_trial, load_unloaded, LoadedTrial, ModelSettings};
 use crate::error::{AppError, AppResult};
 use crate::figures::{self, FigureSet};
+use crate::memory::InMemory;
 use crate::output::OutDir;
 use crate::Reporter;
 use muscle_model::{EffectKind, Effects, ModelParams, ParamId, Problem};
@@ -101,6 +102,14 @@ pub struct IdentifyJob {
     pub model: ModelSettings,
     /// Output folder (default `out/identify`).
     pub out: Option<PathBuf>,
+    /// The trial given in memory, in place of `trial`.
+    pub trial_data: Option<InMemory<experiment::Trial>>,
+    /// The unloaded run given in memory, in place of `unloaded`.
+    pub unloaded_data: Option<InMemory<experiment::Unloaded>>,
+    /// The truth given in memory, in place of `truth`.
+    pub truth_data: Option<InMemory<Value>>,
+    /// Write no files: the result reaches the caller as [`crate::JobObserver::result_json`].
+    pub discard_files: bool,
 }
 
 /// Reads a truth file with its effects: a parameters JSON (no effect), or an object with a
@@ -114,18 +123,24 @@ pub fn read_truth_model(path: &Path, text: &str) -> AppResult<(ModelParams, Effe
             e.column()
         ))
     })?;
+    truth_of_json(&v, &path.display().to_string())
+}
+
+/// A truth object named `name` in errors: parameters, or `params` with `effects`.
+pub fn truth_of_json(v: &Value, name: &str) -> AppResult<(ModelParams, Effects)> {
     let (params, effects) = match v.get("params") {
-        Some(p) => (p.clone(), v.get("effects").cloned()),
+        Some(p) => (p, v.get("effects")),
         None => (v, None),
     };
     let effects = match effects {
-        Some(e) => Effects::from_json(&e)
-            .map_err(|e| AppError::bad(format!("{}: effects: {e}", path.display())))?,
+        Some(e) => {
+            Effects::from_json(e).map_err(|e| AppError::bad(format!("{name}: effects: {e}")))?
+        }
         None => Effects::none(),
     };
     let params = ModelParams::nominal()
-        .merged_json(&params)
-        .map_err(|e| AppError::bad(format!("{}: {e}", path.display())))?;
+        .merged_json(params)
+        .map_err(|e| AppError::bad(format!("{name}: {e}")))?;
     Ok((params, effects))
 }
 
@@ -154,34 +169,34 @@ pub struct Prepared {
 /// Loads the trial, unloaded run and truth and builds the problem: the 9 muscle parameters and
 /// the parameters of the effects `with` (switched on at their null values unless `--effects`
 /// gives them).
-pub fn prepare(
-    trial: Option<&Path>,
-    unloaded: Option<&Path>,
-    truth: Option<&Path>,
-    model: &ModelSettings,
-    with: &[EffectKind],
-    rep: &Reporter,
-) -> AppResult<Prepared> {
+pub fn prepare(args: &IdentifyJob, with: &[EffectKind], rep: &Reporter) -> AppResult<Prepared> {
+    let model = &args.model;
     let (params, effects, mut inputs_read) = load_model_config(model)?;
-    let mut loaded = load_trial(trial, rep)?;
-    let unloaded = load_unloaded(unloaded, trial.is_some(), rep)?;
+    let mut loaded = load_trial(args.trial.as_deref(), args.trial_data.as_ref(), rep)?;
+    let unloaded = load_unloaded(
+        args.unloaded.as_deref(),
+        args.unloaded_data.as_ref(),
+        !loaded.bundled,
+        rep,
+    )?;
     if let Some((u, name)) = &unloaded {
         super::check_unloaded(&loaded.trial, &loaded.name, u, name)?;
     }
-    let truth = match truth {
-        Some(p) => {
+    let truth = match (&args.truth_data, &args.truth) {
+        (Some(d), _) => Some(truth_of_json(&d.value, &d.label)?),
+        (None, Some(p)) => {
             let text = super::read_text(p)?;
             inputs_read.push(p.to_path_buf());
             Some(read_truth_model(p, &text)?)
         }
-        None if trial.is_none() => Some(
+        (None, None) if loaded.bundled => Some(
             read_truth_model(
                 Path::new(crate::bundled::SEED_TRUTH_NAME),
                 crate::bundled::SEED_TRUTH,
             )
             .map_err(|e| AppError::internal(e.to_string()))?,
         ),
-        None => None,
+        (None, None) => None,
     };
     if let Some(p) = &loaded.path {
         inputs_read.push(p.clone());
@@ -296,20 +311,13 @@ pub fn run(args: IdentifyJob, rep: &Reporter) -> AppResult {
         }
         return joint::run(&args, folder, &with, rep);
     }
-    let prep = prepare(
-        args.trial.as_deref(),
-        args.unloaded.as_deref(),
-        args.truth.as_deref(),
-        &args.model,
-        &with,
-        rep,
-    )?;
+    let prep = prepare(&args, &with, rep)?;
     let out_dir = args
         .out
         .clone()
         .unwrap_or_else(|| crate::default_out("identify"));
     let input_refs: Vec<&Path> = prep.inputs.iter().map(|p| p.as_path()).collect();
-    let out = OutDir::prepare(&out_dir, &input_refs, PLANNED)?;
+    let out = OutDir::prepare_or_discard(&out_dir, &input_refs, PLANNED, args.discard_files)?;
     let show = rep.show();
     let Outcome {
         estimate,

@@ -11,6 +11,7 @@ pub mod simulate;
 
 use crate::bundled;
 use crate::error::{AppError, AppResult};
+use crate::memory::InMemory;
 use crate::Reporter;
 use experiment::{Trial, Unloaded};
 use std::path::{Path, PathBuf};
@@ -27,6 +28,8 @@ pub struct LoadedTrial {
     pub data_files: Vec<PathBuf>,
     /// The recording map says its EMG channels are envelopes already.
     pub emg_is_envelope: bool,
+    /// The bundled seed trial (its errors are ours, not the user's).
+    pub bundled: bool,
 }
 
 /// What `--trial` and `--unloaded` take (docs/formats.md): a trial CSV or a recording map
@@ -79,12 +82,29 @@ pub fn load_mapped_trial(p: &Path, rep: &Reporter) -> AppResult<LoadedTrial> {
         path: Some(p.to_path_buf()),
         data_files,
         emg_is_envelope: rec.emg_is_envelope,
+        bundled: false,
     })
 }
 
-/// Reads `--trial` (a trial CSV or a recording map), or the bundled seed trial when it is not
+/// Reads `--trial` (a trial CSV or a recording map), or takes the trial given in memory
+/// (`data`, checked as the reader checks a file), or the bundled seed trial when neither is
 /// given.
-pub fn load_trial(path: Option<&Path>, rep: &Reporter) -> AppResult<LoadedTrial> {
+pub fn load_trial(
+    path: Option<&Path>,
+    data: Option<&InMemory<Trial>>,
+    rep: &Reporter,
+) -> AppResult<LoadedTrial> {
+    if let Some(d) = data {
+        d.value.validate(&d.label).map_err(AppError::bad)?;
+        return Ok(LoadedTrial {
+            trial: d.value.clone(),
+            name: d.label.clone(),
+            path: None,
+            data_files: Vec::new(),
+            emg_is_envelope: false,
+            bundled: false,
+        });
+    }
     match path {
         Some(p) => {
             let kind = recording::file_kind(p);
@@ -102,6 +122,7 @@ pub fn load_trial(path: Option<&Path>, rep: &Reporter) -> AppResult<LoadedTrial>
                 path: Some(p.to_path_buf()),
                 data_files: Vec::new(),
                 emg_is_envelope: false,
+                bundled: false,
             })
         }
         None => Ok(LoadedTrial {
@@ -110,6 +131,7 @@ pub fn load_trial(path: Option<&Path>, rep: &Reporter) -> AppResult<LoadedTrial>
             path: None,
             data_files: Vec::new(),
             emg_is_envelope: false,
+            bundled: true,
         }),
     }
 }
@@ -129,13 +151,19 @@ pub fn read_unloaded_any(p: &Path, rep: &Reporter) -> AppResult<Unloaded> {
     Ok(u)
 }
 
-/// Reads `--unloaded` when given; with no `--trial` the bundled seed unloaded
-/// run is the default, with a user's `--trial` it is never defaulted.
+/// Reads `--unloaded` when given, or takes the run given in memory (`data`); with neither and
+/// no trial of the user's (`trial_given`) the bundled seed unloaded run is the default, with a
+/// user's trial it is never defaulted.
 pub fn load_unloaded(
     path: Option<&Path>,
+    data: Option<&InMemory<Unloaded>>,
     trial_given: bool,
     rep: &Reporter,
 ) -> AppResult<Option<(Unloaded, String)>> {
+    if let Some(d) = data {
+        d.value.validate(&d.label).map_err(AppError::bad)?;
+        return Ok(Some((d.value.clone(), d.label.clone())));
+    }
     match (path, trial_given) {
         (Some(p), _) => Ok(Some((read_unloaded_any(p, rep)?, p.display().to_string()))),
         (None, false) => Ok(Some((
@@ -196,6 +224,11 @@ pub struct ModelSettings {
     pub osim_muscles: Vec<String>,
     /// Effects JSON (effects and their parameters in docs/formats.md): `{"<effect>": {"<param>": value}}`.
     pub effects: Option<PathBuf>,
+    /// Parameters given in memory (a parameters object or an `identify.json`'s), in place of
+    /// `params`.
+    pub params_data: Option<InMemory<serde_json::Value>>,
+    /// Effects given in memory, in place of `effects`.
+    pub effects_data: Option<InMemory<serde_json::Value>>,
     /// The EMG columns are already normalised envelopes in [0, 1] (skip the
     /// EMG filtering of docs/model.md).
     pub emg_is_envelope: bool,
@@ -264,19 +297,21 @@ pub fn load_model_config(
     let mut read = Vec::new();
     let names = osim_names(args)?;
     let nominal = muscle_model::ModelParams::nominal();
-    let (params, effects_of_params) = match &args.params {
-        Some(p) => {
+    let (params, effects_of_params) = match (&args.params_data, &args.params) {
+        (Some(d), _) => session::params_of_json(&d.value, &nominal, &d.label)?,
+        (None, Some(p)) => {
             read.push(p.clone());
             session::load_params_file(p, &names, &[], &nominal)?
         }
-        None => (nominal, None),
+        (None, None) => (nominal, None),
     };
-    let effects = match &args.effects {
-        Some(p) => {
+    let effects = match (&args.effects_data, &args.effects) {
+        (Some(d), _) => effects_of_json(&d.value, &d.label)?,
+        (None, Some(p)) => {
             read.push(p.clone());
             read_effects(p)?
         }
-        None => effects_of_params.unwrap_or_else(muscle_model::Effects::none),
+        (None, None) => effects_of_params.unwrap_or_else(muscle_model::Effects::none),
     };
     Ok((params, effects, read))
 }
@@ -284,8 +319,12 @@ pub fn load_model_config(
 /// An effects JSON file (docs/formats.md).
 pub fn read_effects(path: &Path) -> AppResult<muscle_model::Effects> {
     let value = read_json(path)?;
-    muscle_model::Effects::from_json(&value)
-        .map_err(|e| AppError::bad(format!("{}: {e}", path.display())))
+    effects_of_json(&value, &path.display().to_string())
+}
+
+/// An effects object (docs/formats.md), named `name` in errors.
+pub fn effects_of_json(value: &serde_json::Value, name: &str) -> AppResult<muscle_model::Effects> {
+    muscle_model::Effects::from_json(value).map_err(|e| AppError::bad(format!("{name}: {e}")))
 }
 
 /// Whether `path` names an OpenSim model (`.osim`).
@@ -330,10 +369,10 @@ fn check_knee_angle(args: &ModelSettings) -> AppResult<()> {
 /// An error of preparing `loaded`: a bad input when the trial is the user's, ours when it is
 /// the bundled one.
 fn input_error(loaded: &LoadedTrial, msg: String) -> AppError {
-    if loaded.path.is_some() {
-        AppError::bad(msg)
-    } else {
+    if loaded.bundled {
         AppError::internal(msg)
+    } else {
+        AppError::bad(msg)
     }
 }
 

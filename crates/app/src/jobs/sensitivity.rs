@@ -44,7 +44,7 @@ pub fn run(args: SensitivityJob, rep: &Reporter) -> AppResult {
         ));
     }
     let (params, effects, cfg_inputs) = load_model_config(&args.model)?;
-    let loaded = load_trial(args.trial.as_deref(), rep)?;
+    let loaded = load_trial(args.trial.as_deref(), None, rep)?;
     let inputs = trial_inputs(&loaded, &args.model)?;
     let changes: Vec<f64> = (-n_steps..=n_steps)
         .filter(|&k| k != 0)

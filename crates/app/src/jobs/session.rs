@@ -191,18 +191,24 @@ pub fn load_params_file(
             let p = experiment::ceinms_model_params(&subject, fixed).map_err(AppError::bad)?;
             Ok((p.params, None))
         }
-        _ => {
-            let value = read_json(path)?;
-            let name = path.display().to_string();
-            if value.get("method").is_some() && value.get("params").is_some() {
-                return identified_over(&value, base, &name).map(|(p, e)| (p, Some(e)));
-            }
-            let p = ModelParams::nominal()
-                .merged_json(&value)
-                .map_err(|e| AppError::bad(format!("{name}: {e}")))?;
-            Ok((p, None))
-        }
+        _ => params_of_json(&read_json(path)?, base, &path.display().to_string()),
     }
+}
+
+/// The parameters of a JSON object named `name`: a parameters object over the nominal values,
+/// or an `identify.json`, whose identified values are set over `base` (with its effects).
+pub fn params_of_json(
+    value: &Value,
+    base: &ModelParams,
+    name: &str,
+) -> AppResult<(ModelParams, Option<Effects>)> {
+    if value.get("method").is_some() && value.get("params").is_some() {
+        return identified_over(value, base, name).map(|(p, e)| (p, Some(e)));
+    }
+    let p = ModelParams::nominal()
+        .merged_json(value)
+        .map_err(|e| AppError::bad(format!("{name}: {e}")))?;
+    Ok((p, None))
 }
 
 /// The values of an `identify.json`'s `params` set over `base` (and over its `effects`, or
@@ -269,19 +275,24 @@ fn session_params(
         params = pp;
         effects_from_params = e;
     }
-    if let Some(p) = &model.params {
+    if let Some(d) = &model.params_data {
+        let (pp, e) = params_of_json(&d.value, &params, &d.label)?;
+        params = pp;
+        effects_from_params = e.or(effects_from_params);
+    } else if let Some(p) = &model.params {
         read.push(p.clone());
         let (pp, e) = load_params_file(p, &osim, ceinms_muscles, &params)?;
         params = pp;
         effects_from_params = e.or(effects_from_params);
     }
     let effects_path = model.effects.as_ref().or(manifest.effects.as_ref());
-    let effects = match effects_path {
-        Some(p) => {
+    let effects = match (&model.effects_data, effects_path) {
+        (Some(d), _) => super::effects_of_json(&d.value, &d.label)?,
+        (None, Some(p)) => {
             read.push(p.clone());
             super::read_effects(p)?
         }
-        None => effects_from_params.unwrap_or_else(Effects::none),
+        (None, None) => effects_from_params.unwrap_or_else(Effects::none),
     };
     Ok((osim, params, effects))
 }
@@ -507,6 +518,7 @@ fn load_csv_trial(
         path: Some(p.to_path_buf()),
         data_files: Vec::new(),
         emg_is_envelope: model.emg_is_envelope,
+        bundled: false,
     });
     // the TA's crosstalk leaves the raw triceps EMG before the session's EMG
     // references are taken from it, as it leaves a single trial's

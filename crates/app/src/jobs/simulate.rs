@@ -94,7 +94,7 @@ pub fn run(args: SimulateJob, rep: &Reporter) -> AppResult {
         return session_out::run(&args, folder, rep);
     }
     let (params, effects, cfg_inputs) = load_model_config(&args.model)?;
-    let loaded = load_trial(args.trial.as_deref(), rep)?;
+    let loaded = load_trial(args.trial.as_deref(), None, rep)?;
     let inputs = trial_inputs(&loaded, &args.model)?;
     let sim = simulate(&inputs, &params, &effects, &SimSettings::default())
         .map_err(|e| AppError::bad(format!("{}: simulation failed: {e}", loaded.name)))?;

@@ -223,6 +223,9 @@ pub(super) fn write_figures(
 /// (left by an earlier run). `OutDir::prepare` refused a run with an input under one of
 /// these names, so no input is removed.
 fn remove_stale(out: &OutDir, written: &[PathBuf]) -> AppResult {
+    if out.discards() {
+        return Ok(());
+    }
     for name in PLANNED.iter().filter(|n| n.ends_with(".svg")) {
         let p = out.path(name);
         if !written.contains(&p) && p.is_file() {

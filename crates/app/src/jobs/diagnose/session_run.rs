@@ -49,6 +49,7 @@ struct Diagnosed {
 pub(super) fn run(args: &DiagnoseJob, session_path: &Path, rep: &Reporter) -> AppResult {
     let model = ModelSettings {
         params: args.params.clone(),
+        params_data: args.params_data.clone(),
         emg_is_envelope: args.emg_is_envelope,
         ..ModelSettings::default()
     };
@@ -64,7 +65,7 @@ pub(super) fn run(args: &DiagnoseJob, session_path: &Path, rep: &Reporter) -> Ap
     }
     let planned_refs: Vec<&str> = planned.iter().map(String::as_str).collect();
     let input_refs: Vec<&Path> = session.inputs_read.iter().map(|p| p.as_path()).collect();
-    let out = OutDir::prepare(&out_dir, &input_refs, &planned_refs)?;
+    let out = OutDir::prepare_or_discard(&out_dir, &input_refs, &planned_refs, args.discard_files)?;
 
     let show = rep.show();
     let mut done = Vec::with_capacity(session.trials.len());
@@ -81,7 +82,7 @@ pub(super) fn run(args: &DiagnoseJob, session_path: &Path, rep: &Reporter) -> Ap
     // every trial diagnosed: now the files
     let mut rows = Vec::with_capacity(done.len());
     for (t, r) in session.trials.iter().zip(&done) {
-        let dir = OutDir::prepare(&out.path(&r.stem), &input_refs, PLANNED)?;
+        let dir = out.sub(&r.stem, &input_refs, PLANNED)?;
         let text = diagnosis_json(
             &r.d,
             &t.name,

@@ -53,7 +53,7 @@ pub(super) fn run(
         &["identify.json", "report.html", "identified.osim"],
     );
     let planned_refs: Vec<&str> = planned.iter().map(String::as_str).collect();
-    let out = OutDir::prepare(&out_dir, &input_refs, &planned_refs)?;
+    let out = OutDir::prepare_or_discard(&out_dir, &input_refs, &planned_refs, args.discard_files)?;
 
     let mut settings = identify_sa::SaIdentifySettings::default().with_seed(args.seed);
     if let Some(c) = args.chains {
@@ -536,12 +536,13 @@ fn session_osim_copy(
 
 /// `--truth` (a parameters JSON or a fixture's `truth.json`), read before anything runs.
 fn session_truth(args: &IdentifyJob) -> AppResult<Option<Truth>> {
-    match &args.truth {
-        Some(p) => {
+    match (&args.truth_data, &args.truth) {
+        (Some(d), _) => super::truth_of_json(&d.value, &d.label).map(Some),
+        (None, Some(p)) => {
             let text = super::super::read_text(p)?;
             super::read_truth_model(p, &text).map(Some)
         }
-        None => Ok(None),
+        (None, None) => Ok(None),
     }
 }
 
@@ -674,7 +675,7 @@ fn run_mcmc(
         .zip(&noises)
         .map(|(problem, noise)| SessionTrialLikelihood { problem, noise })
         .collect();
-    let out = OutDir::prepare(&out_dir, &input_refs, &planned_refs)?;
+    let out = OutDir::prepare_or_discard(&out_dir, &input_refs, &planned_refs, args.discard_files)?;
     let show = rep.show();
     let what = session_path.display().to_string();
     let m = super::mcmc::sample(&likelihoods, &settings, &what, rep)?;
