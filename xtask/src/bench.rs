@@ -13,9 +13,9 @@
 use anyhow::{bail, Context, Result};
 use muscle_model::{
     simulate, simulate_into, Effects, GeometrySeries, ModelParams, Muscle, Problem,
-    ProblemWorkspace, SimSettings, TrialInputs, Workspace,
+    ProblemWorkspace, SimSettings, SimStats, TrialInputs, Workspace,
 };
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
 
@@ -278,12 +278,18 @@ fn peer(root: &Path, trial: &Path, repeat: usize) -> Result<f64> {
     Ok(v)
 }
 
-/// `cargo xtask bench [...]`.
-pub fn run(args: &mut impl Iterator<Item = String>) -> Result<bool> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .context("workspace root")?
-        .to_path_buf();
+/// The options of `cargo xtask bench`.
+struct BenchArgs {
+    /// Python peer simulations.
+    repeat: usize,
+    /// Rust repetitions per row.
+    reps: usize,
+    trial_path: PathBuf,
+    model_only: bool,
+}
+
+/// Reads the options; `None` when `--help` was asked for (the usage is then printed).
+fn parse_args(args: &mut impl Iterator<Item = String>, root: &Path) -> Result<Option<BenchArgs>> {
     let mut repeat = 5;
     let mut reps = 2000;
     let mut trial_path = root.join("fixtures/seed/trial.csv");
@@ -296,7 +302,7 @@ pub fn run(args: &mut impl Iterator<Item = String>) -> Result<bool> {
             "--trial" => trial_path = args.next().context("--trial T.csv")?.into(),
             "-h" | "--help" => {
                 println!("{USAGE}");
-                return Ok(true);
+                return Ok(None);
             }
             other => bail!("unknown argument `{other}`\n{USAGE}"),
         }
@@ -304,46 +310,99 @@ pub fn run(args: &mut impl Iterator<Item = String>) -> Result<bool> {
     if repeat == 0 || reps == 0 {
         bail!("--repeat and --reps must be positive");
     }
-    let trial = experiment::read_trial(&trial_path)
-        .with_context(|| format!("reading {}", trial_path.display()))?;
-    let inputs = experiment::model_inputs(&trial, &Default::default())?;
-    let n = inputs.len();
+    Ok(Some(BenchArgs {
+        repeat,
+        reps,
+        trial_path,
+        model_only,
+    }))
+}
+
+/// The forward-model measurements: one simulation's time with polynomial and with series
+/// geometry, and the accuracy of each.
+struct ForwardRows {
+    /// Median time of one simulation, polynomial geometry (s).
+    t_fwd: f64,
+    /// The same with the geometry as series (s).
+    t_series: f64,
+    /// RMS torque difference, series against polynomial geometry (N·m).
+    series_err: f64,
+    /// RMS torque difference, default settings against `SimSettings::tight()` (N·m).
+    err: f64,
+    /// Solver work of one simulation with the default settings.
+    stats: SimStats,
+}
+
+/// Times the forward model on `inputs` at the nominal parameters, `reps` repetitions a row.
+fn forward_rows(inputs: &TrialInputs, reps: usize) -> Result<ForwardRows> {
     let p = ModelParams::nominal();
     let e = Effects::none();
     let s = SimSettings::default();
-    eprintln!("trial {} ({n} samples)", trial_path.display());
 
     // accuracy of the default settings against the tight reference
-    let tight = simulate(&inputs, &p, &e, &SimSettings::tight())?;
-    let fast = simulate(&inputs, &p, &e, &s)?;
+    let tight = simulate(inputs, &p, &e, &SimSettings::tight())?;
+    let fast = simulate(inputs, &p, &e, &s)?;
     let err = rms(&fast.torque, &tight.torque);
-    let st = fast.total_stats();
+    let stats = fast.total_stats();
 
     // one forward simulation, polynomial geometry and geometry series
-    let t_fwd = forward_time(&inputs, &p, reps)?;
-    let series_inputs = with_series_geometry(&inputs, &p)?;
+    let t_fwd = forward_time(inputs, &p, reps)?;
+    let series_inputs = with_series_geometry(inputs, &p)?;
     let series_err = rms(&simulate(&series_inputs, &p, &e, &s)?.torque, &fast.torque);
     let t_series = forward_time(&series_inputs, &p, reps)?;
-    let us = |t: f64| format!("{:.1} µs", t * 1e6);
-    if model_only {
-        println!("| measurement | surae (Rust, 1 thread) | relative |");
-        println!("|---|---|---|");
-        println!(
-            "| forward simulation, seed trial (3 muscles integrated) | {} | 1 |",
-            us(t_fwd)
-        );
-        println!(
-            "| forward simulation, seed trial, geometry as series (3 muscles integrated) | {} | {:.2} |",
-            us(t_series),
-            t_series / t_fwd
-        );
-        println!();
-        println!(
-            "series vs polynomial geometry: {series_err:.2e} N·m RMS; default settings: {err:.2e} N·m RMS from SimSettings::tight(); {reps} repetitions"
-        );
-        return Ok(true);
-    }
+    Ok(ForwardRows {
+        t_fwd,
+        t_series,
+        series_err,
+        err,
+        stats,
+    })
+}
 
+/// A time in microseconds, as the table shows it.
+fn us(t: f64) -> String {
+    format!("{:.1} µs", t * 1e6)
+}
+
+/// `, <CPU> s CPU` when the CPU time is known.
+fn cpu_note(c: Option<f64>) -> String {
+    c.map_or(String::new(), |c| format!(", {c:.1} s CPU"))
+}
+
+/// The table of `--model-only`: the forward model alone, without the peer.
+fn print_model_only(f: &ForwardRows, reps: usize) {
+    let ForwardRows {
+        t_fwd,
+        t_series,
+        series_err,
+        err,
+        ..
+    } = *f;
+    println!("| measurement | surae (Rust, 1 thread) | relative |");
+    println!("|---|---|---|");
+    println!(
+        "| forward simulation, seed trial (3 muscles integrated) | {} | 1 |",
+        us(t_fwd)
+    );
+    println!(
+        "| forward simulation, seed trial, geometry as series (3 muscles integrated) | {} | {:.2} |",
+        us(t_series),
+        t_series / t_fwd
+    );
+    println!();
+    println!(
+        "series vs polynomial geometry: {series_err:.2e} N·m RMS; default settings: {err:.2e} N·m RMS from SimSettings::tight(); {reps} repetitions"
+    );
+}
+
+/// Median times of one cost evaluation (s): every coordinate moved, and one coordinate moved.
+struct CostRows {
+    t_cost_full: f64,
+    t_cost_sa: f64,
+}
+
+/// Times the cost of the standard problem on `inputs` and the trial's torque.
+fn cost_rows(inputs: &TrialInputs, trial: &experiment::Trial, reps: usize) -> Result<CostRows> {
     // cost evaluations as an annealer makes them: one coordinate of the 9 moved at a time
     let problem = Problem::standard(inputs.clone(), trial.torque_nm.clone())?;
     let x0 = problem.base_vector();
@@ -371,27 +430,66 @@ pub fn run(args: &mut impl Iterator<Item = String>) -> Result<bool> {
         std::hint::black_box(problem.sse_with(&x, &mut pws)?);
         Ok(())
     })?;
+    Ok(CostRows {
+        t_cost_full,
+        t_cost_sa,
+    })
+}
 
+/// The end-to-end runs, each as its `*_run` function returns it.
+struct EndToEndRows {
+    sa: (u64, f64, Option<f64>),
+    sa_session: (u64, f64, Option<f64>),
+    /// Threads available to the runs.
+    threads: usize,
+    mcmc: (u64, f64, Option<f64>, bool, f64, f64),
+    mcmc_session: (u64, f64, Option<f64>, bool, f64, f64),
+    diagnosis: (f64, Option<f64>, Vec<String>),
+}
+
+/// Runs the identifications and the diagnosis end to end, one after the other.
+fn end_to_end_rows(
+    root: &Path,
+    trial_path: &Path,
+    trial: &experiment::Trial,
+) -> Result<EndToEndRows> {
     eprintln!("running identify_sa::identify (4 chains, rayon) ...");
-    let (sa_evals, sa_wall, sa_cpu) = sa_run(&trial_path, &trial)?;
+    let sa = sa_run(trial_path, trial)?;
     eprintln!("running identify_sa::identify_set on fixtures/session3 (4 chains, rayon) ...");
-    let (ss_evals, ss_wall, ss_cpu) = sa_session_run(&root)?;
+    let sa_session = sa_session_run(root)?;
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
 
     eprintln!("running identify_mcmc::identify (default settings, 4 chains, rayon) ...");
-    let (mc_evals, mc_wall, mc_cpu, mc_conv, mc_rhat, mc_ess) = mcmc_run(&trial_path, &trial)?;
+    let mcmc = mcmc_run(trial_path, trial)?;
     eprintln!(
         "running identify_mcmc::identify_session on fixtures/session3 (default settings) ..."
     );
-    let (ms_evals, ms_wall, ms_cpu, ms_conv, ms_rhat, ms_ess) = mcmc_session_run(&root)?;
+    let mcmc_session = mcmc_session_run(root)?;
     eprintln!("running diagnose::run on fixtures/electromechanical_delay ...");
-    let (dg_wall, dg_cpu, dg_causes) = diagnose_run(&root, "electromechanical_delay")?;
+    let diagnosis = diagnose_run(root, "electromechanical_delay")?;
+    Ok(EndToEndRows {
+        sa,
+        sa_session,
+        threads,
+        mcmc,
+        mcmc_session,
+        diagnosis,
+    })
+}
 
-    eprintln!("running the Python peer ({repeat} simulations) ...");
-    let t_peer = peer(&root, &trial_path, repeat)?;
-
-    println!("| measurement | surae (Rust, 1 thread) | peer (Python, scipy RK45) | ratio |");
-    println!("|---|---|---|---|");
+/// The rows timed against the peer (`t_peer` s per simulation): the forward model and the
+/// cost evaluations.
+fn print_model_rows(f: &ForwardRows, c: &CostRows, t_peer: f64) {
+    let ForwardRows {
+        t_fwd,
+        t_series,
+        series_err,
+        ..
+    } = *f;
+    let CostRows {
+        t_cost_full,
+        t_cost_sa,
+    } = *c;
     println!(
         "| forward simulation, seed trial (3 muscles integrated) | {} | {:.1} ms | {:.0}× |",
         us(t_fwd),
@@ -414,6 +512,17 @@ pub fn run(args: &mut impl Iterator<Item = String>) -> Result<bool> {
         us(t_cost_sa),
         t_peer / t_cost_sa
     );
+}
+
+/// The rows of the end-to-end runs; the SA evaluation row is also timed against the peer
+/// (`t_peer` s per simulation).
+fn print_end_to_end_rows(r: &EndToEndRows, t_peer: f64) {
+    let (sa_evals, sa_wall, sa_cpu) = r.sa;
+    let (ss_evals, ss_wall, ss_cpu) = r.sa_session;
+    let threads = r.threads;
+    let (mc_evals, mc_wall, mc_cpu, mc_conv, mc_rhat, mc_ess) = r.mcmc;
+    let (ms_evals, ms_wall, ms_cpu, ms_conv, ms_rhat, ms_ess) = r.mcmc_session;
+    let (dg_wall, dg_cpu, dg_causes) = &r.diagnosis;
     let per_eval = sa_wall / sa_evals.max(1) as f64;
     println!(
         "| SA model evaluation inside `identify` (wall / evaluations; {sa_evals} evaluations in {sa_wall:.2} s on {threads} threads{}) | {} | {:.1} ms | {:.0}× |",
@@ -427,9 +536,8 @@ pub fn run(args: &mut impl Iterator<Item = String>) -> Result<bool> {
     );
     println!(
         "| SA end to end (seed, unloaded-run correction, 4 chains + polish) | {sa_wall:.2} s wall{} | — | — |",
-        sa_cpu.map_or(String::new(), |c| format!(", {c:.1} s CPU"))
+        cpu_note(sa_cpu)
     );
-    let cpu_note = |c: Option<f64>| c.map_or(String::new(), |c| format!(", {c:.1} s CPU"));
     println!(
         "| SA end to end, 3-trial session (`fixtures/session3`: knee0@30, knee90@30, knee0@60; {ss_evals} evaluations) | {ss_wall:.2} s wall{} ({:.1}× the seed's) | — | — |",
         cpu_note(ss_cpu),
@@ -446,12 +554,50 @@ pub fn run(args: &mut impl Iterator<Item = String>) -> Result<bool> {
     );
     println!(
         "| full diagnosis (`fixtures/electromechanical_delay`, unloaded run; named {dg_causes:?}) | {dg_wall:.2} s wall{} | — | — |",
-        cpu_note(dg_cpu)
+        cpu_note(*dg_cpu)
     );
+}
+
+/// `cargo xtask bench [...]`.
+pub fn run(args: &mut impl Iterator<Item = String>) -> Result<bool> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .context("workspace root")?
+        .to_path_buf();
+    let Some(BenchArgs {
+        repeat,
+        reps,
+        trial_path,
+        model_only,
+    }) = parse_args(args, &root)?
+    else {
+        return Ok(true);
+    };
+    let trial = experiment::read_trial(&trial_path)
+        .with_context(|| format!("reading {}", trial_path.display()))?;
+    let inputs = experiment::model_inputs(&trial, &Default::default())?;
+    let n = inputs.len();
+    eprintln!("trial {} ({n} samples)", trial_path.display());
+
+    let forward = forward_rows(&inputs, reps)?;
+    if model_only {
+        print_model_only(&forward, reps);
+        return Ok(true);
+    }
+    let cost = cost_rows(&inputs, &trial, reps)?;
+    let runs = end_to_end_rows(&root, &trial_path, &trial)?;
+
+    eprintln!("running the Python peer ({repeat} simulations) ...");
+    let t_peer = peer(&root, &trial_path, repeat)?;
+
+    println!("| measurement | surae (Rust, 1 thread) | peer (Python, scipy RK45) | ratio |");
+    println!("|---|---|---|---|");
+    print_model_rows(&forward, &cost, t_peer);
+    print_end_to_end_rows(&runs, t_peer);
     println!();
     println!(
         "default settings: {:.2e} N·m RMS from SimSettings::tight(); {} accepted steps, {} RHS calls (3 muscles); {} Rust repetitions, {repeat} peer simulations",
-        err, st.accepted, st.rhs_calls, reps
+        forward.err, forward.stats.accepted, forward.stats.rhs_calls, reps
     );
     Ok(true)
 }

@@ -234,6 +234,190 @@ impl<O: Objective + ?Sized> Counter<'_, O> {
     }
 }
 
+/// The step coefficients of Gao & Han (2012): reflection, expansion, contraction, shrink.
+#[derive(Clone, Copy)]
+struct Coefficients {
+    alpha: f64,
+    gamma: f64,
+    rho: f64,
+    sigma: f64,
+}
+
+impl Coefficients {
+    /// The coefficients for `n` dimensions: the classical 1, 2, ½, ½ up to `n = 2` (at `n = 2`
+    /// they are the adaptive ones; at `n = 1` the adaptive shrink σ = 0 would collapse the
+    /// simplex onto its best vertex).
+    fn for_dimension(n: usize) -> Self {
+        let nf = n as f64;
+        if n <= 2 {
+            Self {
+                alpha: 1.0,
+                gamma: 2.0,
+                rho: 0.5,
+                sigma: 0.5,
+            }
+        } else {
+            Self {
+                alpha: 1.0,
+                gamma: 1.0 + 2.0 / nf,
+                rho: 0.75 - 0.5 / nf,
+                sigma: 1.0 - 1.0 / nf,
+            }
+        }
+    }
+}
+
+/// The best point met so far and its cost.
+struct Best {
+    u: Vec<f64>,
+    f: f64,
+}
+
+impl Best {
+    /// Takes `(v, f)` when it is strictly better (a tie keeps the point already held).
+    fn take_if_better(&mut self, v: &[f64], f: f64) {
+        if f < self.f {
+            self.f = f;
+            self.u.copy_from_slice(v);
+        }
+    }
+}
+
+/// The `n + 1` vertices (flat, `n` unit coordinates each), their costs, and their order by
+/// cost after [`Simplex::rank`].
+struct Simplex {
+    n: usize,
+    vertices: Vec<f64>,
+    costs: Vec<f64>,
+    order: Vec<usize>,
+}
+
+/// Where the vertices stand after ranking: best, second worst and worst.
+#[derive(Clone, Copy)]
+struct Ranks {
+    best: usize,
+    second_worst: usize,
+    worst: usize,
+}
+
+impl Simplex {
+    fn new(n: usize) -> Self {
+        Self {
+            n,
+            vertices: vec![0.0; (n + 1) * n],
+            costs: vec![0.0; n + 1],
+            order: (0..=n).collect(),
+        }
+    }
+
+    fn vertex(&self, j: usize) -> &[f64] {
+        &self.vertices[j * self.n..(j + 1) * self.n]
+    }
+
+    /// Puts `v` with cost `f` in place of vertex `j`.
+    fn replace(&mut self, j: usize, v: &[f64], f: f64) {
+        let n = self.n;
+        self.vertices[j * n..(j + 1) * n].copy_from_slice(v);
+        self.costs[j] = f;
+    }
+
+    /// Sorts the vertices by cost (the sort is stable: the previous order breaks ties).
+    fn rank(&mut self) -> Ranks {
+        let costs = &self.costs;
+        self.order.sort_by(|&a, &b| costs[a].total_cmp(&costs[b]));
+        let n = self.n;
+        Ranks {
+            best: self.order[0],
+            second_worst: self.order[n - 1],
+            worst: self.order[n],
+        }
+    }
+
+    /// Whether the costs spread by at most the cost tolerance about the best and every vertex
+    /// lies within `xtol` (max-norm) of the best.
+    fn converged(&self, ranks: Ranks, settings: &NelderMeadSettings) -> bool {
+        let n = self.n;
+        let fb = self.costs[ranks.best];
+        let ftol = settings.ftol_abs + settings.ftol_rel * fb.abs();
+        let fspread = self.costs[ranks.worst] - fb;
+        let vb = self.vertex(ranks.best);
+        let xspread = (0..=n)
+            .flat_map(|j| (0..n).map(move |k| (j, k)))
+            .map(|(j, k)| (self.vertices[j * n + k] - vb[k]).abs())
+            .fold(0.0f64, f64::max);
+        fspread <= ftol && xspread <= settings.xtol
+    }
+}
+
+/// The centroid and the trial points of one step, kept between steps to avoid allocations.
+struct TrialPoints {
+    centroid: Vec<f64>,
+    reflected: Vec<f64>,
+    expanded: Vec<f64>,
+    contracted: Vec<f64>,
+}
+
+impl TrialPoints {
+    fn new(n: usize) -> Self {
+        Self {
+            centroid: vec![0.0; n],
+            reflected: vec![0.0; n],
+            expanded: vec![0.0; n],
+            contracted: vec![0.0; n],
+        }
+    }
+
+    /// The centroid of every vertex but the worst (summed in cost order, then divided).
+    fn centre(&mut self, simplex: &Simplex) {
+        let n = simplex.n;
+        self.centroid.fill(0.0);
+        for &j in &simplex.order[..n] {
+            for k in 0..n {
+                self.centroid[k] += simplex.vertices[j * n + k];
+            }
+        }
+        for c in self.centroid.iter_mut() {
+            *c /= n as f64;
+        }
+    }
+
+    /// `r = c + α(c − w)`, clamped onto the box.
+    fn reflect(&mut self, worst: &[f64], alpha: f64) {
+        for ((r, &c), &w) in self.reflected.iter_mut().zip(&self.centroid).zip(worst) {
+            *r = (c + alpha * (c - w)).clamp(0.0, 1.0);
+        }
+    }
+
+    /// `e = c + γ(r − c)`, clamped onto the box.
+    fn expand(&mut self, gamma: f64) {
+        for ((e, &c), &r) in self
+            .expanded
+            .iter_mut()
+            .zip(&self.centroid)
+            .zip(&self.reflected)
+        {
+            *e = (c + gamma * (r - c)).clamp(0.0, 1.0);
+        }
+    }
+
+    /// `c + ρ(t − c)`, clamped onto the box, with `t` the reflected point (`outside`) or the
+    /// worst vertex.
+    fn contract(&mut self, worst: &[f64], rho: f64, outside: bool) {
+        let targets: &[f64] = if outside { &self.reflected } else { worst };
+        for ((x, &c), &t) in self.contracted.iter_mut().zip(&self.centroid).zip(targets) {
+            *x = (c + rho * (t - c)).clamp(0.0, 1.0);
+        }
+    }
+}
+
+/// How a run of the simplex ended.
+enum RunEnd {
+    /// The simplex met the tolerances.
+    Converged,
+    /// The budget ran out first.
+    OutOfBudget,
+}
+
 /// Nelder–Mead from `u0` (cost `f0` already known) with per-coordinate
 /// initial edges `steps`, using at most `budget` new evaluations, on an already validated
 /// unit box (the annealer's polish; [`nelder_mead`] is the checked entry point).
@@ -254,168 +438,43 @@ pub fn nelder_mead_unit<O: Objective + ?Sized>(
         failed: 0,
         budget,
     };
-    let nf = n as f64;
-    let (alpha, gamma, rho, sigma) = if n <= 2 {
-        (1.0, 2.0, 0.5, 0.5)
-    } else {
-        (1.0, 1.0 + 2.0 / nf, 0.75 - 0.5 / nf, 1.0 - 1.0 / nf)
+    let coefficients = Coefficients::for_dimension(n);
+    let mut best = Best {
+        u: u0.to_vec(),
+        f: f0,
     };
-
-    let mut best_u = u0.to_vec();
-    let mut best_f = f0;
-    let mut simplex = vec![0.0; (n + 1) * n];
-    let mut fs = vec![0.0; n + 1];
-    let mut order: Vec<usize> = (0..=n).collect();
-    let mut centroid = vec![0.0; n];
-    let mut xr = vec![0.0; n];
-    let mut xe = vec![0.0; n];
-    let mut xc = vec![0.0; n];
+    let mut simplex = Simplex::new(n);
+    let mut points = TrialPoints::new(n);
     let mut restarts = 0u32;
+    // Stays as the last finished run left it when a fresh simplex runs out of budget.
     let mut converged = false;
     let mut run_start_f = f0;
-
-    'runs: loop {
-        // Build the simplex around the best point.
-        simplex[..n].copy_from_slice(&best_u);
-        fs.fill(f64::INFINITY);
-        fs[0] = best_f;
-        for i in 0..n {
-            let (head, tail) = simplex.split_at_mut((i + 1) * n);
-            let v = &mut tail[..n];
-            v.copy_from_slice(&head[..n]);
-            let s = steps[i];
-            let mut f = f64::INFINITY;
-            for attempt in 0..6 {
-                if counter.exhausted() {
-                    break 'runs;
-                }
-                let h = s * 0.5f64.powi(attempt / 2);
-                let dir = if (best_u[i] + h <= 1.0) == (attempt % 2 == 0) {
-                    h
-                } else {
-                    -h
-                };
-                v[i] = (best_u[i] + dir).clamp(0.0, 1.0);
-                if v[i] == best_u[i] {
-                    continue;
-                }
-                f = counter.eval(v);
-                if f.is_finite() {
-                    break;
-                }
-            }
-            fs[i + 1] = f;
+    loop {
+        if !lay_simplex(&mut counter, &mut simplex, &best, steps) {
+            break;
         }
-        converged = false;
-        loop {
-            order.sort_by(|&a, &b| fs[a].total_cmp(&fs[b]));
-            let b = order[0];
-            let w = order[n];
-            let sw = order[n - 1];
-            if fs[b] < best_f {
-                best_f = fs[b];
-                best_u.copy_from_slice(&simplex[b * n..(b + 1) * n]);
-            }
-            // Convergence.
-            let ftol = settings.ftol_abs + settings.ftol_rel * fs[b].abs();
-            let fspread = fs[w] - fs[b];
-            let vb = &simplex[b * n..(b + 1) * n];
-            let xspread = (0..=n)
-                .flat_map(|j| (0..n).map(move |k| (j, k)))
-                .map(|(j, k)| (simplex[j * n + k] - vb[k]).abs())
-                .fold(0.0f64, f64::max);
-            if fspread <= ftol && xspread <= settings.xtol {
-                converged = true;
-                break;
-            }
-            if counter.exhausted() {
-                break 'runs;
-            }
-            // Centroid of all but the worst.
-            centroid.fill(0.0);
-            for &j in &order[..n] {
-                for k in 0..n {
-                    centroid[k] += simplex[j * n + k];
-                }
-            }
-            for c in centroid.iter_mut() {
-                *c /= nf;
-            }
-            for k in 0..n {
-                xr[k] = (centroid[k] + alpha * (centroid[k] - simplex[w * n + k])).clamp(0.0, 1.0);
-            }
-            let fr = counter.eval(&xr);
-            if fr < fs[b] {
-                if counter.exhausted() {
-                    replace(&mut simplex, &mut fs, w, &xr, fr, n);
-                    continue;
-                }
-                for k in 0..n {
-                    xe[k] = (centroid[k] + gamma * (xr[k] - centroid[k])).clamp(0.0, 1.0);
-                }
-                let fe = counter.eval(&xe);
-                if fe < fr {
-                    replace(&mut simplex, &mut fs, w, &xe, fe, n);
-                } else {
-                    replace(&mut simplex, &mut fs, w, &xr, fr, n);
-                }
-                continue;
-            }
-            if fr < fs[sw] {
-                replace(&mut simplex, &mut fs, w, &xr, fr, n);
-                continue;
-            }
-            if counter.exhausted() {
-                if fr < fs[w] {
-                    replace(&mut simplex, &mut fs, w, &xr, fr, n);
-                }
-                continue;
-            }
-            let outside = fr < fs[w];
-            for k in 0..n {
-                let target = if outside { xr[k] } else { simplex[w * n + k] };
-                xc[k] = (centroid[k] + rho * (target - centroid[k])).clamp(0.0, 1.0);
-            }
-            let fc = counter.eval(&xc);
-            let ok = if outside { fc <= fr } else { fc < fs[w] };
-            if ok {
-                replace(&mut simplex, &mut fs, w, &xc, fc, n);
-                continue;
-            }
-            // Shrink towards the best vertex.
-            for j in 0..=n {
-                if j == b {
-                    continue;
-                }
-                if counter.exhausted() {
-                    break;
-                }
-                for k in 0..n {
-                    let vbk = simplex[b * n + k];
-                    simplex[j * n + k] = vbk + sigma * (simplex[j * n + k] - vbk);
-                }
-                fs[j] = counter.eval(&simplex[j * n..(j + 1) * n]);
-            }
-        }
-        // Converged: restart unless the last run gained nothing.
-        let tol = settings.ftol_abs + settings.ftol_rel * best_f.abs();
-        let gained = run_start_f - best_f;
-        if restarts >= settings.max_restarts || (restarts > 0 && gained <= tol) {
+        let end = descend(
+            &mut counter,
+            &mut simplex,
+            &mut points,
+            coefficients,
+            settings,
+            &mut best,
+        );
+        converged = matches!(end, RunEnd::Converged);
+        if !converged || !worth_restarting(settings, restarts, run_start_f, best.f) {
             break;
         }
         restarts += 1;
-        run_start_f = best_f;
+        run_start_f = best.f;
     }
     // Pick up a better vertex found in a run cut short by the budget.
     for j in 0..=n {
-        if fs[j] < best_f {
-            best_f = fs[j];
-            best_u.copy_from_slice(&simplex[j * n..(j + 1) * n]);
-        }
+        best.take_if_better(simplex.vertex(j), simplex.costs[j]);
     }
     NelderMeadUnitOutcome {
-        u: best_u,
-        f: best_f,
+        u: best.u,
+        f: best.f,
         evaluations: counter.evaluations,
         failed: counter.failed,
         restarts,
@@ -423,7 +482,207 @@ pub fn nelder_mead_unit<O: Objective + ?Sized>(
     }
 }
 
-fn replace(simplex: &mut [f64], fs: &mut [f64], j: usize, v: &[f64], f: f64, n: usize) {
-    simplex[j * n..(j + 1) * n].copy_from_slice(v);
-    fs[j] = f;
+/// Lays a fresh simplex around the best point: vertex 0 at it, vertex `i + 1` moved along
+/// coordinate `i` (see [`edge_vertex`]). Returns `false` when the budget runs out on the way;
+/// the vertices not reached then keep an infinite cost.
+fn lay_simplex<O: Objective + ?Sized>(
+    counter: &mut Counter<'_, O>,
+    simplex: &mut Simplex,
+    best: &Best,
+    steps: &[f64],
+) -> bool {
+    let n = simplex.n;
+    simplex.vertices[..n].copy_from_slice(&best.u);
+    simplex.costs.fill(f64::INFINITY);
+    simplex.costs[0] = best.f;
+    for (i, &s) in steps[..n].iter().enumerate() {
+        let (head, tail) = simplex.vertices.split_at_mut((i + 1) * n);
+        let v = &mut tail[..n];
+        v.copy_from_slice(&head[..n]);
+        match edge_vertex(counter, v, &best.u, i, s) {
+            Some(f) => simplex.costs[i + 1] = f,
+            None => return false,
+        }
+    }
+    true
+}
+
+/// Moves `v` (a copy of `base`) along coordinate `i` and returns its cost, `None` when the
+/// budget runs out first. Up to six tries, so that the simplex starts with finite costs where
+/// the objective allows: `+s` (or `−s` when `+s` leaves the box), then the other sign, then
+/// both again at `s/2` and at `s/4`; the first finite cost is kept, else the last one met. A try
+/// that the box clamps back onto `base` is skipped without an evaluation.
+fn edge_vertex<O: Objective + ?Sized>(
+    counter: &mut Counter<'_, O>,
+    v: &mut [f64],
+    base: &[f64],
+    i: usize,
+    s: f64,
+) -> Option<f64> {
+    let mut f = f64::INFINITY;
+    for attempt in 0..6 {
+        if counter.exhausted() {
+            return None;
+        }
+        let h = s * 0.5f64.powi(attempt / 2);
+        let dir = if (base[i] + h <= 1.0) == (attempt % 2 == 0) {
+            h
+        } else {
+            -h
+        };
+        v[i] = (base[i] + dir).clamp(0.0, 1.0);
+        if v[i] == base[i] {
+            continue;
+        }
+        f = counter.eval(v);
+        if f.is_finite() {
+            break;
+        }
+    }
+    Some(f)
+}
+
+/// Steps the simplex until it converges or the budget runs out, keeping `best` up to date with
+/// its best vertex.
+fn descend<O: Objective + ?Sized>(
+    counter: &mut Counter<'_, O>,
+    simplex: &mut Simplex,
+    points: &mut TrialPoints,
+    coefficients: Coefficients,
+    settings: &NelderMeadSettings,
+    best: &mut Best,
+) -> RunEnd {
+    loop {
+        let ranks = simplex.rank();
+        best.take_if_better(simplex.vertex(ranks.best), simplex.costs[ranks.best]);
+        if simplex.converged(ranks, settings) {
+            return RunEnd::Converged;
+        }
+        if counter.exhausted() {
+            return RunEnd::OutOfBudget;
+        }
+        step(counter, simplex, points, coefficients, ranks);
+    }
+}
+
+/// One Nelder–Mead step on a ranked simplex: reflect the worst vertex through the centroid of
+/// the others, then expand, accept, contract or shrink. A step cut short by the budget keeps
+/// the reflected point when it beats the worst vertex.
+fn step<O: Objective + ?Sized>(
+    counter: &mut Counter<'_, O>,
+    simplex: &mut Simplex,
+    points: &mut TrialPoints,
+    coefficients: Coefficients,
+    ranks: Ranks,
+) {
+    let Ranks {
+        best: b,
+        second_worst: sw,
+        worst: w,
+    } = ranks;
+    points.centre(simplex);
+    points.reflect(simplex.vertex(w), coefficients.alpha);
+    let fr = counter.eval(&points.reflected);
+    if fr < simplex.costs[b] {
+        expand_or_reflect(counter, simplex, points, coefficients.gamma, w, fr);
+        return;
+    }
+    if fr < simplex.costs[sw] {
+        simplex.replace(w, &points.reflected, fr);
+        return;
+    }
+    if counter.exhausted() {
+        if fr < simplex.costs[w] {
+            simplex.replace(w, &points.reflected, fr);
+        }
+        return;
+    }
+    if !contract(counter, simplex, points, coefficients.rho, w, fr) {
+        shrink(counter, simplex, coefficients.sigma, b);
+    }
+}
+
+/// The reflected point (cost `fr`) beat the best vertex: try going further along the same
+/// direction and put the better of the two in place of the worst vertex `w`.
+fn expand_or_reflect<O: Objective + ?Sized>(
+    counter: &mut Counter<'_, O>,
+    simplex: &mut Simplex,
+    points: &mut TrialPoints,
+    gamma: f64,
+    w: usize,
+    fr: f64,
+) {
+    if counter.exhausted() {
+        simplex.replace(w, &points.reflected, fr);
+        return;
+    }
+    points.expand(gamma);
+    let fe = counter.eval(&points.expanded);
+    if fe < fr {
+        simplex.replace(w, &points.expanded, fe);
+    } else {
+        simplex.replace(w, &points.reflected, fr);
+    }
+}
+
+/// The reflected point (cost `fr`) is no better than the second worst vertex: contract towards
+/// it when it beats the worst vertex `w` (outside), towards `w` otherwise (inside). Returns
+/// whether the contracted point was accepted in place of `w`.
+fn contract<O: Objective + ?Sized>(
+    counter: &mut Counter<'_, O>,
+    simplex: &mut Simplex,
+    points: &mut TrialPoints,
+    rho: f64,
+    w: usize,
+    fr: f64,
+) -> bool {
+    let outside = fr < simplex.costs[w];
+    points.contract(simplex.vertex(w), rho, outside);
+    let fc = counter.eval(&points.contracted);
+    let ok = if outside {
+        fc <= fr
+    } else {
+        fc < simplex.costs[w]
+    };
+    if ok {
+        simplex.replace(w, &points.contracted, fc);
+    }
+    ok
+}
+
+/// Shrinks every vertex towards the best one `b` as `b + σ(v − b)`, evaluating each, while the
+/// budget lasts.
+fn shrink<O: Objective + ?Sized>(
+    counter: &mut Counter<'_, O>,
+    simplex: &mut Simplex,
+    sigma: f64,
+    b: usize,
+) {
+    let n = simplex.n;
+    for j in 0..=n {
+        if j == b {
+            continue;
+        }
+        if counter.exhausted() {
+            break;
+        }
+        for k in 0..n {
+            let vbk = simplex.vertices[b * n + k];
+            simplex.vertices[j * n + k] = vbk + sigma * (simplex.vertices[j * n + k] - vbk);
+        }
+        simplex.costs[j] = counter.eval(simplex.vertex(j));
+    }
+}
+
+/// Whether a converged run earns a restart: restarts remain and the last run (after the first)
+/// gained more than the cost tolerance from its start `run_start_f` down to `best_f`.
+fn worth_restarting(
+    settings: &NelderMeadSettings,
+    restarts: u32,
+    run_start_f: f64,
+    best_f: f64,
+) -> bool {
+    let tol = settings.ftol_abs + settings.ftol_rel * best_f.abs();
+    let gained = run_start_f - best_f;
+    !(restarts >= settings.max_restarts || (restarts > 0 && gained <= tol))
 }

@@ -93,157 +93,228 @@ fn decode(raw: &str, pos: usize) -> Result<String> {
 /// # Ok::<(), report::ReportError>(())
 /// ```
 pub fn check_xml(text: &str) -> Result<XmlSummary> {
-    let mut sum = XmlSummary::default();
-    let mut stack: Vec<String> = Vec::new();
-    let mut root_done = false;
+    let mut reader = Reader {
+        text,
+        sum: XmlSummary::default(),
+        stack: Vec::new(),
+        root_done: false,
+    };
     let mut i = 0;
-    let b = text.as_bytes();
-    while i < b.len() {
-        if b[i] != b'<' {
-            let j = text[i..].find('<').map_or(b.len(), |k| i + k);
-            let raw = &text[i..j];
-            let decoded = decode(raw, i)?;
-            if !decoded.trim().is_empty() {
-                if stack.is_empty() {
-                    return Err(bad(i, "text outside the root element"));
-                }
-                sum.texts.push(decoded.trim().to_string());
-            }
-            i = j;
-            continue;
+    while i < text.len() {
+        i = reader.read_at(i)?;
+    }
+    reader.finish()
+}
+
+/// A document being read: what it holds so far and where the reading stands.
+struct Reader<'t> {
+    text: &'t str,
+    sum: XmlSummary,
+    /// The open elements, innermost last.
+    stack: Vec<String>,
+    /// Whether the root element has ended (a second one is an error).
+    root_done: bool,
+}
+
+/// A start tag read: its attributes, whether it closes itself (`/>`) and its length in bytes.
+struct StartTag {
+    attrs: Vec<(String, String)>,
+    self_closing: bool,
+    len: usize,
+}
+
+impl Reader<'_> {
+    /// Reads the text node, comment, declaration, CDATA section or tag at byte `i`; returns the
+    /// byte after it.
+    fn read_at(&mut self, i: usize) -> Result<usize> {
+        let rest = &self.text[i..];
+        if !rest.starts_with('<') {
+            return self.text_node(i);
         }
-        let rest = &text[i..];
         if rest.starts_with("<!--") {
             let end = rest.find("-->").ok_or_else(|| bad(i, "unclosed comment"))?;
-            i += end + 3;
-            continue;
+            return Ok(i + end + 3);
         }
         if rest.starts_with("<?") {
-            if sum.elements.values().sum::<usize>() > 0 {
+            if self.sum.elements.values().sum::<usize>() > 0 {
                 return Err(bad(i, "processing instruction after the root started"));
             }
             let end = rest.find("?>").ok_or_else(|| bad(i, "unclosed `<?`"))?;
-            i += end + 2;
-            continue;
+            return Ok(i + end + 2);
         }
         if rest.starts_with("<![CDATA[") {
-            let end = rest.find("]]>").ok_or_else(|| bad(i, "unclosed CDATA"))?;
-            if stack.is_empty() {
-                return Err(bad(i, "CDATA outside the root element"));
-            }
-            let t = rest[9..end].trim();
-            if !t.is_empty() {
-                sum.texts.push(t.to_string());
-            }
-            i += end + 3;
-            continue;
+            return self.cdata(i);
         }
         if rest.starts_with("<!") {
             return Err(bad(i, "DOCTYPE or other declaration not allowed"));
         }
-        if let Some(close) = rest.strip_prefix("</") {
-            let end = close.find('>').ok_or_else(|| bad(i, "unclosed end tag"))?;
-            let name = close[..end].trim_end();
-            match stack.pop() {
-                Some(open) if open == name => {}
-                Some(open) => {
-                    return Err(bad(i, format!("`</{name}>` closes `<{open}>`")));
-                }
-                None => return Err(bad(i, format!("`</{name}>` without a start tag"))),
-            }
-            if stack.is_empty() {
-                root_done = true;
-            }
-            i += 2 + end + 1;
-            continue;
+        if rest.starts_with("</") {
+            return self.end_tag(i);
         }
-        // Start tag.
-        if root_done {
+        self.start_tag(i)
+    }
+
+    /// Text up to the next `<`: kept (trimmed, entities decoded) unless blank, and only inside
+    /// the root element.
+    fn text_node(&mut self, i: usize) -> Result<usize> {
+        let j = self.text[i..].find('<').map_or(self.text.len(), |k| i + k);
+        let decoded = decode(&self.text[i..j], i)?;
+        if !decoded.trim().is_empty() {
+            if self.stack.is_empty() {
+                return Err(bad(i, "text outside the root element"));
+            }
+            self.sum.texts.push(decoded.trim().to_string());
+        }
+        Ok(j)
+    }
+
+    /// A CDATA section: its text kept as is (trimmed, unless blank), inside the root element.
+    fn cdata(&mut self, i: usize) -> Result<usize> {
+        let rest = &self.text[i..];
+        let end = rest.find("]]>").ok_or_else(|| bad(i, "unclosed CDATA"))?;
+        if self.stack.is_empty() {
+            return Err(bad(i, "CDATA outside the root element"));
+        }
+        let t = rest[9..end].trim();
+        if !t.is_empty() {
+            self.sum.texts.push(t.to_string());
+        }
+        Ok(i + end + 3)
+    }
+
+    /// An end tag, which must close the innermost open element.
+    fn end_tag(&mut self, i: usize) -> Result<usize> {
+        let close = &self.text[i + 2..];
+        let end = close.find('>').ok_or_else(|| bad(i, "unclosed end tag"))?;
+        let name = close[..end].trim_end();
+        match self.stack.pop() {
+            Some(open) if open == name => {}
+            Some(open) => {
+                return Err(bad(i, format!("`</{name}>` closes `<{open}>`")));
+            }
+            None => return Err(bad(i, format!("`</{name}>` without a start tag"))),
+        }
+        if self.stack.is_empty() {
+            self.root_done = true;
+        }
+        Ok(i + 2 + end + 1)
+    }
+
+    /// A start tag (or a self-closing element): counted, opened, and taken as the root when it
+    /// is the first.
+    fn start_tag(&mut self, i: usize) -> Result<usize> {
+        if self.root_done {
             return Err(bad(i, "a second root element"));
         }
-        let mut chars = rest[1..].char_indices();
-        let mut name_end = rest.len() - 1;
-        for (k, c) in chars.by_ref() {
-            if !is_name_char(c) {
-                name_end = k;
-                break;
-            }
+        let rest = &self.text[i..];
+        let name = element_name(rest, i)?;
+        let tag = attributes(rest, 1 + name.len(), i, name)?;
+        *self.sum.elements.entry(name.to_string()).or_insert(0) += 1;
+        if self.sum.root.is_empty() {
+            self.sum.root = name.to_string();
+            self.sum.root_attributes = tag.attrs;
         }
-        let name = &rest[1..1 + name_end];
-        if name.is_empty() || name.starts_with(|c: char| c.is_ascii_digit() || c == '-') {
-            return Err(bad(i, "bad element name"));
-        }
-        let mut k = 1 + name_end;
-        let mut attrs: Vec<(String, String)> = Vec::new();
-        let self_closing;
-        loop {
-            let r = &rest[k..];
-            let ws = r.len() - r.trim_start().len();
-            k += ws;
-            let r = &rest[k..];
-            if r.starts_with("/>") {
-                self_closing = true;
-                k += 2;
-                break;
-            }
-            if r.starts_with('>') {
-                self_closing = false;
-                k += 1;
-                break;
-            }
-            if r.is_empty() {
-                return Err(bad(i, format!("unclosed start tag `<{name}`")));
-            }
-            if ws == 0 {
-                return Err(bad(i + k, "attributes must be separated by white space"));
-            }
-            let an_len = r.find(|c: char| !is_name_char(c)).unwrap_or(r.len());
-            if an_len == 0 {
-                return Err(bad(i + k, format!("bad attribute in `<{name}`")));
-            }
-            let an = &r[..an_len];
-            let r2 = r[an_len..].trim_start();
-            let r2 = r2
-                .strip_prefix('=')
-                .ok_or_else(|| bad(i + k, format!("attribute `{an}` without a value")))?
-                .trim_start();
-            let q = r2
-                .chars()
-                .next()
-                .filter(|c| *c == '"' || *c == '\'')
-                .ok_or_else(|| bad(i + k, format!("attribute `{an}` is not quoted")))?;
-            let vend = r2[1..]
-                .find(q)
-                .ok_or_else(|| bad(i + k, format!("attribute `{an}` is not closed")))?;
-            let value = decode(&r2[1..1 + vend], i + k)?;
-            if attrs.iter().any(|(a, _)| a == an) {
-                return Err(bad(i + k, format!("duplicate attribute `{an}`")));
-            }
-            attrs.push((an.to_string(), value));
-            let consumed = r.len() - r2.len() + 1 + vend + 1;
-            k += consumed;
-        }
-        *sum.elements.entry(name.to_string()).or_insert(0) += 1;
-        if sum.root.is_empty() {
-            sum.root = name.to_string();
-            sum.root_attributes = attrs;
-        }
-        if self_closing {
-            if stack.is_empty() {
-                root_done = true;
+        if tag.self_closing {
+            if self.stack.is_empty() {
+                self.root_done = true;
             }
         } else {
-            stack.push(name.to_string());
+            self.stack.push(name.to_string());
         }
-        i += k;
+        Ok(i + tag.len)
     }
-    if let Some(open) = stack.last() {
-        return Err(bad(text.len(), format!("`<{open}>` is never closed")));
+
+    /// The summary, once every element is closed and there was one.
+    fn finish(self) -> Result<XmlSummary> {
+        if let Some(open) = self.stack.last() {
+            return Err(bad(self.text.len(), format!("`<{open}>` is never closed")));
+        }
+        if self.sum.root.is_empty() {
+            return Err(bad(0, "no element"));
+        }
+        Ok(self.sum)
     }
-    if sum.root.is_empty() {
-        return Err(bad(0, "no element"));
+}
+
+/// The element name after the `<` that starts `tag` (at byte `pos`).
+fn element_name(tag: &str, pos: usize) -> Result<&str> {
+    let mut name_end = tag.len() - 1;
+    for (k, c) in tag[1..].char_indices() {
+        if !is_name_char(c) {
+            name_end = k;
+            break;
+        }
     }
-    Ok(sum)
+    let name = &tag[1..1 + name_end];
+    if name.is_empty() || name.starts_with(|c: char| c.is_ascii_digit() || c == '-') {
+        return Err(bad(pos, "bad element name"));
+    }
+    Ok(name)
+}
+
+/// The attributes of start tag `tag` (at byte `pos`, element `name`) from byte `k`, up to and
+/// including its `>` or `/>`.
+fn attributes(tag: &str, mut k: usize, pos: usize, name: &str) -> Result<StartTag> {
+    let mut attrs: Vec<(String, String)> = Vec::new();
+    loop {
+        let r = &tag[k..];
+        let ws = r.len() - r.trim_start().len();
+        k += ws;
+        let r = &tag[k..];
+        if r.starts_with("/>") {
+            return Ok(StartTag {
+                attrs,
+                self_closing: true,
+                len: k + 2,
+            });
+        }
+        if r.starts_with('>') {
+            return Ok(StartTag {
+                attrs,
+                self_closing: false,
+                len: k + 1,
+            });
+        }
+        if r.is_empty() {
+            return Err(bad(pos, format!("unclosed start tag `<{name}`")));
+        }
+        if ws == 0 {
+            return Err(bad(pos + k, "attributes must be separated by white space"));
+        }
+        let (an, value, consumed) = attribute(r, pos + k, name)?;
+        if attrs.iter().any(|(a, _)| a == an) {
+            return Err(bad(pos + k, format!("duplicate attribute `{an}`")));
+        }
+        attrs.push((an.to_string(), value));
+        k += consumed;
+    }
+}
+
+/// The attribute `name="value"` (or single-quoted) that starts `r` (at byte `pos`, in element
+/// `element`): its name, its value with entities decoded, and the bytes it takes.
+fn attribute<'r>(r: &'r str, pos: usize, element: &str) -> Result<(&'r str, String, usize)> {
+    let an_len = r.find(|c: char| !is_name_char(c)).unwrap_or(r.len());
+    if an_len == 0 {
+        return Err(bad(pos, format!("bad attribute in `<{element}`")));
+    }
+    let an = &r[..an_len];
+    let r2 = r[an_len..].trim_start();
+    let r2 = r2
+        .strip_prefix('=')
+        .ok_or_else(|| bad(pos, format!("attribute `{an}` without a value")))?
+        .trim_start();
+    let q = r2
+        .chars()
+        .next()
+        .filter(|c| *c == '"' || *c == '\'')
+        .ok_or_else(|| bad(pos, format!("attribute `{an}` is not quoted")))?;
+    let vend = r2[1..]
+        .find(q)
+        .ok_or_else(|| bad(pos, format!("attribute `{an}` is not closed")))?;
+    let value = decode(&r2[1..1 + vend], pos)?;
+    // up to the value's opening quote, the value, its closing quote
+    let consumed = r.len() - r2.len() + 1 + vend + 1;
+    Ok((an, value, consumed))
 }
 
 /// Checks a figure: well-formed XML whose root is `<svg>`, that draws something (at least one

@@ -1,5 +1,6 @@
 //! Diagnosis and sensitivity figures: candidate-effect ranking and the sensitivity curves.
 
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
@@ -425,152 +426,54 @@ pub fn flexible_terms(terms: &[FlexibleTermView<'_>]) -> Result<String> {
     })
 }
 
-/// One term's panel.
+/// A chart on `f64` axes, as [`linear_chart`] builds it.
+type Chart<'b, 'a> = ChartContext<'b, SVGBackend<'a>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// One term's panel: a `direction` term as two points with error bars, any other as a curve
+/// with its band.
 fn term_panel(figure: &'static str, area: &Area<'_>, t: &FlexibleTermView<'_>) -> Result<()> {
-    let e = draw_err(figure);
-    let band = |i: usize| {
-        let b = t.band_nm[i];
-        if b.is_finite() {
-            b
-        } else {
-            0.0
-        }
-    };
-    let y = min_max(
+    let y = padded(term_extent(t), 0.08);
+    if t.variable == "direction" {
+        direction_panel(figure, area, t, y)
+    } else {
+        curve_panel(figure, area, t, y)
+    }
+}
+
+/// The half-width of the band drawn at point `i`: 0 where the band was not computed.
+fn drawn_band(t: &FlexibleTermView<'_>, i: usize) -> f64 {
+    let b = t.band_nm[i];
+    if b.is_finite() {
+        b
+    } else {
+        0.0
+    }
+}
+
+/// The range of values a term's panel shows: the term with its band, and zero.
+fn term_extent(t: &FlexibleTermView<'_>) -> (f64, f64) {
+    min_max(
         t.value_nm
             .iter()
             .enumerate()
-            .flat_map(|(i, v)| [v - band(i), v + band(i)])
+            .flat_map(|(i, v)| [v - drawn_band(t, i), v + drawn_band(t, i)])
             .chain([0.0]),
     )
-    .unwrap_or((-1.0, 1.0));
-    let y = padded(y, 0.08);
-    let y_desc = format!("{} term (N·m)", t.variable);
-    let fill = VERMILLION.mix(0.25).filled();
-    let line = VERMILLION.stroke_width(2);
-    if t.variable == "direction" {
-        let x = (-1.8, 1.8);
-        let mut chart = ChartBuilder::on(area)
-            .margin_right(24)
-            .margin_top(10)
-            .x_label_area_size(70)
-            .y_label_area_size(90)
-            .build_cartesian_2d(x.0..x.1, y.0..y.1)
-            .map_err(&e)?;
-        let ys = y.1 - y.0;
-        let yf = move |v: &f64| tick_text(*v, ys);
-        let (bold, light) = mesh_colours();
-        chart
-            .configure_mesh()
-            .disable_x_mesh()
-            .bold_line_style(bold)
-            .light_line_style(light)
-            .x_labels(0)
-            .y_label_formatter(&yf)
-            .label_style((FONT, TICK_PX))
-            .axis_desc_style((FONT, DESC_PX))
-            .x_desc(term_axis(t))
-            .y_desc(y_desc)
-            .draw()
-            .map_err(&e)?;
-        chart
-            .draw_series(DashedLineSeries::new(
-                vec![(x.0, 0.0), (x.1, 0.0)],
-                8,
-                5,
-                GREY.stroke_width(2),
-            ))
-            .map_err(&e)?;
-        // the step between the two directions, dashed, then the points with their bars
-        let mut pts: Vec<(f64, f64)> = t
-            .points
-            .iter()
-            .zip(t.value_nm)
-            .map(|(x, v)| (*x, *v))
-            .collect();
-        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-        if pts.len() == 2 {
-            let mid = 0.5 * (pts[0].0 + pts[1].0);
-            chart
-                .draw_series(DashedLineSeries::new(
-                    vec![
-                        (pts[0].0, pts[0].1),
-                        (mid, pts[0].1),
-                        (mid, pts[1].1),
-                        (pts[1].0, pts[1].1),
-                    ],
-                    6,
-                    6,
-                    VERMILLION.mix(0.6).stroke_width(1),
-                ))
-                .map_err(&e)?;
-        }
-        for (i, (&px, &v)) in t.points.iter().zip(t.value_nm).enumerate() {
-            let b = band(i);
-            if b > 0.0 {
-                chart
-                    .draw_series(std::iter::once(Rectangle::new(
-                        [(px - 0.18, v - b), (px + 0.18, v + b)],
-                        fill,
-                    )))
-                    .map_err(&e)?;
-                // the error bar: a whisker with a cap at each end
-                let whiskers = [
-                    vec![(px, v - b), (px, v + b)],
-                    vec![(px - 0.08, v - b), (px + 0.08, v - b)],
-                    vec![(px - 0.08, v + b), (px + 0.08, v + b)],
-                ];
-                chart
-                    .draw_series(whiskers.into_iter().map(|w| PathElement::new(w, line)))
-                    .map_err(&e)?;
-            }
-            chart
-                .draw_series(std::iter::once(Circle::new(
-                    (px, v),
-                    6,
-                    VERMILLION.filled(),
-                )))
-                .map_err(&e)?;
-        }
-        // the two categories under the axis
-        let base = area.get_base_pixel();
-        let font = (FONT, TICK_PX)
-            .into_font()
-            .color(&plotters::style::BLACK)
-            .pos(Pos::new(HPos::Center, VPos::Top));
-        for &px in t.points {
-            let at = chart.backend_coord(&(px, y.0));
-            area.draw(&Text::new(
-                direction_label(px).to_string(),
-                (at.0 - base.0, at.1 - base.1 + 8),
-                font.clone(),
-            ))
-            .map_err(&e)?;
-        }
-        return Ok(());
-    }
-    let x = padded(
-        min_max(t.points.iter().copied()).unwrap_or((0.0, 1.0)),
-        0.02,
-    );
-    let mut chart = linear_chart(figure, area, (x, y), 90, (&term_axis(t), &y_desc))?;
-    let mut order: Vec<usize> = (0..t.points.len()).collect();
-    order.sort_by(|a, b| t.points[*a].total_cmp(&t.points[*b]));
-    if order.iter().any(|&i| band(i) > 0.0) {
-        let mut poly: Vec<(f64, f64)> = order
-            .iter()
-            .map(|&i| (t.points[i], t.value_nm[i] + band(i)))
-            .collect();
-        poly.extend(
-            order
-                .iter()
-                .rev()
-                .map(|&i| (t.points[i], t.value_nm[i] - band(i))),
-        );
-        chart
-            .draw_series(std::iter::once(Polygon::new(poly, fill)))
-            .map_err(&e)?;
-    }
+    .unwrap_or((-1.0, 1.0))
+}
+
+/// The y-axis title of a term's panel.
+fn term_value_axis(t: &FlexibleTermView<'_>) -> String {
+    format!("{} term (N·m)", t.variable)
+}
+
+/// The shading of a band (a box round a direction point, or the area round a curve).
+fn band_fill() -> ShapeStyle {
+    VERMILLION.mix(0.25).filled()
+}
+
+/// The dashed zero line from `x.0` to `x.1` (the terms are centred: zero is their mean).
+fn draw_zero_line(figure: &'static str, chart: &mut Chart<'_, '_>, x: (f64, f64)) -> Result<()> {
     chart
         .draw_series(DashedLineSeries::new(
             vec![(x.0, 0.0), (x.1, 0.0)],
@@ -578,14 +481,223 @@ fn term_panel(figure: &'static str, area: &Area<'_>, t: &FlexibleTermView<'_>) -
             5,
             GREY.stroke_width(2),
         ))
+        .map_err(draw_err(figure))?;
+    Ok(())
+}
+
+/// A `direction` term's panel: the two directions as points with 95 % error bars, joined by a
+/// dashed step, and named under the axis.
+fn direction_panel(
+    figure: &'static str,
+    area: &Area<'_>,
+    t: &FlexibleTermView<'_>,
+    y: (f64, f64),
+) -> Result<()> {
+    let x = (-1.8, 1.8);
+    let mut chart = direction_chart(figure, area, t, x, y)?;
+    draw_zero_line(figure, &mut chart, x)?;
+    draw_direction_step(figure, &mut chart, t)?;
+    draw_direction_points(figure, &mut chart, t)?;
+    draw_direction_names(figure, area, &chart, t, y.0)
+}
+
+/// The chart of a `direction` panel with its mesh: no x ticks (the directions are categories,
+/// named by [`draw_direction_names`]).
+fn direction_chart<'b, 'a>(
+    figure: &'static str,
+    area: &'b Area<'a>,
+    t: &FlexibleTermView<'_>,
+    x: (f64, f64),
+    y: (f64, f64),
+) -> Result<Chart<'b, 'a>> {
+    let e = draw_err(figure);
+    let mut chart = ChartBuilder::on(area)
+        .margin_right(24)
+        .margin_top(10)
+        .x_label_area_size(70)
+        .y_label_area_size(90)
+        .build_cartesian_2d(x.0..x.1, y.0..y.1)
         .map_err(&e)?;
+    let ys = y.1 - y.0;
+    let yf = move |v: &f64| tick_text(*v, ys);
+    let (bold, light) = mesh_colours();
+    chart
+        .configure_mesh()
+        .disable_x_mesh()
+        .bold_line_style(bold)
+        .light_line_style(light)
+        .x_labels(0)
+        .y_label_formatter(&yf)
+        .label_style((FONT, TICK_PX))
+        .axis_desc_style((FONT, DESC_PX))
+        .x_desc(term_axis(t))
+        .y_desc(term_value_axis(t))
+        .draw()
+        .map_err(&e)?;
+    Ok(chart)
+}
+
+/// The step between the two directions, dashed and faint (drawn only when there are two).
+fn draw_direction_step(
+    figure: &'static str,
+    chart: &mut Chart<'_, '_>,
+    t: &FlexibleTermView<'_>,
+) -> Result<()> {
+    let mut pts: Vec<(f64, f64)> = t
+        .points
+        .iter()
+        .zip(t.value_nm)
+        .map(|(x, v)| (*x, *v))
+        .collect();
+    pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    if pts.len() == 2 {
+        let mid = 0.5 * (pts[0].0 + pts[1].0);
+        chart
+            .draw_series(DashedLineSeries::new(
+                vec![
+                    (pts[0].0, pts[0].1),
+                    (mid, pts[0].1),
+                    (mid, pts[1].1),
+                    (pts[1].0, pts[1].1),
+                ],
+                6,
+                6,
+                VERMILLION.mix(0.6).stroke_width(1),
+            ))
+            .map_err(draw_err(figure))?;
+    }
+    Ok(())
+}
+
+/// Each direction's point, over its band (a shaded box and an error bar) where it has one.
+fn draw_direction_points(
+    figure: &'static str,
+    chart: &mut Chart<'_, '_>,
+    t: &FlexibleTermView<'_>,
+) -> Result<()> {
+    let e = draw_err(figure);
+    let line = VERMILLION.stroke_width(2);
+    for (i, (&px, &v)) in t.points.iter().zip(t.value_nm).enumerate() {
+        let b = drawn_band(t, i);
+        if b > 0.0 {
+            chart
+                .draw_series(std::iter::once(Rectangle::new(
+                    [(px - 0.18, v - b), (px + 0.18, v + b)],
+                    band_fill(),
+                )))
+                .map_err(&e)?;
+            // the error bar: a whisker with a cap at each end
+            let whiskers = [
+                vec![(px, v - b), (px, v + b)],
+                vec![(px - 0.08, v - b), (px + 0.08, v - b)],
+                vec![(px - 0.08, v + b), (px + 0.08, v + b)],
+            ];
+            chart
+                .draw_series(whiskers.into_iter().map(|w| PathElement::new(w, line)))
+                .map_err(&e)?;
+        }
+        chart
+            .draw_series(std::iter::once(Circle::new(
+                (px, v),
+                6,
+                VERMILLION.filled(),
+            )))
+            .map_err(&e)?;
+    }
+    Ok(())
+}
+
+/// The directions' names under the axis (at `y0`, its bottom), in place of x tick labels.
+fn draw_direction_names(
+    figure: &'static str,
+    area: &Area<'_>,
+    chart: &Chart<'_, '_>,
+    t: &FlexibleTermView<'_>,
+    y0: f64,
+) -> Result<()> {
+    let base = area.get_base_pixel();
+    let font = (FONT, TICK_PX)
+        .into_font()
+        .color(&plotters::style::BLACK)
+        .pos(Pos::new(HPos::Center, VPos::Top));
+    for &px in t.points {
+        let at = chart.backend_coord(&(px, y0));
+        area.draw(&Text::new(
+            direction_label(px).to_string(),
+            (at.0 - base.0, at.1 - base.1 + 8),
+            font.clone(),
+        ))
+        .map_err(draw_err(figure))?;
+    }
+    Ok(())
+}
+
+/// A term's panel against a continuous variable: its band shaded, the zero line, and the term
+/// as a line through its points, in the order of the variable.
+fn curve_panel(
+    figure: &'static str,
+    area: &Area<'_>,
+    t: &FlexibleTermView<'_>,
+    y: (f64, f64),
+) -> Result<()> {
+    let x = padded(
+        min_max(t.points.iter().copied()).unwrap_or((0.0, 1.0)),
+        0.02,
+    );
+    let mut chart = linear_chart(
+        figure,
+        area,
+        (x, y),
+        90,
+        (&term_axis(t), &term_value_axis(t)),
+    )?;
+    let mut order: Vec<usize> = (0..t.points.len()).collect();
+    order.sort_by(|a, b| t.points[*a].total_cmp(&t.points[*b]));
+    draw_curve_band(figure, &mut chart, t, &order)?;
+    draw_zero_line(figure, &mut chart, x)?;
+    draw_curve(figure, &mut chart, t, &order)
+}
+
+/// The band round the curve as one polygon (up along its upper edge, back along the lower),
+/// when some point has a band; `order` sorts the points by the variable.
+fn draw_curve_band(
+    figure: &'static str,
+    chart: &mut Chart<'_, '_>,
+    t: &FlexibleTermView<'_>,
+    order: &[usize],
+) -> Result<()> {
+    if order.iter().any(|&i| drawn_band(t, i) > 0.0) {
+        let mut poly: Vec<(f64, f64)> = order
+            .iter()
+            .map(|&i| (t.points[i], t.value_nm[i] + drawn_band(t, i)))
+            .collect();
+        poly.extend(
+            order
+                .iter()
+                .rev()
+                .map(|&i| (t.points[i], t.value_nm[i] - drawn_band(t, i))),
+        );
+        chart
+            .draw_series(std::iter::once(Polygon::new(poly, band_fill())))
+            .map_err(draw_err(figure))?;
+    }
+    Ok(())
+}
+
+/// The term as a line with a dot at each point; `order` sorts the points by the variable.
+fn draw_curve(
+    figure: &'static str,
+    chart: &mut Chart<'_, '_>,
+    t: &FlexibleTermView<'_>,
+    order: &[usize],
+) -> Result<()> {
     let curve: Vec<(f64, f64)> = order
         .iter()
         .map(|&i| (t.points[i], t.value_nm[i]))
         .collect();
     draw_line(
         figure,
-        &mut chart,
+        chart,
         curve.clone(),
         SeriesStyle {
             colour: VERMILLION,
@@ -599,7 +711,7 @@ fn term_panel(figure: &'static str, area: &Area<'_>, t: &FlexibleTermView<'_>) -
                 .iter()
                 .map(|p| Circle::new(*p, 4, VERMILLION.filled())),
         )
-        .map_err(&e)?;
+        .map_err(draw_err(figure))?;
     Ok(())
 }
 
