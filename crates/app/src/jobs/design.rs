@@ -48,7 +48,8 @@ pub struct DesignJob {
 }
 
 /// Runs the command.
-pub fn run(args: DesignJob, rep: &Reporter) -> AppResult {
+/// The candidate protocols, with the numeric options checked.
+fn checked_protocols(args: &DesignJob) -> AppResult<Vec<DesignProtocol>> {
     let protocols = args
         .protocol
         .iter()
@@ -69,6 +70,24 @@ pub fn run(args: DesignJob, rep: &Reporter) -> AppResult {
             args.emg_draws
         )));
     }
+    Ok(protocols)
+}
+
+/// What the design point is called: the parameters' label or file, or `nominal`.
+fn params_name(args: &DesignJob) -> String {
+    match (&args.params_data, &args.params) {
+        (Some(d), _) => d.label.clone(),
+        (None, Some(p)) => p.display().to_string(),
+        (None, None) => "nominal".to_string(),
+    }
+}
+
+/// The design point's parameters (fixed muscles left out: the synthetic trials have EMG for
+/// the triceps only) and the files read for them.
+fn design_point(
+    args: &DesignJob,
+    rep: &Reporter,
+) -> AppResult<(muscle_model::ModelParams, Vec<PathBuf>)> {
     let model = ModelSettings {
         params: args.params.clone(),
         params_data: args.params_data.clone(),
@@ -81,27 +100,35 @@ pub fn run(args: DesignJob, rep: &Reporter) -> AppResult {
         rep.warn(format!(
             "{}: the fixed muscles {} are left out (the design's synthetic trials have EMG for \
              sol, gm and gl only)",
-            args.params
-                .as_deref()
-                .map_or_else(String::new, |p| p.display().to_string()),
+            params_name(args),
             names.join(", ")
         ));
         params.fixed = Default::default();
     }
-    let (noise, noise_source) = match (&args.unloaded_data, &args.unloaded) {
+    Ok((params, read))
+}
+
+/// The dynamometer noise the design assumes, and where it comes from: the unloaded run's
+/// random part, or the synthetic dynamometer's.
+fn design_noise(args: &DesignJob, rep: &Reporter) -> AppResult<(DesignNoise, String)> {
+    Ok(match (&args.unloaded_data, &args.unloaded) {
         (Some(d), _) => {
             d.value.validate(&d.label).map_err(AppError::bad)?;
             (noise_of_run(&d.value, &d.label)?, d.label.clone())
         }
         (None, Some(p)) => {
             let u = super::read_unloaded_any(p, rep)?;
-            (
-                noise_of_run(&u, &p.display().to_string())?,
-                p.display().to_string(),
-            )
+            let name = p.display().to_string();
+            (noise_of_run(&u, &name)?, name)
         }
         (None, None) => (DesignNoise::synthetic(), "synthetic".to_string()),
-    };
+    })
+}
+
+pub fn run(args: DesignJob, rep: &Reporter) -> AppResult {
+    let protocols = checked_protocols(&args)?;
+    let (params, read) = design_point(&args, rep)?;
+    let (noise, noise_source) = design_noise(&args, rep)?;
     let offset = if args.offset_sd > 0.0 {
         OffsetTreatment::Prior {
             sd_nm: args.offset_sd,
@@ -166,10 +193,7 @@ pub fn run(args: DesignJob, rep: &Reporter) -> AppResult {
             ar1_corr_time_s: noise.ar1_corr_time_s,
             white_sd_nm: noise.white_sd_nm,
         },
-        params: args
-            .params
-            .as_deref()
-            .map_or("nominal".to_string(), |p| p.display().to_string()),
+        params: params_name(&args),
         offset_prior_sd_nm: args.offset_sd,
         emg: EmgDrawsReport {
             first_seed: args.emg_seed,
@@ -194,9 +218,7 @@ pub fn run(args: DesignJob, rep: &Reporter) -> AppResult {
     rep.say(&format!(
         "design: expected posterior sd, % of the value at the design point ({}; noise {}: AR(1) \
          {:.2} N·m, {:.3} s, white {:.2} N·m; offset prior sd {} N·m)",
-        args.params
-            .as_deref()
-            .map_or_else(|| "nominal".to_string(), |p| p.display().to_string()),
+        params_name(&args),
         noise_source,
         noise.ar1_sd_nm,
         noise.ar1_corr_time_s,
