@@ -132,7 +132,7 @@ def identify(
         MCMC, in ``posterior``.
     chains: ``"sa"`` only, the number of annealing chains (starts); default 4.
     out: folder for ``identify.json``, the figures and ``report.html`` (and the chain files of
-        MCMC); by default a temporary folder, removed afterwards.
+        MCMC); by default no file is written.
     progress: None (default) or False shows nothing; True writes one line on ``sys.stderr``,
         updated in place; a callable is called as ``progress(label, position, total,
         message)``.
@@ -187,6 +187,6 @@ def design(
     params: the design point (dict or parameters JSON / ``.osim`` path); nominal by default.
     offset_sd: prior sd (N·m) of each trial's constant torque offset; 0 treats it as known.
     emg_draws, emg_seed: number of synthetic EMG realisations averaged, and the first seed.
-    out: folder keeping ``design.json`` and ``design.svg`` (default: a temporary folder).
+    out: folder keeping ``design.json`` and ``design.svg`` (default: no file is written).
     progress: as for :func:`identify`.
     """

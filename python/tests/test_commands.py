@@ -1,6 +1,8 @@
 """identify and diagnose against `surae identify` / `surae diagnose`; progress and stopping."""
 
+import os
 import signal
+import tempfile
 
 import pytest
 
@@ -180,6 +182,21 @@ def test_design_equals_the_cli(cli, tmp_path):
     # the flexed knee adds information on every parameter
     for name, sd in rows[1]["sd_pct"].items():
         assert sd < rows[0]["sd_pct"][name], name
+
+
+def test_without_out_nothing_is_written(tmp_path, monkeypatch):
+    # the dicts go to the job in memory and no out folder is made: the working folder and the
+    # temporary folder stay as they were
+    monkeypatch.chdir(tmp_path)
+    tmp = tempfile.gettempdir()
+    before = set(os.listdir(tmp))
+    params = {"muscles": {"sol": {"fom_n": 3000.0}}}
+    got = surae.design(["knee0@30"], emg_draws=1, params=params, unloaded=surae.bundled_unloaded())
+    assert got["params"] == "<params dict>"
+    assert got["noise"]["source"] == "<unloaded dict>"
+    assert list(tmp_path.iterdir()) == []
+    made = {n for n in set(os.listdir(tmp)) - before if n.startswith("surae")}
+    assert made == set()
 
 
 def test_design_rejects_a_bad_protocol():
