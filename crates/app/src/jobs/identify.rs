@@ -2,11 +2,11 @@
 //! `--with` the parameters of catalogued effects, by simulated annealing or MCMC; then test
 //! the identified model for structure left in its residual (`"adequacy"`).
 
-mod joint;
+mod exports;
+mod extended;
 mod mcmc;
-mod other_tools;
 mod reports;
-mod with;
+mod session_fit;
 
 pub use reports::{
     AdequacyReport, CorrelationMatrixReport, CorrelationReport, IdentifyReport, McmcReport,
@@ -210,7 +210,7 @@ pub fn prepare(args: &IdentifyJob, with: &[EffectKind], rep: &Reporter) -> AppRe
         &loaded,
         unloaded.as_ref().map(|(u, n)| (u, n.as_str())),
         model,
-        &with::settings(opts).crosstalk_settings(),
+        &extended::settings(opts).crosstalk_settings(),
     )?;
     if prepared.uncorrected_inputs.is_some() {
         loaded.trial = prepared.trial.clone();
@@ -237,8 +237,8 @@ pub fn prepare(args: &IdentifyJob, with: &[EffectKind], rep: &Reporter) -> AppRe
         prepared.inputs.clone(),
         prepared.measured().to_vec(),
         params,
-        with::with_effects(effects, with),
-        with::with_free(ParamId::identified().to_vec(), with),
+        extended::with_effects(effects, with),
+        extended::with_free(ParamId::identified().to_vec(), with),
     )
     .map_err(|e| AppError::bad(format!("{}: {e}", loaded.name)))?;
     if !with.is_empty() {
@@ -278,7 +278,7 @@ pub(super) fn errors_pct(
 
 /// Runs the command.
 pub fn run(args: IdentifyJob, rep: &Reporter) -> AppResult {
-    let with = with::parse_with(args.with_effects.as_deref())?;
+    let with = extended::parse_with(args.with_effects.as_deref())?;
     if args.max_iterations.is_some() && args.method != Method::Mcmc {
         return Err(AppError::bad(
             "--max-iterations applies to --method mcmc only",
@@ -299,7 +299,7 @@ pub fn run(args: IdentifyJob, rep: &Reporter) -> AppResult {
                  applies to --trial",
             ));
         }
-        return joint::run(&args, session, &with, rep);
+        return session_fit::run(&args, session, &with, rep);
     }
     if let Some(folder) = args.trial.as_deref().filter(|p| p.is_dir()) {
         if args.unloaded.is_some() {
@@ -309,7 +309,7 @@ pub fn run(args: IdentifyJob, rep: &Reporter) -> AppResult {
                 folder.display()
             )));
         }
-        return joint::run(&args, folder, &with, rep);
+        return session_fit::run(&args, folder, &with, rep);
     }
     let prep = prepare(&args, &with, rep)?;
     let out_dir = args
@@ -340,10 +340,10 @@ pub fn run(args: IdentifyJob, rep: &Reporter) -> AppResult {
     }
     // files for ArviZ and OpenSim, reported on a line of their own
     let chain_files = match &mcmc {
-        Some(m) => other_tools::write_chains(&out, m, args.seed, &prep.loaded.name)?,
+        Some(m) => exports::write_chains(&out, m, args.seed, &prep.loaded.name)?,
         None => Vec::new(),
     };
-    let osim = other_tools::write_identified_osim(&out, &args.model, &point_params)?;
+    let osim = exports::write_identified_osim(&out, &args.model, &point_params)?;
     files.extend(write_figures(
         &out,
         &prep,
@@ -418,7 +418,7 @@ fn identify_report(
     seed: u64,
 ) -> AppResult<(IdentifyReport, ModelParams, Vec<String>)> {
     // does the identified model leave structure in its residual?
-    let (point_params, point_effects) = with::identified_point(
+    let (point_params, point_effects) = extended::identified_point(
         prep.problem.base_params(),
         prep.problem.base_effects(),
         &estimate.params,
@@ -428,10 +428,10 @@ fn identify_report(
         &point_params,
         &point_effects,
         prep.problem.free(),
-        &with::settings(prep.prepared.options),
+        &extended::settings(prep.prepared.options),
     )
     .map_err(|e| e.to_string());
-    let adequacy_lines = with::adequacy_lines(&adequacy, None);
+    let adequacy_lines = extended::adequacy_lines(&adequacy, None);
     let checks = super::inspect::trial_checks(&prep.loaded);
     let errors_pct = prep.truth.as_ref().map(|t| errors_pct(&estimate.params, t));
     let report = IdentifyReport {
@@ -609,7 +609,7 @@ fn write_figures(
     let truth = prep
         .truth
         .as_ref()
-        .map(|t| with::truth_values(prep.problem.free(), t));
+        .map(|t| extended::truth_values(prep.problem.free(), t));
     let mut rows = Vec::new();
     for (i, id) in prep.problem.free().iter().enumerate() {
         let name = id.name();

@@ -12,7 +12,7 @@ pub(super) fn mcmc_figures(
     let truth = prep
         .truth
         .as_ref()
-        .map(|t| super::with::truth_values(prep.problem.free(), t));
+        .map(|t| super::extended::truth_values(prep.problem.free(), t));
     posterior_figures(set, truth, m)
 }
 

@@ -374,7 +374,7 @@ fn write_figures(
     }
     if let Some(m) = mcmc {
         let truth_values =
-            truth.map(|t| super::with::truth_values(session.trials[0].problem.free(), t));
+            truth.map(|t| super::extended::truth_values(session.trials[0].problem.free(), t));
         super::mcmc::posterior_figures(&mut set, truth_values, m)?;
     }
     set.finish()
@@ -531,7 +531,7 @@ fn session_osim_copy(
             .map(|(k, v)| (k.as_str(), v.as_str())),
     )
     .map_err(AppError::bad)?;
-    super::other_tools::write_osim_copy(out, path, &names, params).map(Some)
+    super::exports::write_osim_copy(out, path, &names, params).map(Some)
 }
 
 /// `--truth` (a parameters JSON or a fixture's `truth.json`), read before anything runs.
@@ -562,7 +562,7 @@ fn free_names(
     } else {
         ::session::read_session_manifest(session_path).map_err(AppError::bad)?
     };
-    super::with::check_session_scope(with, manifest.trials.len())?;
+    super::extended::check_session_scope(with, manifest.trials.len())?;
     let base: Vec<ParamId> = match args.free.as_ref().or(manifest.free.as_ref()) {
         Some(names) => names
             .iter()
@@ -571,7 +571,7 @@ fn free_names(
         None => ParamId::identified().to_vec(),
     };
     Ok(Some(
-        super::with::with_free(base, with)
+        super::extended::with_free(base, with)
             .iter()
             .map(ParamId::name)
             .collect(),
@@ -617,7 +617,7 @@ fn adequacy_lines(
         .trials
         .iter()
         .zip(adequacy)
-        .flat_map(|(t, a)| super::with::adequacy_lines(a, Some(&t.name)))
+        .flat_map(|(t, a)| super::extended::adequacy_lines(a, Some(&t.name)))
         .collect()
 }
 
@@ -724,7 +724,7 @@ fn run_mcmc(
     m.write_chains_csv(&mut csv).map_err(AppError::internal)?;
     let mut files = vec![out.write("chains.csv", &csv)?];
     let names: Vec<&str> = session.trials.iter().map(|t| t.name.as_str()).collect();
-    let chain_files = super::other_tools::write_chains(&out, &m, args.seed, &names.join(", "))?;
+    let chain_files = super::exports::write_chains(&out, &m, args.seed, &names.join(", "))?;
     files.extend(write_figures(
         &out,
         &session,
