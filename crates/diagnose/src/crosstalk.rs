@@ -1,4 +1,4 @@
-//! What removing the TA's crosstalk from the triceps EMG is worth (docs/diagnosis.md, "EMG
+//! What removing the TA's crosstalk from the triceps EMG is worth (docs/diagnosis-method.md, "EMG
 //! crosstalk").
 //!
 //! The crosstalk is tested and removed where the EMG is prepared

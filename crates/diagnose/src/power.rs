@@ -181,7 +181,7 @@ pub fn rule_power(lambda: f64, k: usize, n_obs: usize, max_delta_bic: f64) -> f6
 
 /// The most often a one-parameter effect with noncentrality `lambda` is named by the ΔBIC
 /// rule *and* kept by a review that asks it to beat a one-coefficient rival by `margin` in
-/// BIC (docs/diagnosis.md, "No false story": fatigue against a ramp in time).
+/// BIC (docs/diagnosis-method.md, "No false story": fatigue against a ramp in time).
 ///
 /// To first order, with `â` and `b̂` the unit directions the effect and the rival leave
 /// once the model's parameters have absorbed what they can, and `cos = â·b̂`, the two

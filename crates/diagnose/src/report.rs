@@ -135,7 +135,7 @@ pub struct CandidateReport {
     /// 95 % of trials like this one if every fit reached its optimum (same inputs, noise
     /// model and final model; see docs/diagnosis.md, method item 10), so a smaller effect
     /// may be present and missed. The decision's other rules and imperfect fits make the
-    /// real limit somewhat larger (docs/diagnosis.md, "Detection limit of a trial"). In the
+    /// real limit somewhat larger (docs/studies/detection-limits.md). In the
     /// units of [`detection_limit_unit`]: `|offset|` N·m, passive torque at +15° at its worst
     /// stiffness N·m, `|moment|` at its worst phase N·m, delay ms, fatigue rate /s,
     /// antagonist gain N·m, `Flen − 1.4`, `|b|` N·m·s/rad, `I` kg·m².

@@ -241,7 +241,7 @@ mod tests {
     }
 }
 
-/// Effects outside the catalogue (docs/diagnosis.md, "Beyond the catalogue"), hidden in a
+/// Effects outside the catalogue (docs/diagnosis-method.md, "Beyond the catalogue"), hidden in a
 /// `relaxed+2` trial with no catalogued effect:
 ///
 /// | effect | added to the recording | drawn size (uniform) | lives in |

@@ -65,7 +65,7 @@ pub struct DiagnoseSettings {
     /// Profile-likelihood intervals of the final model's parameters (docs/diagnosis.md).
     pub profile: ProfileSettings,
     /// Whether named causes are reviewed against flexible terms and unexplained structure is
-    /// characterised by them (docs/diagnosis.md, "Beyond the catalogue").
+    /// characterised by them (docs/diagnosis-method.md, "Beyond the catalogue").
     pub flexible_terms: bool,
     /// BIC margin by which a named catalogued effect must beat a flexible term in its own
     /// variable (otherwise the flexible term is reported instead): 2, "positive evidence" on
@@ -74,7 +74,7 @@ pub struct DiagnoseSettings {
     /// Held-out deviance gain above which a variable's flexible term enters `depends_on`.
     pub min_flexible_gain: f64,
     /// Whether the raw triceps EMG is tested for the TA's crosstalk and corrected when it
-    /// carries it (docs/diagnosis.md, "EMG crosstalk"; needs `emg_ta` and raw EMG).
+    /// carries it (docs/diagnosis-method.md, "EMG crosstalk"; needs `emg_ta` and raw EMG).
     pub crosstalk_check: bool,
     /// Evidence (`−log10 p` per channel) above which a triceps channel is taken to carry the
     /// TA's signal and is corrected: 5 = one clean channel in 10⁵ corrected needlessly (the

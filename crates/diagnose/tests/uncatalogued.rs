@@ -3,7 +3,7 @@
 //! synthetic measured torque of a relaxed+2 trial (random true parameters, the noise of the
 //! synthetic trials, unloaded run supplied, no catalogued effect).
 //!
-//! Rule (docs/diagnosis.md, "Uncatalogued effects"): the diagnosis must say the model is
+//! Rule (docs/studies/uncatalogued.md): the diagnosis must say the model is
 //! deficient and set `unexplained_structure`, with a structure p-value well below the
 //! threshold (≤ 10⁻⁴, threshold 10⁻³). It *may* name a catalogued cause that partly explains
 //! the drift (observed: `viscous_damping`, `torque_offset`), because such a cause passed the

@@ -1,5 +1,5 @@
 //! Crosstalk of the tibialis anterior into the triceps electrodes, found in the raw EMG and
-//! removed before the envelopes are made (docs/diagnosis.md, "EMG crosstalk").
+//! removed before the envelopes are made (docs/diagnosis-method.md, "EMG crosstalk").
 //!
 //! Crosstalk cannot be told from the torque alone: a share `f` of the TA's signal in the soleus
 //! channel raises the soleus envelope where the TA is active, the model predicts plantarflexor

@@ -1,5 +1,5 @@
 //! Flexible terms: what a structure no catalogued effect explains depends on, and a model
-//! extended with it (docs/diagnosis.md, "Beyond the catalogue").
+//! extended with it (docs/diagnosis-method.md, "Beyond the catalogue").
 //!
 //! A flexible term in a state variable `v` adds to the model torque
 //!

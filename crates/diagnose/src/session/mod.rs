@@ -1,5 +1,5 @@
 //! Diagnosis of a session: several trials of one subject with one set of muscle parameters
-//! (docs/diagnosis.md, "Sessions").
+//! (docs/diagnosis-method.md, "Sessions").
 //!
 //! Each trial keeps its own noise model (from its unloaded run, or from its baseline's
 //! residual) and its own dynamometer correction; the 9 muscle parameters are shared. The

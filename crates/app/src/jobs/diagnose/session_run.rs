@@ -4,7 +4,7 @@
 //! with the session's model, into `DIR/<trial>/` (`diagnosis.json`, figures, `report.html`).
 //! `DIR/diagnosis_session.json` holds the session's verdict, causes with their scope and
 //! values, per-trial fits and held-out errors, and each trial's own verdict, causes and
-//! held-out gain (docs/diagnosis.md, "Sessions").
+//! held-out gain (docs/diagnosis-method.md, "Sessions").
 //!
 //! A trial CSV is diagnosed as `--trial` (with its `--unloaded` run and knee angle) is; a
 //! CEINMS trial folder as prepared model inputs: its own lengths, moment arms and fixed
