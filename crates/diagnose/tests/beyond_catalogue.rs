@@ -3,7 +3,7 @@
 //! strap that slips partway through the trial), hidden one per trial in a relaxed+2 trial with
 //! random true muscle parameters, the synthetic dynamometer noise and its unloaded run.
 //!
-//! For friction, the drift and the slipping strap the tests assert what docs/diagnosis.md ("Beyond the
+//! For friction, the drift and the slipping strap the tests assert what docs/studies/uncatalogued.md ("Beyond the
 //! catalogue") promises for them: no catalogued effect is named, the verdict is deficient with
 //! `unexplained` set, `depends_on` starts with the variable the effect lives in (direction,
 //! time, time), and the model extended with the flexible terms predicts held-out data better than
@@ -22,7 +22,7 @@
 //! the null check of the crosstalk test uses `base + 5000 + i`, `i < 30`.
 //! `SURAE_DIAG_SEEDS=fresh` draws the base from the clock, `SURAE_DIAG_SEEDS=<number>` uses that
 //! number; anything else fails. How often each passes on fresh seeds:
-//! `cargo run --release -p diagnose --example uncatalogued -- 10 <base>` (docs/diagnosis.md).
+//! `cargo run --release -p diagnose --example uncatalogued -- 10 <base>` (docs/studies/uncatalogued.md).
 
 mod common;
 

@@ -12,7 +12,7 @@
 //! 10⁻³ χ² quantile).
 //!
 //! The test is one trial on a fixed seed. Over other base seeds the drift is flagged in about
-//! 24 of 28 trials at 3–5 N·m (docs/diagnosis.md; in the misses viscous damping, with or
+//! 24 of 28 trials at 3–5 N·m (docs/studies/uncatalogued.md; in the misses viscous damping, with or
 //! without gravity, absorbed most of the drift) and in about 15 of 21 at 1.5–3 N·m, which is
 //! why the amplitude is drawn from 3–5 N·m.
 //!
@@ -47,7 +47,7 @@ fn slow_drift_is_flagged_as_unexplained_structure() {
     }
     let d = common::diagnose_with_defaults(&t.synthetic.trial, &t.synthetic.unloaded, seed);
     let ra = &d.residual_analysis;
-    // one line per run (`-- --nocapture`), for the pass-rate study of docs/diagnosis.md
+    // one line per run (`-- --nocapture`), for the pass-rate study of docs/studies/uncatalogued.md
     let line = format!(
         "drift seed {seed}: {amp:.2} N·m, {period:.2} s, structure p {:.2e} (motion LM {:.1}/{}, \
          time LM {:.1}/{}, ν {:.1}), causes {:?}",
