@@ -2,7 +2,7 @@
 //! effect explains it, and what the extension buys out of sample; with `--session`, the
 //! session's trials jointly and every trial on its own (`session_run`).
 
-use super::{load_trial, load_unloaded, prepare_trial, ModelSettings};
+use super::{load_trial_pair, prepare_trial, ModelSettings};
 use crate::error::{AppError, AppResult};
 use crate::memory::InMemory;
 use crate::output::OutDir;
@@ -86,16 +86,11 @@ pub fn run(args: DiagnoseJob, rep: &Reporter) -> AppResult {
         }
         return session_run::run(&args, folder, rep);
     }
-    let loaded = load_trial(args.trial.as_deref(), args.trial_data.as_ref(), rep)?;
-    let unloaded = load_unloaded(
-        args.unloaded.as_deref(),
-        args.unloaded_data.as_ref(),
-        !loaded.bundled,
+    let (loaded, unloaded) = load_trial_pair(
+        (args.trial.as_deref(), args.trial_data.as_ref()),
+        (args.unloaded.as_deref(), args.unloaded_data.as_ref()),
         rep,
     )?;
-    if let Some((u, name)) = &unloaded {
-        super::check_unloaded(&loaded.trial, &loaded.name, u, name)?;
-    }
     let emg_is_envelope = args.emg_is_envelope || loaded.emg_is_envelope;
     let model_args = ModelSettings {
         emg_is_envelope,

@@ -15,7 +15,7 @@ pub use reports::{
     SessionTrialReport,
 };
 
-use super::{load_model_config, load_trial, load_unloaded, LoadedTrial, ModelSettings};
+use super::{load_model_config, LoadedTrial, ModelSettings};
 use crate::error::{AppError, AppResult};
 use crate::figures::{self, FigureSet};
 use crate::memory::InMemory;
@@ -172,16 +172,11 @@ pub struct Prepared {
 pub fn prepare(args: &IdentifyJob, with: &[EffectKind], rep: &Reporter) -> AppResult<Prepared> {
     let model = &args.model;
     let (params, effects, mut inputs_read) = load_model_config(model)?;
-    let mut loaded = load_trial(args.trial.as_deref(), args.trial_data.as_ref(), rep)?;
-    let unloaded = load_unloaded(
-        args.unloaded.as_deref(),
-        args.unloaded_data.as_ref(),
-        !loaded.bundled,
+    let (mut loaded, unloaded) = super::load_trial_pair(
+        (args.trial.as_deref(), args.trial_data.as_ref()),
+        (args.unloaded.as_deref(), args.unloaded_data.as_ref()),
         rep,
     )?;
-    if let Some((u, name)) = &unloaded {
-        super::check_unloaded(&loaded.trial, &loaded.name, u, name)?;
-    }
     let truth = match (&args.truth_data, &args.truth) {
         (Some(d), _) => Some(truth_of_json(&d.value, &d.label)?),
         (None, Some(p)) => {

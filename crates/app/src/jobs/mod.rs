@@ -174,6 +174,21 @@ pub fn load_unloaded(
     }
 }
 
+/// A trial file or in-memory trial with its unloaded run ([`load_trial`], [`load_unloaded`]),
+/// the run checked against the trial ([`check_unloaded`]).
+pub fn load_trial_pair(
+    trial: (Option<&Path>, Option<&InMemory<Trial>>),
+    unloaded: (Option<&Path>, Option<&InMemory<Unloaded>>),
+    rep: &Reporter,
+) -> AppResult<(LoadedTrial, Option<(Unloaded, String)>)> {
+    let loaded = load_trial(trial.0, trial.1, rep)?;
+    let run = load_unloaded(unloaded.0, unloaded.1, !loaded.bundled, rep)?;
+    if let Some((u, name)) = &run {
+        check_unloaded(&loaded.trial, &loaded.name, u, name)?;
+    }
+    Ok((loaded, run))
+}
+
 fn warn_ignored(name: &str, cols: &[String], rep: &Reporter) {
     if !cols.is_empty() {
         rep.warn(format!(
