@@ -19,6 +19,7 @@
 //! | [`diagnose()`] | [`DiagnoseJob`] | `diagnosis.json`, figures, report |
 //! | [`design()`] | [`DesignJob`] | `design.json`, figure |
 //! | [`inspect`] | [`InspectJob`] | a starter recording map |
+//! | [`validate()`] | [`ValidateJob`] | `validate.json`, figures, report |
 
 pub mod bundled;
 mod error;
@@ -53,6 +54,7 @@ pub use jobs::session::{load_session, EmgNormalisationReport, LoadedSession};
 pub use jobs::simulate::{
     run as simulate, SessionSimulationReport, SimulateJob, SimulatedTrialReport,
 };
+pub use jobs::validate::{run as validate, ValidateJob, ValidatedTrialReport, ValidationReport};
 pub use jobs::{read_json, KneeSettings, ModelSettings};
 pub use memory::InMemory;
 pub use output::write_file_checked;

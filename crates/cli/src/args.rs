@@ -164,6 +164,68 @@ pub struct IdentifyArgs {
     pub report: ReportArgs,
 }
 
+/// Arguments of `surae validate`.
+#[derive(clap::Args, Debug)]
+pub struct ValidateArgs {
+    /// Session manifest (docs/formats.md): the trials validated; a trial's `condition` label
+    /// groups it for leaving one condition out.
+    #[arg(long)]
+    pub session: PathBuf,
+    /// Parameters over the session's (parameters JSON, `.osim`, CEINMS subject XML, or an
+    /// `identify.json`): the start and bounds' centre of every calibration.
+    #[arg(long)]
+    pub params: Option<PathBuf>,
+    /// The parameters calibrated, comma-separated (default: the manifest's `free`, else LST, F0
+    /// and α0 of sol, gm and gl).
+    #[arg(long, value_delimiter = ',')]
+    pub free: Option<Vec<String>>,
+    /// A parameters file predicted as it is on every held-out part (e.g. CEINMS's calibrated
+    /// subject XML); repeat for several.
+    #[arg(long = "peer", value_name = "FILE")]
+    pub peers: Vec<PathBuf>,
+    /// Fold schemes, comma-separated: trial (leave one trial out), strides (the later strides
+    /// of every trial), condition (leave one condition out). Default: every scheme the session
+    /// can form.
+    #[arg(long, value_delimiter = ',')]
+    pub folds: Vec<String>,
+    /// Share of each trial that calibrates when its later strides are held out.
+    #[arg(long, default_value_t = 0.5)]
+    pub later_fraction: f64,
+    /// Annealing chains (starts) of each calibration. Default 4.
+    #[arg(long, value_name = "N")]
+    pub chains: Option<u32>,
+    /// Seed of every calibration (results do not depend on the thread count).
+    #[arg(long, default_value_t = 42)]
+    pub seed: u64,
+    /// The EMG columns are already normalised envelopes in [0, 1].
+    #[arg(long)]
+    pub emg_is_envelope: bool,
+    /// Output folder (default `out/validate`).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub report: ReportArgs,
+}
+
+impl From<ValidateArgs> for surae_app::ValidateJob {
+    fn from(a: ValidateArgs) -> Self {
+        Self {
+            session: a.session,
+            params: a.params,
+            params_data: None,
+            free: a.free,
+            peers: a.peers,
+            folds: a.folds,
+            later_fraction: a.later_fraction,
+            chains: a.chains,
+            seed: a.seed,
+            emg_is_envelope: a.emg_is_envelope,
+            out: a.out,
+            discard_files: false,
+        }
+    }
+}
+
 /// Arguments of `surae inspect`.
 #[derive(clap::Args, Debug)]
 pub struct InspectArgs {

@@ -42,6 +42,10 @@ enum Command {
     /// What a lab's file holds (channels, rate, duration, ranges) and a starter recording map;
     /// given a map, the trial it reads and the checks of the recording.
     Inspect(args::InspectArgs),
+    /// Held-out prediction of a calibrated model: leave one trial out, the later strides, leave
+    /// one condition out; beside the linear EMG baseline and peer parameters (writes
+    /// validate.json).
+    Validate(args::ValidateArgs),
 }
 
 fn main() {
@@ -90,6 +94,7 @@ fn run(command: Command) -> (Arc<Terminal>, AppResult) {
         Command::Diagnose(a) => a.report,
         Command::Design(a) => a.report,
         Command::Inspect(a) => a.report,
+        Command::Validate(a) => a.report,
         // these print no progress and a summary only when they write
         Command::Envelope(_) | Command::Simulate(_) | Command::Sensitivity(_) => {
             args::ReportArgs::default()
@@ -105,6 +110,7 @@ fn run(command: Command) -> (Arc<Terminal>, AppResult) {
         Command::Diagnose(a) => surae_app::diagnose(a.into(), &rep),
         Command::Design(a) => surae_app::design(a.into(), &rep),
         Command::Inspect(a) => surae_app::inspect(a.into(), &rep),
+        Command::Validate(a) => surae_app::validate(a.into(), &rep),
     };
     (terminal, result)
 }

@@ -14,6 +14,9 @@
 //! `"geometry": {"lengths": "S01_MuscleAnalysis_Length.sto", "moment_arms":
 //! "S01_MuscleAnalysis_MomentArm_ankle_angle_r.sto"}`.
 //!
+//! A trial may carry a `condition` label (`"condition": "walk_3.6kmh"`): `surae validate`
+//! leaves one condition out at a time.
+//!
 //! Optional keys: `osim_muscles` (names of sol, gm, gl in an `.osim`), `mvc`, `effects` (an
 //! effects JSON every trial's model carries), `free` (the parameters identified, e.g.
 //! `["sol.lst_m", "activation.shape_a"]`) and `bounds` (`{"sol.fom_n": [2000, 8000]}`).
@@ -79,6 +82,7 @@ impl SessionManifest {
                 source: TrialSource::Recording(path.to_path_buf()),
                 unloaded: None,
                 knee_angle_deg: None,
+                condition: None,
                 geometry: None,
             }],
         }
@@ -99,6 +103,9 @@ pub struct SessionTrialEntry {
     /// The subject's own musculotendon lengths and moment arms for a trial CSV (OpenSim
     /// MuscleAnalysis storage files), if given.
     pub geometry: Option<GeometryFiles>,
+    /// The condition the trial was recorded in (e.g. `walk_3.6kmh`, `knee90`): `surae
+    /// validate` leaves one condition out at a time.
+    pub condition: Option<String>,
 }
 
 /// OpenSim MuscleAnalysis results of a trial: musculotendon lengths (`*_Length.sto`) and ankle
@@ -155,6 +162,7 @@ struct RawTrial {
     unloaded: Option<String>,
     knee_angle_deg: Option<f64>,
     geometry: Option<RawGeometry>,
+    condition: Option<String>,
 }
 
 #[derive(Deserialize)]
@@ -279,7 +287,11 @@ pub fn parse_session_manifest(text: &str, path: &Path) -> Result<SessionManifest
                 "a recording carries its own lengths and moment arms".into(),
             ));
         }
+        if t.condition.as_deref().is_some_and(|c| c.trim().is_empty()) {
+            return Err(invalid(key("condition"), "is empty".into()));
+        }
         trials.push(SessionTrialEntry {
+            condition: t.condition,
             name: t.name,
             source,
             unloaded: t.unloaded.as_deref().map(resolve),

@@ -8,6 +8,7 @@ pub mod inspect;
 pub mod sensitivity;
 pub mod session;
 pub mod simulate;
+pub mod validate;
 
 use crate::bundled;
 use crate::error::{AppError, AppResult};
