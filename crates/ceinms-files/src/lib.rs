@@ -25,7 +25,7 @@ pub mod table;
 pub mod trial;
 
 pub use error::CeinmsError;
-pub use subject::{parse_subject, read_subject, CeinmsMtu, CeinmsSubject};
+pub use subject::{parse_subject, read_subject, CeinmsMtu, CeinmsSubject, SubjectFormat};
 pub use table::{format_table, parse_table, read_table, CeinmsTable};
 pub use trial::{read_trial_folder, trial_file_names, CeinmsTrialFolder, DEFAULT_JOINT};
 

@@ -242,6 +242,7 @@ impl SyntheticEmg {
             emg_ta: self.channel(EmgMuscle::Ta).map(|c| c.raw.clone()),
             emg_other: Vec::new(),
             knee_angle_deg: None,
+            grf_vertical_n: None,
             comments: Vec::new(),
             ignored_columns: Vec::new(),
         };

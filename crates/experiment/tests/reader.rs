@@ -570,6 +570,7 @@ fn awkward_trial() -> Trial {
         emg_ta: Some(ta),
         emg_other: vec![("perlong".into(), col(0.5))],
         knee_angle_deg: Some(vec![0.0; n]),
+        grf_vertical_n: None,
         comments: vec![" generated".into(), "seed=11, a, b".into()],
         ignored_columns: Vec::new(),
     }

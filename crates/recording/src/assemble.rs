@@ -203,6 +203,7 @@ pub fn read_trial_recording(map: &RecordingMap) -> Result<MappedRecording> {
     let gl = req(take("emg_gl"));
     let ta = take("emg_ta");
     let knee = take("knee_angle_deg");
+    let grf_vertical = take("grf_vertical_n");
     let mut emg_other = Vec::new();
     let mut lengths = BTreeMap::new();
     let mut arms = BTreeMap::new();
@@ -248,6 +249,7 @@ pub fn read_trial_recording(map: &RecordingMap) -> Result<MappedRecording> {
         emg_ta: ta,
         emg_other,
         knee_angle_deg: knee,
+        grf_vertical_n: grf_vertical,
         comments: vec![format!(" read through the recording map {}", map.name())],
         ignored_columns: Vec::new(),
     };

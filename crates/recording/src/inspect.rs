@@ -4,21 +4,34 @@
 //! The starter map assigns a column to a channel of the trial by its label:
 //! exact surae names first (`ankle_angle_deg`, `emg_sol`, …), then common export names,
 //! case-insensitive: a label with `ankle` and `angle`, or `angle` without `knee`, is the ankle
-//! angle (`knee` and `angle`: the knee angle); `torque` or `moment` is the torque (an OpenSim
-//! `*_moment` column gets `sign: -1`, OpenSim's moment being positive towards dorsiflexion);
-//! `sol` is the soleus, `gastro`/`gas`/`gm`/`gl` with `med`/`lat` the gastrocnemii, `tib`
-//! the tibialis anterior. When a label names a side (`LT`/`RT`, `left`/`right`, `_l`/`_r`), the
-//! first side found is taken and the others are listed. A channel in volts or millivolts gets
-//! scale 1 and a note: its calibration (N·m or degrees per mV) is the lab's to fill in.
+//! angle (`knee` and `angle`: the knee angle); `torque` or `moment` is the torque; `sol` is the
+//! soleus, `gastro`/`gas`/`gm`/`gl` with `med`/`lat` the gastrocnemii, `tib` the tibialis
+//! anterior; a label ending in `force_vy` is the vertical ground reaction force
+//! (`grf_vertical_n`). When a label names a side (`LT`/`RT`, `left`/`right`, `_l`/`_r`), the
+//! first side an EMG or angle label names is taken and the other leg's columns are listed. A
+//! channel in volts or millivolts gets scale 1 and a note: its calibration (N·m or degrees per
+//! mV) is the lab's to fill in.
+//!
+//! OpenSim storage files follow OpenSim's conventions: the torque is the chosen ankle
+//! coordinate's own `<coordinate>_moment` (`ankle_angle_r_moment`, not the first `_moment`
+//! column), with `sign: -1` (OpenSim's moment is positive towards dorsiflexion); a knee angle
+//! whose values are centred below zero (gait2392's knee is negative in flexion) gets
+//! `sign: -1`; of the ground reaction forces, the leg's `ground_force_vy` (the right foot's
+//! has no prefix, the left's `l_`) is the vertical force, and a force file without it is an
+//! error. EMG that does not swing below zero is taken as an envelope already
+//! (`emg_is_envelope: true`) when it is sampled below the rate raw EMG needs, lies within
+//! [0, 1], or its file's title or name says so (`Normalized EMG Linear Envelopes`,
+//! `emgFilt.sto`).
 
-use std::collections::BTreeMap;
 use std::path::{Component, Path, PathBuf};
 
 use serde::Serialize;
 
 use crate::error::Result;
-use crate::map::{ChannelMap, RecordingMap};
+use crate::map::RecordingMap;
 use crate::table::{RecordingFormat, RecordingTable};
+
+mod guess;
 
 /// One channel's summary.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -54,23 +67,28 @@ pub struct FileSummary {
     pub channels: Vec<ChannelSummary>,
 }
 
+/// A table's rate (Hz) and duration (s): from its time column, else from the rate it states.
+fn clock_of(table: &RecordingTable) -> (Option<f64>, Option<f64>) {
+    match (&table.time_label, table.rate_hz) {
+        (Some(l), _) => table.channel(l).map_or((None, None), |c| {
+            let t = &c.values;
+            if t.len() >= 2 {
+                let d = t[t.len() - 1] - t[0];
+                (Some((t.len() - 1) as f64 / d), Some(d))
+            } else {
+                (None, None)
+            }
+        }),
+        (None, Some(r)) => (Some(r), Some(table.rows().saturating_sub(1) as f64 / r)),
+        (None, None) => (None, None),
+    }
+}
+
 impl FileSummary {
     /// Summarises a table.
     #[must_use]
     pub fn of(table: &RecordingTable) -> Self {
-        let (rate_hz, duration_s) = match (&table.time_label, table.rate_hz) {
-            (Some(l), _) => table.channel(l).map_or((None, None), |c| {
-                let t = &c.values;
-                if t.len() >= 2 {
-                    let d = t[t.len() - 1] - t[0];
-                    (Some((t.len() - 1) as f64 / d), Some(d))
-                } else {
-                    (None, None)
-                }
-            }),
-            (None, Some(r)) => (Some(r), Some(table.rows().saturating_sub(1) as f64 / r)),
-            (None, None) => (None, None),
-        };
+        let (rate_hz, duration_s) = clock_of(table);
         let channels = table
             .channels
             .iter()
@@ -167,75 +185,6 @@ pub struct Inspection {
     pub notes: Vec<String>,
 }
 
-/// Words of a label, lower case, split at anything that is not a letter or digit.
-fn words(label: &str) -> Vec<String> {
-    label
-        .to_ascii_lowercase()
-        .split(|c: char| !c.is_ascii_alphanumeric())
-        .filter(|w| !w.is_empty())
-        .map(str::to_string)
-        .collect()
-}
-
-/// The side a label names, if any (`l` or `r`).
-fn side_of(label: &str) -> Option<char> {
-    let w = words(label);
-    let has = |s: &str| w.iter().any(|x| x == s);
-    if has("lt") || has("left") || has("l") || label.ends_with("_l") {
-        Some('l')
-    } else if has("rt") || has("right") || has("r") || label.ends_with("_r") {
-        Some('r')
-    } else {
-        None
-    }
-}
-
-/// The trial channel a label suggests.
-fn guess(label: &str, format: &RecordingFormat) -> Option<(String, f64)> {
-    let l = label.trim();
-    if crate::map::Target::parse(l).is_ok() {
-        return Some((l.to_string(), 1.0));
-    }
-    let w = words(l);
-    let low = l.to_ascii_lowercase();
-    let has = |s: &str| w.iter().any(|x| x == s);
-    let any = |s: &str| w.iter().any(|x| x.contains(s));
-    let storage = matches!(format, RecordingFormat::Storage { .. });
-    if any("velocity") || any("direction") || has("vel") || has("dir") {
-        return None;
-    }
-    if has("knee") && (any("angle") || any("flex")) {
-        return Some(("knee_angle_deg".into(), 1.0));
-    }
-    if any("torque") || any("moment") {
-        let sign = if storage && low.ends_with("_moment") {
-            -1.0
-        } else {
-            1.0
-        };
-        return Some(("torque_nm".into(), sign));
-    }
-    if (has("ankle") && any("angle")) || (any("angle") && !has("knee") && !has("hip")) {
-        return Some(("ankle_angle_deg".into(), 1.0));
-    }
-    if any("sol") {
-        return Some(("emg_sol".into(), 1.0));
-    }
-    let gastro = any("gastro") || any("gas") || has("gm") || has("gl") || has("mg") || has("lg");
-    if gastro {
-        if any("med") || has("gm") || has("mg") {
-            return Some(("emg_gm".into(), 1.0));
-        }
-        if any("lat") || has("gl") || has("lg") {
-            return Some(("emg_gl".into(), 1.0));
-        }
-    }
-    if any("tib") || has("ta") {
-        return Some(("emg_ta".into(), 1.0));
-    }
-    None
-}
-
 /// `p` made absolute with its links resolved, also when it does not exist yet (a folder about
 /// to be created): its deepest existing ancestor is resolved and the rest appended.
 fn absolute(p: &Path) -> PathBuf {
@@ -317,17 +266,19 @@ pub fn inspect(paths: &[PathBuf], map_dir: &Path) -> Result<Inspection> {
         tables.push((p.clone(), t));
     }
     let single = tables.len() == 1;
-    let Guesses {
+    let guess::Guesses {
         channels,
         mut notes,
         side,
         others,
         need_rate,
-    } = guess_channels(&tables, map_dir, single);
+        emg_is_envelope,
+        torque_is_moment,
+    } = guess::guess_channels(&tables, map_dir, single)?;
     if let Some(s) = side {
         notes.push(format!(
             "the {} leg's channels were taken{}",
-            if s == 'l' { "left" } else { "right" },
+            guess::leg_name(s),
             if others.is_empty() {
                 String::new()
             } else {
@@ -340,7 +291,8 @@ pub fn inspect(paths: &[PathBuf], map_dir: &Path) -> Result<Inspection> {
             others.join(", ")
         ));
     }
-    if side == Some('l') {
+    // an OpenSim moment's sign is the same for both legs; a dynamometer's depends on the leg
+    if side == Some('l') && !torque_is_moment {
         notes.push(
             "a left leg: check the torque's sign (plantarflexion must be positive; \"sign\": -1 \
              flips it)"
@@ -378,7 +330,7 @@ pub fn inspect(paths: &[PathBuf], map_dir: &Path) -> Result<Inspection> {
         header_line: None,
         decimal_comma: None,
         channels,
-        emg_is_envelope: false,
+        emg_is_envelope,
         path: map_dir.join("map.json"),
     };
     Ok(Inspection {
@@ -387,97 +339,4 @@ pub fn inspect(paths: &[PathBuf], map_dir: &Path) -> Result<Inspection> {
         unassigned,
         notes,
     })
-}
-
-/// What [`guess_channels`] made of the files' columns.
-struct Guesses {
-    channels: BTreeMap<String, ChannelMap>,
-    notes: Vec<String>,
-    /// The leg (`'l'` or `'r'`) whose channels were taken, when a label names one.
-    side: Option<char>,
-    /// Candidate columns left unmapped (the other leg's, or a second candidate for a target).
-    others: Vec<String>,
-    /// A file without a time column or a rate, relative to the map's folder.
-    need_rate: Option<String>,
-}
-
-/// A target for every column whose label suggests one (one leg's channels only), with the
-/// notes a lab needs to finish the map.
-fn guess_channels(tables: &[(PathBuf, RecordingTable)], map_dir: &Path, single: bool) -> Guesses {
-    let mut notes = Vec::new();
-    let mut channels = BTreeMap::<String, ChannelMap>::new();
-    let mut side: Option<char> = None;
-    let mut others: Vec<String> = Vec::new();
-    let mut need_rate = None;
-    for (p, t) in tables {
-        let rel = relative_path(p, map_dir).display().to_string();
-        if t.time_label.is_none() && t.rate_hz.is_none() {
-            need_rate = Some(rel.clone());
-        }
-        for c in &t.channels {
-            if t.time_label.as_deref() == Some(c.label.as_str()) {
-                let u = c.unit.as_deref().unwrap_or("").to_ascii_lowercase();
-                if u == "ms" {
-                    let mut ch = ChannelMap::column(&c.label);
-                    ch.scale = 1e-3;
-                    ch.file = (!single).then(|| rel.clone());
-                    channels.insert("time_s".into(), ch);
-                    notes.push(format!("'{}' is in ms: time_s takes scale 0.001", c.label));
-                }
-                continue;
-            }
-            let Some((target, sign)) = guess(&c.label, &t.format) else {
-                continue;
-            };
-            if let Some(s) = side_of(&c.label) {
-                if target.starts_with("emg_") || target.ends_with("_deg") {
-                    match side {
-                        None => side = Some(s),
-                        Some(x) if x != s => {
-                            others.push(c.label.clone());
-                            continue;
-                        }
-                        _ => {}
-                    }
-                }
-            }
-            if channels.contains_key(&target) {
-                others.push(c.label.clone());
-                continue;
-            }
-            let mut ch = ChannelMap::column(&c.label);
-            ch.sign = sign;
-            ch.file = (!single).then(|| rel.clone());
-            let unit = c.unit.as_deref().unwrap_or("").to_ascii_lowercase();
-            if !target.starts_with("emg_") && (unit == "mv" || unit == "v") {
-                notes.push(format!(
-                    "{target} ← '{}' is in {}: set its scale (and offset) to the lab's \
-                     calibration, {} per {}",
-                    c.label,
-                    c.unit.as_deref().unwrap_or(""),
-                    if target == "torque_nm" {
-                        "N·m"
-                    } else {
-                        "degrees"
-                    },
-                    c.unit.as_deref().unwrap_or("")
-                ));
-            }
-            if sign < 0.0 {
-                notes.push(format!(
-                    "torque_nm ← '{}' takes sign -1: OpenSim's moment is positive towards \
-                     dorsiflexion, surae's torque towards plantarflexion",
-                    c.label
-                ));
-            }
-            channels.insert(target, ch);
-        }
-    }
-    Guesses {
-        channels,
-        notes,
-        side,
-        others,
-        need_rate,
-    }
 }

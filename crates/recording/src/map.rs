@@ -16,7 +16,8 @@
 //! Each channel is `sign·(scale·raw + offset)` (defaults 1, 0, 1), computed in that order so
 //! that the defaults carry a number bit for bit. Targets are `time_s`, `ankle_angle_deg`,
 //! `torque_nm`, `knee_angle_deg`, `emg_<muscle>` (sol, gm, gl required; ta and any further
-//! muscle optional) and the geometry series `lmt_<muscle>_m` / `ma_<muscle>_m` (a pair per
+//! muscle optional), `grf_vertical_n` (the tested foot's vertical ground reaction force, for
+//! gait trials) and the geometry series `lmt_<muscle>_m` / `ma_<muscle>_m` (a pair per
 //! muscle). A channel may name its own `file`; `rate_hz` (the map's or a channel's) gives the
 //! clock of a file without a time column. Paths are relative to the map's folder.
 
@@ -126,6 +127,8 @@ pub enum Target {
     Torque,
     /// `knee_angle_deg`.
     Knee,
+    /// `grf_vertical_n`: the tested foot's vertical ground reaction force (N).
+    VerticalForce,
     /// `emg_<muscle>`.
     Emg(String),
     /// `lmt_<muscle>_m`.
@@ -153,6 +156,7 @@ impl Target {
             "ankle_angle_deg" => Some(Self::Angle),
             "torque_nm" => Some(Self::Torque),
             "knee_angle_deg" => Some(Self::Knee),
+            "grf_vertical_n" => Some(Self::VerticalForce),
             _ => name
                 .strip_prefix("emg_")
                 .and_then(muscle)
@@ -172,7 +176,7 @@ impl Target {
         };
         t.ok_or_else(|| {
             "not a channel of a trial: expected time_s, ankle_angle_deg, torque_nm, \
-             knee_angle_deg, emg_<muscle>, lmt_<muscle>_m or ma_<muscle>_m"
+             knee_angle_deg, grf_vertical_n, emg_<muscle>, lmt_<muscle>_m or ma_<muscle>_m"
                 .to_string()
         })
     }

@@ -86,6 +86,7 @@ pub fn parse_storage(bytes: &[u8], path: &Path) -> Result<RecordingTable> {
         format: RecordingFormat::Storage {
             version: table.version,
             in_degrees: table.in_degrees,
+            title: (!table.name.is_empty()).then(|| table.name.clone()),
         },
         time_label: Some("time".into()),
         rate_hz: None,

@@ -22,6 +22,10 @@ pub enum RecordingFormat {
         version: u32,
         /// `inDegrees` of the header, when it has one.
         in_degrees: Option<bool>,
+        /// The table's name, the header's first line without `=` (`Normalized EMG Linear
+        /// Envelopes`), when it has one: `surae inspect` reads what the file says it holds.
+        #[serde(skip_serializing_if = "Option::is_none")]
+        title: Option<String>,
     },
     /// A C3D file's analog channels.
     C3d,
@@ -51,6 +55,7 @@ impl RecordingFormat {
             Self::Storage {
                 version,
                 in_degrees,
+                ..
             } => match in_degrees {
                 Some(true) => format!("OpenSim storage v{version}, inDegrees=yes"),
                 Some(false) => format!("OpenSim storage v{version}, inDegrees=no"),

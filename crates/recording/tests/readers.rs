@@ -469,7 +469,8 @@ fn storage_versions_1_and_2_are_read() {
         t.format,
         RecordingFormat::Storage {
             version: 1,
-            in_degrees: Some(true)
+            in_degrees: Some(true),
+            title: Some("ik".into()),
         }
     );
     assert_eq!(t.time_label.as_deref(), Some("time"));
@@ -487,7 +488,8 @@ fn storage_versions_1_and_2_are_read() {
         t.format,
         RecordingFormat::Storage {
             version: 2,
-            in_degrees: Some(false)
+            in_degrees: Some(false),
+            title: None,
         }
     );
     assert_eq!(t.row_lines, [8, 9]);

@@ -69,6 +69,11 @@ pub struct Trial {
     pub emg_other: Vec<(String, Vec<f64>)>,
     /// Knee angle in degrees (0 = extended), if recorded.
     pub knee_angle_deg: Option<Vec<f64>>,
+    /// Vertical ground reaction force under the tested leg's foot in N, if recorded (a gait
+    /// trial read through a recording map's `grf_vertical_n`); it marks the stances (force
+    /// above a threshold). The trial CSV does not carry it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub grf_vertical_n: Option<Vec<f64>>,
     /// Text of the `#` comment lines (after the `#`), in file order; written at the top.
     pub comments: Vec<String>,
     /// Names of unknown columns that the reader ignored (a warning list; never written).

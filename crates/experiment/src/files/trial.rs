@@ -87,6 +87,7 @@ pub fn parse_trial_with(text: &str, name: &str, opts: &ReadOptions) -> Result<Tr
         emg_ta: take(6),
         emg_other,
         knee_angle_deg: take(7),
+        grf_vertical_n: None,
         comments: t.comments,
         ignored_columns: t.ignored,
     })
