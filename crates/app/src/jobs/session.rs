@@ -583,6 +583,22 @@ struct LoadedCsv {
     crosstalk: Vec<experiment::CrosstalkCheck>,
 }
 
+/// Whether every trial of `manifest` is a recording map that says its EMG is envelopes already
+/// (then the session reads every trial's EMG as envelopes, as `--emg-is-envelope` asks).
+fn maps_say_envelopes(manifest: &SessionManifest) -> AppResult<bool> {
+    let mut all = !manifest.trials.is_empty();
+    for t in &manifest.trials {
+        let p = t.source.path();
+        if p.is_dir() || recording::file_kind(p) != recording::FileKind::Map {
+            return Ok(false);
+        }
+        all &= recording::read_map(p)
+            .map_err(AppError::bad)?
+            .emg_is_envelope;
+    }
+    Ok(all)
+}
+
 /// Reads a session and prepares its trials. `model` may override the session's parameters
 /// (`--params`), effects (`--effects`) and EMG handling; `free` overrides its free parameters.
 pub fn load_session(
@@ -601,6 +617,18 @@ pub fn load_session(
         Vec::new()
     } else {
         vec![path.to_path_buf()]
+    };
+    // a session whose every trial is a recording map of envelopes is read as envelopes
+    let maps_of_envelopes = maps_say_envelopes(&manifest)?;
+    let model_of_maps;
+    let model = if maps_of_envelopes && !model.emg_is_envelope {
+        model_of_maps = ModelSettings {
+            emg_is_envelope: true,
+            ..model.clone()
+        };
+        &model_of_maps
+    } else {
+        model
     };
     // the recordings first: a CEINMS subject's fixed muscles are those of its trials
     let (loaded, ceinms_muscles) = load_recordings(&manifest, model, &mut read, rep)?;

@@ -7,8 +7,9 @@ use crate::Reporter;
 use std::path::Path;
 
 /// A session's trial file: a trial CSV, or a recording map (with the geometry series it maps).
-/// A map whose EMG is envelopes already needs `--emg-is-envelope` for the whole session, since
-/// the session normalises every trial's EMG alike.
+/// The session normalises every trial's EMG alike: a map whose EMG is envelopes already, in a
+/// session whose other trials are raw EMG, needs `--emg-is-envelope` (a session of maps that all
+/// say so is read as envelopes without it).
 pub fn read_session_trial(
     p: &Path,
     model: &ModelSettings,
