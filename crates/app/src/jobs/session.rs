@@ -100,7 +100,14 @@ pub struct LoadedSession {
     pub emg: SessionEmgNormalisation,
     /// Every file read (outputs never overwrite them).
     pub inputs_read: Vec<PathBuf>,
+    /// The free parameters and bounds are the recording defaults (no trial has a dynamometer
+    /// correction and none were given): calibrations then take [`RECORDING_CHAINS`] starts.
+    pub recording_defaults: bool,
 }
+
+/// Annealing chains of a calibration with the recording defaults: on CEINMS's four trials the
+/// cost has two minima and one start in three reaches the better (docs/real-data.md).
+pub const RECORDING_CHAINS: u32 = 8;
 
 impl LoadedSession {
     /// The summary's crosstalk line of every trial that has an `emg_ta` channel, as
@@ -308,14 +315,18 @@ fn free_and_bounds(
     free: Option<&[String]>,
     params: &ModelParams,
     effects: &Effects,
-) -> AppResult<(Vec<ParamId>, Vec<Bounds>)> {
+) -> AppResult<(Vec<ParamId>, Vec<Bounds>, bool)> {
     let free_names: Option<Vec<String>> =
         free.map(|f| f.to_vec()).or_else(|| manifest.free.clone());
+    // a session with no dynamometer correction (gait, CEINMS folders) takes the recording
+    // defaults, chosen on held-out real recordings (docs/validation.md)
+    let recording = free_names.is_none() && manifest.trials.iter().all(|t| t.unloaded.is_none());
     let free: Vec<ParamId> = match free_names {
         Some(names) => names
             .iter()
             .map(|n| ParamId::parse(n).map_err(|e| AppError::bad(format!("--free {n}: {e}"))))
             .collect::<AppResult<_>>()?,
+        None if recording => recording_free(),
         None => ParamId::identified().to_vec(),
     };
     let bounds: Vec<(f64, f64)> = free
@@ -324,6 +335,7 @@ fn free_and_bounds(
             let name = id.name();
             match manifest.bounds.get(&name) {
                 Some(&b) => b,
+                None if recording => recording_bounds(*id, params, effects),
                 None => id.default_bounds(params, effects),
             }
         })
@@ -336,7 +348,34 @@ fn free_and_bounds(
             )));
         }
     }
-    Ok((free, bounds))
+    Ok((free, bounds, recording))
+}
+
+/// The parameters a recording without a dynamometer correction calibrates by default: LST, F0
+/// and α0 of the triceps, the activation's shape `A` and one electromechanical delay (the
+/// envelopes of a gait lab are already filtered, with a delay of their own).
+pub fn recording_free() -> Vec<ParamId> {
+    let mut free = ParamId::identified().to_vec();
+    free.push(ParamId::parse("activation.shape_a").expect("a catalogued parameter"));
+    free.push(ParamId::parse("electromechanical_delay.delay_ms").expect("a catalogued parameter"));
+    free
+}
+
+/// The recording defaults' bounds around the base value `v`: LST ±10 % (a subject's tendon is
+/// not the model's to within 5 %), F0 from 0.5 to 2.5 times (the specific tension of muscle
+/// ranges over about a factor of five), α0 ±40 %, the shape `A` over [0, 0.12] (linear to
+/// strongly curved) and the delay over 0–150 ms; any other parameter its default range.
+pub fn recording_bounds(id: ParamId, params: &ModelParams, effects: &Effects) -> (f64, f64) {
+    use muscle_model::MuscleField;
+    let v = id.get(params, effects);
+    match id {
+        ParamId::Muscle(_, MuscleField::LstM) => (0.9 * v, 1.1 * v),
+        ParamId::Muscle(_, MuscleField::FomN) => (0.5 * v, 2.5 * v),
+        ParamId::Muscle(_, MuscleField::AlphaDeg) => (0.6 * v, 1.4 * v),
+        ParamId::Activation(2) => (0.0, 0.12),
+        ParamId::Effect(muscle_model::EffectKind::ElectromechanicalDelay, _) => (0.0, 150.0),
+        _ => id.default_bounds(params, effects),
+    }
 }
 
 /// A session's trial file as a trial of the session: its model inputs (EMG by the session's
@@ -646,7 +685,7 @@ pub fn load_session(
 
     // parameters: the session's, replaced by --params or with an identify.json over them
     let (osim, params, effects) = session_params(&manifest, model, &ceinms_muscles, &mut read)?;
-    let (free, bounds) = free_and_bounds(&manifest, free, &params, &effects)?;
+    let (free, bounds, recording_defaults) = free_and_bounds(&manifest, free, &params, &effects)?;
     let shared = SessionModel {
         params,
         effects,
@@ -669,6 +708,7 @@ pub fn load_session(
         trials,
         emg,
         inputs_read: read,
+        recording_defaults,
     })
 }
 

@@ -42,7 +42,7 @@ pub struct ValidateJob {
     pub folds: Vec<String>,
     /// Share of each trial that calibrates when the later strides are held out (0–1).
     pub later_fraction: f64,
-    /// Annealing chains of each calibration (default 4).
+    /// Annealing chains of each calibration (default 4; 8 with the recording defaults).
     pub chains: Option<u32>,
     /// Seed of every calibration.
     pub seed: u64,
@@ -100,7 +100,11 @@ fn schemes_of(names: &[String], trials: &[ValidationTrial<'_>]) -> AppResult<Vec
         if trials.len() >= 2 {
             all.push(FoldScheme::LeaveOneTrialOut);
         }
-        all.push(FoldScheme::LaterStrides);
+        // holding out the later part of a trial asks whether a calibration carries forward
+        // over strides; a trial of one stance (a CEINMS folder) has none to carry to
+        if trials.iter().any(|t| t.stride_starts.is_some_and(|s| s.len() >= 4)) {
+            all.push(FoldScheme::LaterStrides);
+        }
         let mut conditions: Vec<&str> = trials.iter().filter_map(|t| t.condition).collect();
         conditions.sort_unstable();
         conditions.dedup();
@@ -197,8 +201,12 @@ pub fn run(job: ValidateJob, rep: &Reporter) -> AppResult {
     let mut settings = ValidateSettings::default();
     settings.later_fraction = job.later_fraction;
     settings.sa = settings.sa.with_seed(job.seed);
-    if let Some(c) = job.chains {
-        settings.sa = settings.sa.with_chains(c);
+    match job.chains {
+        Some(c) => settings.sa = settings.sa.with_chains(c),
+        None if session.recording_defaults => {
+            settings.sa = settings.sa.with_chains(super::session::RECORDING_CHAINS);
+        }
+        None => {}
     }
     let chains = settings.sa.chains;
     let progress = rep.progress(0, "validate");

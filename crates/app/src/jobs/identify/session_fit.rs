@@ -56,8 +56,12 @@ pub(super) fn run(
     let out = OutDir::prepare_or_discard(&out_dir, &input_refs, &planned_refs, args.discard_files)?;
 
     let mut settings = identify_sa::SaIdentifySettings::default().with_seed(args.seed);
-    if let Some(c) = args.chains {
-        settings = settings.with_chains(c);
+    match args.chains {
+        Some(c) => settings = settings.with_chains(c),
+        None if session.recording_defaults => {
+            settings = settings.with_chains(super::super::session::RECORDING_CHAINS);
+        }
+        None => {}
     }
     let show = rep.show();
     let total = u64::from(settings.chains) * settings.annealer.max_evaluations;
