@@ -27,6 +27,11 @@
 //! * [`PreparedTrial`]: one trial prepared once for every job (crosstalk decision, model inputs,
 //!   dynamometer correction, the torque a fit is compared with).
 //! * [`synthesize`]: a whole synthetic experiment (trial, unloaded run, truth) from one seed.
+//! * [`Strides`]: a trial's cycles as units, from the foot's ground force
+//!   ([`strides_from_ground_force`]: stance while the vertical force exceeds 20 N, a stride from
+//!   one foot strike to the next), a dynamometer's motion ([`strides_from_motion`]) or given
+//!   events ([`strides_from_events`]); masks, weights and curves normalised to 0–100 % of the
+//!   cycle or the stance.
 //! * [`read_ceinms_trial`] and [`ceinms_model_params`]: a CEINMS trial folder and subject XML as the model's inputs and parameters
 //!   (docs/real-data.md).
 //!
@@ -64,6 +69,7 @@ mod model_inputs;
 mod prepared;
 mod protocol;
 mod seeds;
+mod strides;
 mod synth;
 pub mod synth_session;
 mod transient;
@@ -103,6 +109,11 @@ pub use protocol::{
     KNEE_RANGE_DEG, NOMINAL_SPEED_DEG_S, SPEED_RANGE_DEG_S,
 };
 pub use seeds::{rng, Stream};
+pub use strides::{
+    ground_force_cycles, stride_percent, strides_from_events, strides_from_ground_force,
+    strides_from_motion, Stride, StridePart, StrideSource, Strides, MIN_STRIDE_S,
+    STANCE_THRESHOLD_N,
+};
 pub use synth::{
     random_params, round_decimals, sorted_json, synthesize, synthesize_referenced,
     synthetic_recording, SynthConfig, Synthetic,

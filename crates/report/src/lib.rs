@@ -3,8 +3,8 @@
 //!
 //! * [`figures`] — SVG figures, each returned as a `String`: torque fit with angle and EMG
 //!   envelopes, residuals by angle and phase, residuals over time, baseline vs extended fit,
-//!   candidate-effect ranking, MCMC traces, R̂ history, marginal histograms, corner plot and
-//!   sensitivity curves. Colours are the Okabe–Ito palette ([`palette`]); text is ≥ 14 px.
+//!   candidate-effect ranking, ensembles over strides (mean ± sd by % of stance or of the
+//!   cycle), MCMC traces, R̂ history, marginal histograms, corner plot and sensitivity curves. Colours are the Okabe–Ito palette ([`palette`]); text is ≥ 14 px.
 //! * [`html`] — a self-contained `report.html` builder ([`Report`]).
 //! * [`plain_summary`] — the diagnosis told in plain words ([`diagnosis_in_words`]).
 //! * [`check_svg`] / [`check_xml`] — a small well-formedness checker (used on every figure
