@@ -6,7 +6,10 @@ use std::path::PathBuf;
 use experiment::Trial;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use recording::checks::{check_trial, SweepDirection, TrialChecks};
+use recording::checks::{
+    check_trial, check_trial_in_context, CheckSettings, MotionCheck, SweepDirection, TrialChecks,
+    TrialContext, TrialKind,
+};
 
 const FS: f64 = 2048.0;
 
@@ -106,6 +109,13 @@ fn clean() -> Built {
     build(3.333, trapezoid_velocity, 11)
 }
 
+/// The motion check of a dynamometer trial.
+fn m(c: &TrialChecks) -> &MotionCheck {
+    c.motion
+        .as_ref()
+        .expect("a dynamometer trial's motion check")
+}
+
 fn has_warning(c: &TrialChecks, needle: &str) -> bool {
     c.warnings.iter().any(|w| w.contains(needle))
 }
@@ -116,16 +126,16 @@ fn clean_isokinetic_trial_has_no_warnings() {
     let c = check_trial(&b.trial, Some(&b.prediction));
     assert!(c.is_clean(), "{:#?}", c.warnings);
     assert!((c.angle.range_deg.unwrap() - 35.0).abs() < 0.2);
-    assert!(c.motion.isokinetic);
-    assert_eq!(c.motion.plateaus.len(), 2, "{:#?}", c.motion);
-    let (p0, p1) = (&c.motion.plateaus[0], &c.motion.plateaus[1]);
+    assert!(m(&c).isokinetic);
+    assert_eq!(m(&c).plateaus.len(), 2, "{:#?}", m(&c));
+    let (p0, p1) = (&m(&c).plateaus[0], &m(&c).plateaus[1]);
     assert_eq!(p0.direction, SweepDirection::Concentric);
     assert_eq!(p1.direction, SweepDirection::Eccentric);
     assert!((p0.mean_velocity_deg_s + 30.0).abs() < 0.5, "{p0:?}");
     assert!((p1.mean_velocity_deg_s - 30.0).abs() < 0.5, "{p1:?}");
     assert!(p0.relative_sd < 0.05 && p1.relative_sd < 0.05);
     assert!(p0.duration_s > 1.0 && p1.duration_s > 1.0);
-    assert!(c.motion.plateau_fraction.unwrap() > 0.85, "{:?}", c.motion);
+    assert!(m(&c).plateau_fraction.unwrap() > 0.85, "{:?}", c.motion);
     assert!(c.saturation.iter().all(|s| !s.clipped));
     for e in &c.emg {
         assert!(!e.flat && !e.power_line, "{e:?}");
@@ -190,8 +200,8 @@ fn sinusoidal_motion_is_not_isokinetic() {
     // θ = −2.5 + 17.5·cos(ωt) after the first sample: v = −17.5·ω·sin(ωt).
     let b = build(5.0, |t| -17.5 * w * (w * t).sin(), 12);
     let c = check_trial(&b.trial, Some(&b.prediction));
-    assert!(!c.motion.isokinetic, "{:#?}", c.motion);
-    assert!(c.motion.plateau_fraction.unwrap() < 0.5, "{:#?}", c.motion);
+    assert!(!m(&c).isokinetic, "{:#?}", m(&c));
+    assert!(m(&c).plateau_fraction.unwrap() < 0.5, "{:#?}", m(&c));
     assert!(
         has_warning(&c, "ankle_angle_deg: not isokinetic"),
         "{:#?}",
@@ -222,16 +232,16 @@ fn constant_acceleration_motion_is_not_isokinetic() {
     };
     let b = build(3.3, tri, 13);
     let c = check_trial(&b.trial, None);
-    assert!(!c.motion.isokinetic);
-    assert!(c.motion.plateau_fraction.unwrap() < 0.35, "{:#?}", c.motion);
+    assert!(!m(&c).isokinetic);
+    assert!(m(&c).plateau_fraction.unwrap() < 0.35, "{:#?}", m(&c));
 }
 
 #[test]
 fn no_motion_is_a_warning() {
     let b = build(2.0, |_| 0.0, 14);
     let c = check_trial(&b.trial, None);
-    assert!(!c.motion.isokinetic);
-    assert!(c.motion.plateau_fraction.is_none());
+    assert!(!m(&c).isokinetic);
+    assert!(m(&c).plateau_fraction.is_none());
     assert!(
         has_warning(&c, "ankle_angle_deg: no motion"),
         "{:#?}",
@@ -466,7 +476,7 @@ fn degenerate_trials_do_not_panic() {
         c.warnings
     );
     // One NaN in the angle does not break the plateau analysis.
-    assert!(c.motion.isokinetic, "{:#?}", c.motion);
+    assert!(m(&c).isokinetic, "{:#?}", m(&c));
     assert!(c.sign.as_ref().unwrap().correlation.unwrap() > 0.9);
     // NaN in the EMG: the segments without it still give a spectrum.
     assert!(c.emg[0].power_line_ratio.is_some());
@@ -511,7 +521,7 @@ fn angle_conventions_are_flagged() {
         "{:#?}",
         c.warnings
     );
-    assert!(c.motion.isokinetic); // the motion itself is fine
+    assert!(m(&c).isokinetic); // the motion itself is fine
 }
 
 fn fixture(name: &str) -> PathBuf {
@@ -533,10 +543,10 @@ fn seed_fixture_passes() {
     assert_eq!(syn.model_torque.len(), trial.len());
     let c = check_trial(&trial, Some(&syn.model_torque));
     assert!(c.is_clean(), "{:#?}\n{:#?}", c.warnings, c);
-    assert!(c.motion.isokinetic);
-    assert_eq!(c.motion.plateaus.len(), 2);
-    assert!((c.motion.plateaus[0].mean_velocity_deg_s + 30.0).abs() < 0.5);
-    assert!((c.motion.plateaus[1].mean_velocity_deg_s - 30.0).abs() < 0.5);
+    assert!(m(&c).isokinetic);
+    assert_eq!(m(&c).plateaus.len(), 2);
+    assert!((m(&c).plateaus[0].mean_velocity_deg_s + 30.0).abs() < 0.5);
+    assert!((m(&c).plateaus[1].mean_velocity_deg_s - 30.0).abs() < 0.5);
     assert!((c.angle.min_deg.unwrap() + 20.0).abs() < 1e-3);
     assert!((c.angle.max_deg.unwrap() - 15.0).abs() < 1e-3);
     assert!(c.sign.as_ref().unwrap().correlation.unwrap() > 0.9);
@@ -593,4 +603,118 @@ fn power_line_at_1500_hz_between_bins() {
         c.warnings
     );
     assert!(c.saturation.iter().all(|s| !s.clipped));
+}
+
+#[test]
+fn a_dynamometer_trial_is_inferred_and_gets_the_isokinetic_checks() {
+    let b = clean();
+    let c = check_trial(&b.trial, Some(&b.prediction));
+    assert_eq!(c.kind, TrialKind::Dynamometer);
+    assert!(
+        c.kind_reason
+            .starts_with("no ground force; 100 % of the ankle's 2 sweeps span 70 %"),
+        "{}",
+        c.kind_reason
+    );
+    assert!(c.strides.is_none());
+    assert_eq!(
+        c.applied,
+        vec![
+            "angle",
+            "isokinetic",
+            "saturation",
+            "emg_flat",
+            "emg_rate",
+            "power_line",
+            "sign"
+        ]
+    );
+    let v = serde_json::to_value(&c).unwrap();
+    assert_eq!(v["kind"], "dynamometer");
+    assert!(v["strides"].is_null());
+    assert_eq!(v["emg_is_envelope"], false);
+    // the sinusoidal and triangular motions of the tests above are dynamometer trials too:
+    // their sweeps span the range, so "not isokinetic" is still a warning about them
+    let w = 2.0 * PI * 0.4;
+    let sine = build(5.0, |t| -17.5 * w * (w * t).sin(), 12);
+    assert_eq!(check_trial(&sine.trial, None).kind, TrialKind::Dynamometer);
+}
+
+#[test]
+fn a_protocol_of_many_sweeps_stays_a_dynamometer_trial_and_its_plateaus_are_summarised() {
+    for protocol in [
+        experiment::Protocol::Cycles { cycles: 3 },
+        experiment::Protocol::Relaxed { cycles: 4 },
+    ] {
+        let syn = experiment::synthesize(&experiment::SynthConfig::new(protocol, 5)).unwrap();
+        let c = check_trial(&syn.trial, Some(&syn.model_torque));
+        assert_eq!(
+            c.kind,
+            TrialKind::Dynamometer,
+            "{protocol}: {}",
+            c.kind_reason
+        );
+        assert!(c.is_clean(), "{protocol}: {:#?}", c.warnings);
+        let line = c
+            .summary_lines()
+            .into_iter()
+            .find(|l| l.starts_with("isokinetic:"))
+            .unwrap();
+        let n = m(&c).plateaus.len();
+        assert!(n > 4, "{protocol}: {n}");
+        assert!(
+            line.starts_with(&format!("isokinetic: {n} plateaus from −")) && line.contains(" to +"),
+            "{line}"
+        );
+    }
+}
+
+#[test]
+fn envelopes_skip_the_rate_and_power_line_checks() {
+    // the clean trial resampled to 100 Hz and called envelopes: no rate warning, no spectrum
+    let b = clean();
+    let step = 20;
+    let pick = |x: &[f64]| -> Vec<f64> { x.iter().step_by(step).map(|v| v.abs()).collect() };
+    let t = Trial {
+        time_s: b.trial.time_s.iter().step_by(step).copied().collect(),
+        ankle_angle_deg: b
+            .trial
+            .ankle_angle_deg
+            .iter()
+            .step_by(step)
+            .copied()
+            .collect(),
+        torque_nm: b.trial.torque_nm.iter().step_by(step).copied().collect(),
+        emg_sol: pick(&b.trial.emg_sol),
+        emg_gm: pick(&b.trial.emg_gm),
+        emg_gl: pick(&b.trial.emg_gl),
+        ..Trial::default()
+    };
+    let raw = check_trial(&t, None);
+    assert!(
+        has_warning(&raw, "time_s: sampled at 102 Hz, below the 700 Hz"),
+        "{:#?}",
+        raw.warnings
+    );
+    let env = check_trial_in_context(
+        &t,
+        None,
+        &TrialContext {
+            emg_is_envelope: true,
+            ..TrialContext::default()
+        },
+        &CheckSettings::default(),
+    );
+    assert!(!has_warning(&env, "700 Hz"), "{:#?}", env.warnings);
+    assert!(env.emg.iter().all(|e| e.power_line_ratio.is_none()));
+    assert!(!env.applied.contains(&"power_line") && !env.applied.contains(&"emg_rate"));
+    assert!(env.emg_is_envelope);
+    assert_eq!(
+        env.applied_text(),
+        "angle range, isokinetic plateaus, saturation, flat EMG"
+    );
+    assert_eq!(
+        check_trial(&b.trial, Some(&b.prediction)).applied_text(),
+        "angle range, isokinetic plateaus, saturation, EMG, torque sign"
+    );
 }

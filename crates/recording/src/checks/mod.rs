@@ -1,18 +1,38 @@
-//! The checks a lab needs before trusting a trial: [`check_trial`] looks at the angle range,
-//! the velocity plateaus (is the isokinetic test isokinetic?), saturation of every channel,
-//! flat or power-line-dominated EMG and the sign of the torque against an EMG-driven
-//! prediction. Every finding is a field of [`TrialChecks`] (serialisable to JSON) and,
-//! when something is wrong, a one-line warning naming the channel; nothing panics and nothing
-//! is an error: an empty, single-sample or NaN-holding trial yields `null` fields and
-//! warnings.
+//! The checks a lab needs before trusting a trial. [`check_trial`] first decides what the
+//! trial is ([`TrialKind`]: a dynamometer trial or gait, given by the caller or inferred:
+//! `trial_kind`), then runs the checks that apply to it:
+//!
+//! | check | dynamometer | gait |
+//! |---|---|---|
+//! | angle range | yes | yes |
+//! | velocity plateaus (is the isokinetic test isokinetic?), speeds | yes | no |
+//! | per-stride moment against the other strides and the foot's ground force | no | yes |
+//! | saturation of torque and EMG | yes | yes |
+//! | flat EMG | yes | yes |
+//! | sampling rate against the EMG band, power-line interference | raw EMG only | raw EMG only |
+//! | torque sign against an EMG-driven prediction | yes | yes |
+//!
+//! The rate and power-line checks are left out for EMG that is an envelope already
+//! ([`TrialContext::emg_is_envelope`]): an envelope is low-passed, its rate is not the raw
+//! band's and the mains frequency is not in it. Every finding is a field of [`TrialChecks`]
+//! (serialisable to JSON; a check that did not apply is `null`, and `kind`, `kind_reason`
+//! and `applied` say why) and, when something is wrong, a one-line warning naming the channel;
+//! nothing panics and nothing is an error: an empty, single-sample or NaN-holding trial yields
+//! `null` fields and warnings. Long lists are summarised in the text (more than four
+//! plateaus by their count and speed range; more than five flagged strides by their count),
+//! never on one line; the JSON keeps every entry.
+//!
+//! Across the trials of a session, [`check_envelope_scales`] compares each EMG channel's scale
+//! with the moment's (`envelope_scale`).
 //!
 //! All thresholds live in [`CheckSettings`] (its `Default` holds the documented values); the
 //! result repeats them under `settings`, so a JSON report says what it was judged against.
 //!
 //! Each check is a stage in a file of its own, whose documentation gives its method and its
-//! thresholds: `angle` ([`AngleCheck`]), `motion` ([`MotionCheck`], [`Plateau`]), `saturation`
-//! ([`SaturationCheck`]), `emg` ([`EmgCheck`]) and `sign` ([`SignCheck`]). This module runs
-//! them in that order and gathers their findings and warnings.
+//! thresholds: `angle` ([`AngleCheck`]), `motion` ([`MotionCheck`], [`Plateau`]), `gait`
+//! ([`GaitCheck`], [`StrideFlag`]), `saturation` ([`SaturationCheck`]), `emg` ([`EmgCheck`])
+//! and `sign` ([`SignCheck`]). This module runs them in that order and gathers their findings
+//! and warnings.
 //!
 //! # Also reported
 //!
@@ -21,10 +41,13 @@
 
 mod angle;
 mod emg;
+mod envelope_scale;
+mod gait;
 mod motion;
 mod saturation;
 mod settings;
 mod sign;
+mod trial_kind;
 mod values;
 
 use experiment::Trial;
@@ -32,17 +55,37 @@ use serde::Serialize;
 
 pub use angle::AngleCheck;
 pub use emg::EmgCheck;
+pub use envelope_scale::{
+    check_envelope_scales, ChannelPeak, EnvelopeScaleCheck, ScaleFlag, ScaleTrial, TrialScale,
+};
+pub use gait::{GaitCheck, StrideFlag, StrideMeasures, StrideReason};
 pub use motion::{MotionCheck, Plateau, SweepDirection};
 pub use saturation::{ClipSide, SaturationCheck};
 pub use settings::CheckSettings;
 pub use sign::SignCheck;
+pub use trial_kind::TrialKind;
 
 use angle::angle_check;
 use emg::{emg_check, Welch};
+use gait::{gait_check, GaitInputs};
 use motion::motion_check;
 use saturation::saturation_check;
 use sign::sign_check;
+use trial_kind::infer_kind;
 use values::{num, signed};
+
+/// What the caller knows about a trial beyond its samples.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TrialContext<'a> {
+    /// What the trial is, when the caller knows (a session manifest's or a command's word);
+    /// `None`: inferred (module `trial_kind`).
+    pub kind: Option<TrialKind>,
+    /// The EMG columns are envelopes already (a recording map's `emg_is_envelope`): no rate
+    /// or power-line check.
+    pub emg_is_envelope: bool,
+    /// The tested foot's vertical ground reaction force, N, on the trial's samples.
+    pub ground_force_n: Option<&'a [f64]>,
+}
 
 /// Everything [`check_trial`] found. Serialises to JSON with these (snake_case) field names;
 /// a value that could not be computed is `null`.
@@ -54,10 +97,20 @@ pub struct TrialChecks {
     pub sample_rate_hz: Option<f64>,
     /// `t_last − t_first` in seconds (`null` without a time axis).
     pub duration_s: Option<f64>,
+    /// What the trial is: `dynamometer` or `gait`.
+    pub kind: TrialKind,
+    /// Why: `given by the caller`, or what it was inferred from.
+    pub kind_reason: String,
+    /// The EMG was taken as envelopes (no rate or power-line check).
+    pub emg_is_envelope: bool,
+    /// The names of the checks that ran, in order.
+    pub applied: Vec<&'static str>,
     /// The angle range.
     pub angle: AngleCheck,
-    /// Velocity, sweeps and plateaus.
-    pub motion: MotionCheck,
+    /// Velocity, sweeps and plateaus (`null` for a gait trial).
+    pub motion: Option<MotionCheck>,
+    /// The per-stride checks (`null` for a dynamometer trial).
+    pub strides: Option<GaitCheck>,
     /// Saturation of `torque_nm` and each EMG channel, in that order.
     pub saturation: Vec<SaturationCheck>,
     /// The EMG channels, in [`Trial::emg_channels`] order.
@@ -77,8 +130,29 @@ impl TrialChecks {
         self.warnings.is_empty()
     }
 
-    /// The summary for a terminal: one line per check (samples, angle, isokinetic,
-    /// saturation, EMG, sign), then one `warning: …` line per warning.
+    /// The checks that ran, in words, for a one-line verdict ("recording checks: clean (…)"):
+    /// the EMG checks of raw EMG (flat, rate, power line) are "EMG", of envelopes "flat EMG".
+    #[must_use]
+    pub fn applied_text(&self) -> String {
+        let raw = self.applied.contains(&"power_line");
+        self.applied
+            .iter()
+            .filter_map(|a| match *a {
+                "angle" => Some("angle range"),
+                "isokinetic" => Some("isokinetic plateaus"),
+                "strides" => Some("strides"),
+                "saturation" => Some("saturation"),
+                "emg_flat" if raw => Some("EMG"),
+                "emg_flat" => Some("flat EMG"),
+                "sign" => Some("torque sign"),
+                _ => None,
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
+    /// The summary for a terminal: one line per check (samples, trial kind, angle, isokinetic
+    /// or strides, saturation, EMG, sign), then one `warning: …` line per warning.
     #[must_use]
     pub fn summary_lines(&self) -> Vec<String> {
         let mut out = Vec::new();
@@ -91,6 +165,11 @@ impl TrialChecks {
             ),
             _ => format!("samples: {} (no sampling rate)", self.samples),
         });
+        out.push(format!(
+            "trial: {} ({})",
+            self.kind.name(),
+            self.kind_reason
+        ));
         out.push(
             match (self.angle.min_deg, self.angle.max_deg, self.angle.range_deg) {
                 (Some(lo), Some(hi), Some(r)) => {
@@ -99,7 +178,14 @@ impl TrialChecks {
                 _ => "angle: no finite samples".to_string(),
             },
         );
-        out.push(self.motion_line());
+        match (&self.motion, &self.strides) {
+            (Some(m), _) => out.push(motion_line(m)),
+            (None, Some(g)) => out.push(strides_line(g)),
+            (None, None) => out.push(format!(
+                "isokinetic: not checked ({} trial); strides: not checked (no ground force)",
+                self.kind.name()
+            )),
+        }
         let clipped: Vec<&str> = self
             .saturation
             .iter()
@@ -132,40 +218,27 @@ impl TrialChecks {
         out
     }
 
-    fn motion_line(&self) -> String {
-        let m = &self.motion;
-        let Some(frac) = m.plateau_fraction else {
-            return "isokinetic: no motion".to_string();
-        };
-        let speeds: Vec<String> = m
-            .plateaus
-            .iter()
-            .map(|p| signed(p.mean_velocity_deg_s, 1))
-            .collect();
-        let list = match speeds.len() {
-            0 => String::new(),
-            1 => format!(" at {} °/s", speeds[0]),
-            n => format!(
-                " at {} and {} °/s",
-                speeds[..n - 1].join(", "),
-                speeds[n - 1]
-            ),
-        };
-        let count = match m.plateaus.len() {
-            1 => "1 plateau".to_string(),
-            n => format!("{n} plateaus"),
-        };
-        format!(
-            "isokinetic: {}{count}{list} ({} % of {} s moving)",
-            if m.isokinetic { "" } else { "no: " },
-            num(100.0 * frac, 0),
-            num(m.moving_s, 2)
-        )
-    }
-
     fn emg_line(&self) -> String {
         if self.emg.is_empty() {
             return "emg: no channels".to_string();
+        }
+        if self.emg_is_envelope {
+            let flat: Vec<&str> = self
+                .emg
+                .iter()
+                .filter(|e| e.flat)
+                .map(|e| e.channel.as_str())
+                .collect();
+            return format!(
+                "emg: {} envelope channel{} ({}; rate and power line not checked)",
+                self.emg.len(),
+                if self.emg.len() == 1 { "" } else { "s" },
+                if flat.is_empty() {
+                    "none flat".to_string()
+                } else {
+                    format!("{} flat", flat.join(", "))
+                }
+            );
         }
         let parts: Vec<String> = self
             .emg
@@ -187,22 +260,106 @@ impl TrialChecks {
     }
 }
 
+/// The plateaus' line: their speeds listed up to four, else their count and speed range.
+fn motion_line(m: &MotionCheck) -> String {
+    let Some(frac) = m.plateau_fraction else {
+        return "isokinetic: no motion".to_string();
+    };
+    let speeds: Vec<f64> = m.plateaus.iter().map(|p| p.mean_velocity_deg_s).collect();
+    let list = match speeds.len() {
+        0 => String::new(),
+        1 => format!(" at {} °/s", signed(speeds[0], 1)),
+        2..=4 => {
+            let s: Vec<String> = speeds.iter().map(|v| signed(*v, 1)).collect();
+            format!(
+                " at {} and {} °/s",
+                s[..s.len() - 1].join(", "),
+                s[s.len() - 1]
+            )
+        }
+        _ => {
+            let lo = speeds.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = speeds.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            format!(" from {} to {} °/s", signed(lo, 1), signed(hi, 1))
+        }
+    };
+    let count = match m.plateaus.len() {
+        1 => "1 plateau".to_string(),
+        n => format!("{n} plateaus"),
+    };
+    format!(
+        "isokinetic: {}{count}{list} ({} % of {} s moving)",
+        if m.isokinetic { "" } else { "no: " },
+        num(100.0 * frac, 0),
+        num(m.moving_s, 2)
+    )
+}
+
+/// The strides' line: their count, median durations and the flagged strides (up to eight
+/// named).
+fn strides_line(g: &GaitCheck) -> String {
+    if let Some(e) = &g.error {
+        return format!("strides: none ({e})");
+    }
+    let medians = match (g.median_stride_s, g.median_stance_s) {
+        (Some(a), Some(b)) => format!(": median stride {} s, stance {} s", num(a, 2), num(b, 2)),
+        _ => String::new(),
+    };
+    let flagged = match g.flagged.len() {
+        0 if g.compared => "; none flagged".to_string(),
+        0 => format!("; too few to compare (at least {} needed)", g.min_strides),
+        n => {
+            let mut ids: Vec<String> = g
+                .flagged
+                .iter()
+                .take(8)
+                .map(|f| f.stride.to_string())
+                .collect();
+            if n > 8 {
+                ids.push(format!("… ({} more)", n - 8));
+            }
+            format!("; {n} flagged: {}", ids.join(", "))
+        }
+    };
+    format!(
+        "strides: {} from the ground force (stance above {} N){medians}{flagged}",
+        g.strides,
+        num(g.threshold_n, 0)
+    )
+}
+
 /// [`check_trial_with`] with the default [`CheckSettings`].
 #[must_use]
 pub fn check_trial(trial: &Trial, prediction_nm: Option<&[f64]>) -> TrialChecks {
     check_trial_with(trial, prediction_nm, &CheckSettings::default())
 }
 
-/// Runs every check of the module documentation on `trial`. `prediction_nm` is the model's
-/// EMG-driven torque on the same samples (N·m, plantarflexion > 0); without it the sign check
-/// is skipped. Never panics; what cannot be computed is `None` (JSON `null`).
+/// [`check_trial_in_context`] with the default (empty) [`TrialContext`]: the kind inferred,
+/// the EMG taken as raw.
 #[must_use]
 pub fn check_trial_with(
     trial: &Trial,
     prediction_nm: Option<&[f64]>,
     settings: &CheckSettings,
 ) -> TrialChecks {
+    check_trial_in_context(trial, prediction_nm, &TrialContext::default(), settings)
+}
+
+/// The most flagged strides named one warning each; the rest in one line.
+const STRIDE_WARNINGS: usize = 5;
+
+/// Runs the checks of the module documentation that apply to `trial`. `prediction_nm` is the
+/// model's EMG-driven torque on the same samples (N·m, plantarflexion > 0); without it the
+/// sign check is skipped. Never panics; what cannot be computed is `None` (JSON `null`).
+#[must_use]
+pub fn check_trial_in_context(
+    trial: &Trial,
+    prediction_nm: Option<&[f64]>,
+    context: &TrialContext<'_>,
+    settings: &CheckSettings,
+) -> TrialChecks {
     let mut warnings = Vec::new();
+    let mut applied = Vec::new();
     let n = trial.time_s.len();
     let dt = trial.dt();
     let dt = (dt.is_finite() && dt > 0.0).then_some(dt);
@@ -210,7 +367,7 @@ pub fn check_trial_with(
     let t0 = trial.time_s.first().copied().filter(|t| t.is_finite());
     if dt.is_none() {
         warnings.push(format!(
-            "time_s: {n} samples{}: no sampling rate, so no velocity or spectrum checks",
+            "time_s: {n} samples{}: no sampling rate, so no velocity, stride or spectrum checks",
             if n < 2 {
                 ""
             } else {
@@ -218,6 +375,15 @@ pub fn check_trial_with(
             }
         ));
     }
+    let grf = context.ground_force_n;
+    let (kind, kind_reason) = infer_kind(
+        context.kind,
+        grf.is_some(),
+        &trial.ankle_angle_deg,
+        dt,
+        settings,
+    );
+    let raw_emg = !context.emg_is_envelope;
 
     let mut columns: Vec<(String, &[f64])> = vec![
         ("ankle_angle_deg".into(), &trial.ankle_angle_deg),
@@ -226,6 +392,9 @@ pub fn check_trial_with(
     columns.extend(trial.emg_channels());
     if let Some(knee) = &trial.knee_angle_deg {
         columns.push(("knee_angle_deg".into(), knee));
+    }
+    if let Some(f) = grf {
+        columns.push(("grf_vertical_n".into(), f));
     }
     for (name, x) in &columns {
         if x.len() != n {
@@ -237,26 +406,55 @@ pub fn check_trial_with(
         }
     }
 
+    applied.push("angle");
     let angle = angle_check(&trial.ankle_angle_deg, settings, &mut warnings);
-    let motion = motion_check(
-        &trial.ankle_angle_deg,
-        dt,
-        t0.unwrap_or(0.0),
-        settings,
-        &mut warnings,
-    );
+    let motion = (kind == TrialKind::Dynamometer).then(|| {
+        applied.push("isokinetic");
+        motion_check(
+            &trial.ankle_angle_deg,
+            dt,
+            t0.unwrap_or(0.0),
+            settings,
+            &mut warnings,
+        )
+    });
+    let emg_channels = trial.emg_channels();
+    let strides = match (kind, grf, dt) {
+        (TrialKind::Gait, Some(f), Some(d)) => {
+            applied.push("strides");
+            let g = gait_check(
+                &GaitInputs {
+                    time_s: &trial.time_s,
+                    dt: d,
+                    torque_nm: &trial.torque_nm,
+                    grf_n: f,
+                    emg: emg_channels.iter().map(|(_, x)| *x).collect(),
+                    emg_is_envelope: context.emg_is_envelope,
+                },
+                settings,
+            );
+            stride_warnings(&g, &mut warnings);
+            Some(g)
+        }
+        _ => None,
+    };
 
+    applied.push("saturation");
     let mut saturation = Vec::new();
     saturation.push(saturation_check("torque_nm", &trial.torque_nm, settings));
-    let emg_channels = trial.emg_channels();
     for (name, x) in &emg_channels {
         saturation.push(saturation_check(name, x, settings));
     }
 
-    if let Some(f) = fs {
+    applied.push("emg_flat");
+    if raw_emg {
+        applied.push("emg_rate");
+        applied.push("power_line");
+    }
+    if let Some(f) = fs.filter(|_| raw_emg) {
         if f < 2.0 * settings.emg_band_hz[1] {
             warnings.push(format!(
-                "time_s: sampled at {} Hz, below the {} Hz the {}–{} Hz EMG band needs",
+                "time_s: sampled at {} Hz, below the {} Hz the {}–{} Hz EMG band needs (if the EMG columns are envelopes already, say so: emg_is_envelope)",
                 num(f, 0),
                 num(2.0 * settings.emg_band_hz[1], 0),
                 num(settings.emg_band_hz[0], 0),
@@ -264,7 +462,9 @@ pub fn check_trial_with(
             ));
         }
     }
-    let spectrum = fs.and_then(|f| Welch::new(f, n, settings));
+    let spectrum = fs
+        .filter(|_| raw_emg)
+        .and_then(|f| Welch::new(f, n, settings));
     let mut emg = Vec::new();
     for (name, x) in &emg_channels {
         emg.push(emg_check(name, x, spectrum.as_ref(), settings));
@@ -323,17 +523,57 @@ pub fn check_trial_with(
     }
 
     let sign = prediction_nm.map(|p| sign_check(&trial.torque_nm, p, settings, &mut warnings));
+    if sign.is_some() {
+        applied.push("sign");
+    }
 
     TrialChecks {
         samples: n,
         sample_rate_hz: fs,
         duration_s: dt.map(|d| d * (n - 1) as f64),
+        kind,
+        kind_reason,
+        emg_is_envelope: context.emg_is_envelope,
+        applied,
         angle,
         motion,
+        strides,
         saturation,
         emg,
         sign,
         warnings,
         settings: *settings,
+    }
+}
+
+/// The gait check's warnings: why there are no strides, or the flagged strides, each on its
+/// own line up to [`STRIDE_WARNINGS`], the rest counted on one.
+fn stride_warnings(g: &GaitCheck, warnings: &mut Vec<String>) {
+    if let Some(e) = &g.error {
+        warnings.push(format!("{e}: no per-stride checks"));
+        return;
+    }
+    if !g.compared {
+        warnings.push(format!(
+            "grf_vertical_n: {} stride(s): too few to compare the strides with each other",
+            g.strides
+        ));
+    }
+    for f in g.flagged.iter().take(STRIDE_WARNINGS) {
+        let why: Vec<&str> = f.reasons.iter().map(|r| r.text.as_str()).collect();
+        warnings.push(format!(
+            "stride {} ({}–{} s): {}",
+            f.stride,
+            num(f.start_s, 2),
+            num(f.end_s, 2),
+            why.join("; ")
+        ));
+    }
+    if g.flagged.len() > STRIDE_WARNINGS {
+        warnings.push(format!(
+            "and {} more of the {} strides flagged (checks.strides.flagged in the JSON)",
+            g.flagged.len() - STRIDE_WARNINGS,
+            g.strides
+        ));
     }
 }

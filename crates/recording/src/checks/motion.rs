@@ -111,6 +111,78 @@ fn smoothed_velocity(angle: &[f64], dt: f64, k: usize) -> Vec<f64> {
         .collect()
 }
 
+/// The velocity of an angle trace and its sweeps (module documentation), shared by the
+/// plateau check and the trial-kind inference.
+pub(super) struct Sweeps {
+    /// Width of the velocity window used, s.
+    pub window_s: f64,
+    /// The smoothed velocity, °/s (NaN where it cannot be computed).
+    pub velocity: Vec<f64>,
+    /// 99th percentile of |velocity|, °/s.
+    pub p99: f64,
+    /// The moving threshold, °/s.
+    pub threshold: f64,
+    /// Maximal runs `(first, end, sign)` of moving samples of one sign.
+    pub runs: Vec<(usize, usize, i8)>,
+}
+
+/// The sweeps of `angle` sampled every `dt`; `Err(window_s)` when no velocity is finite.
+pub(super) fn sweeps(angle: &[f64], dt: f64, s: &CheckSettings) -> Result<Sweeps, f64> {
+    let half = 0.5 * s.velocity_window_s / dt;
+    let k = if half.is_finite() {
+        (half.round().max(1.0) as usize).min(1 << 14)
+    } else {
+        1
+    };
+    let window_s = 2.0 * k as f64 * dt;
+    let v = smoothed_velocity(angle, dt, k);
+    let mut speeds: Vec<f64> = v
+        .iter()
+        .filter(|x| x.is_finite())
+        .map(|x| x.abs())
+        .collect();
+    if speeds.is_empty() {
+        return Err(window_s);
+    }
+    speeds.sort_by(f64::total_cmp);
+    let p99 = speeds[((speeds.len() - 1) as f64 * 0.99).floor() as usize];
+    let threshold = s
+        .min_moving_speed_deg_s
+        .max(s.moving_fraction_of_peak * p99);
+    let moving_sign = |x: f64| -> i8 {
+        if x.is_finite() && x.abs() > threshold {
+            if x < 0.0 {
+                -1
+            } else {
+                1
+            }
+        } else {
+            0
+        }
+    };
+    let mut runs: Vec<(usize, usize, i8)> = Vec::new();
+    let mut i = 0;
+    while i < v.len() {
+        let sg = moving_sign(v[i]);
+        if sg == 0 {
+            i += 1;
+            continue;
+        }
+        let start = i;
+        while i < v.len() && moving_sign(v[i]) == sg {
+            i += 1;
+        }
+        runs.push((start, i, sg));
+    }
+    Ok(Sweeps {
+        window_s,
+        velocity: v,
+        p99,
+        threshold,
+        runs,
+    })
+}
+
 pub(super) fn motion_check(
     angle: &[f64],
     dt: Option<f64>,
@@ -132,60 +204,21 @@ pub(super) fn motion_check(
     let Some(dt) = dt else {
         return out;
     };
-    let half = 0.5 * s.velocity_window_s / dt;
-    let k = if half.is_finite() {
-        (half.round().max(1.0) as usize).min(1 << 14)
-    } else {
-        1
-    };
-    out.velocity_window_s = Some(2.0 * k as f64 * dt);
-    let v = smoothed_velocity(angle, dt, k);
-    let mut speeds: Vec<f64> = v
-        .iter()
-        .filter(|x| x.is_finite())
-        .map(|x| x.abs())
-        .collect();
-    if speeds.is_empty() {
-        warnings.push(
-            "ankle_angle_deg: too few finite samples for a velocity: not an isokinetic test"
-                .to_string(),
-        );
-        return out;
-    }
-    speeds.sort_by(f64::total_cmp);
-    let p99 = speeds[((speeds.len() - 1) as f64 * 0.99).floor() as usize];
-    let threshold = s
-        .min_moving_speed_deg_s
-        .max(s.moving_fraction_of_peak * p99);
-    out.peak_speed_deg_s = Some(p99);
-    out.moving_threshold_deg_s = Some(threshold);
-
-    // Sweeps: maximal runs of moving samples of one sign.
-    let moving_sign = |x: f64| -> i8 {
-        if x.is_finite() && x.abs() > threshold {
-            if x < 0.0 {
-                -1
-            } else {
-                1
-            }
-        } else {
-            0
+    let sw = match sweeps(angle, dt, s) {
+        Ok(sw) => sw,
+        Err(window_s) => {
+            out.velocity_window_s = Some(window_s);
+            warnings.push(
+                "ankle_angle_deg: too few finite samples for a velocity: not an isokinetic test"
+                    .to_string(),
+            );
+            return out;
         }
     };
-    let mut sweeps: Vec<(usize, usize, i8)> = Vec::new();
-    let mut i = 0;
-    while i < v.len() {
-        let sg = moving_sign(v[i]);
-        if sg == 0 {
-            i += 1;
-            continue;
-        }
-        let start = i;
-        while i < v.len() && moving_sign(v[i]) == sg {
-            i += 1;
-        }
-        sweeps.push((start, i, sg));
-    }
+    out.velocity_window_s = Some(sw.window_s);
+    out.peak_speed_deg_s = Some(sw.p99);
+    out.moving_threshold_deg_s = Some(sw.threshold);
+    let (v, threshold, sweeps) = (&sw.velocity, sw.threshold, &sw.runs);
     out.sweeps = sweeps.len();
     let moving: usize = sweeps.iter().map(|(a, b, _)| b - a).sum();
     out.moving_s = moving as f64 * dt;
@@ -199,7 +232,7 @@ pub(super) fn motion_check(
 
     let tol = |c: f64| (s.plateau_tolerance * c).max(s.plateau_tolerance_min_deg_s);
     let mut on_total = 0usize;
-    for &(a, b, sg) in &sweeps {
+    for &(a, b, sg) in sweeps {
         let seg = &v[a..b];
         let mut mags: Vec<f64> = seg.iter().map(|x| x.abs()).collect();
         mags.sort_by(f64::total_cmp);

@@ -47,6 +47,32 @@ pub struct CheckSettings {
     pub power_line_max_ratio: f64,
     /// Correlation with the prediction below which the torque looks flipped (−0.3).
     pub flipped_max_correlation: f64,
+    /// Fewest sweeps from which the angle can tell a gait trial from a dynamometer's (4).
+    pub kind_min_sweeps: usize,
+    /// A sweep spans the range when it covers this share of the angle's 1–99 % range (0.7).
+    pub kind_sweep_span_fraction: f64,
+    /// Below this share of spanning sweeps a trial without a ground force is gait (0.5).
+    pub kind_min_spanning_share: f64,
+    /// Stance while the vertical ground reaction force exceeds this, N (20 N).
+    pub stance_threshold_n: f64,
+    /// Fewest strides the per-stride comparison needs (5).
+    pub stride_min_count: usize,
+    /// Robust score above which a stride's measure is out of line (3.5).
+    pub stride_outlier_z: f64,
+    /// Least sd of stride and stance durations, as a share of their median (0.03).
+    pub stride_time_floor: f64,
+    /// Least sd of the peak vertical force, as a share of its median (0.05).
+    pub peak_force_floor: f64,
+    /// Least sd of the peak moment and of the moment per force, as a share of the median (0.08).
+    pub peak_moment_floor: f64,
+    /// Least sd of the moment in swing, as a share of the median peak moment (0.05).
+    pub swing_moment_floor_of_peak: f64,
+    /// Least sd of the largest moment and envelope jumps, as a share of their median (0.10).
+    pub moment_jump_floor: f64,
+    /// Percentile of the envelope and moment peaks compared across trials (0.95).
+    pub envelope_scale_percentile: f64,
+    /// Largest factor between trials' envelope per moment before the warning (3).
+    pub envelope_scale_max_factor: f64,
 }
 
 impl Default for CheckSettings {
@@ -72,6 +98,19 @@ impl Default for CheckSettings {
             power_line_harmonics: 3,
             power_line_max_ratio: 0.3,
             flipped_max_correlation: -0.3,
+            kind_min_sweeps: 4,
+            kind_sweep_span_fraction: 0.7,
+            kind_min_spanning_share: 0.5,
+            stance_threshold_n: experiment::STANCE_THRESHOLD_N,
+            stride_min_count: 5,
+            stride_outlier_z: 3.5,
+            stride_time_floor: 0.03,
+            peak_force_floor: 0.05,
+            peak_moment_floor: 0.08,
+            swing_moment_floor_of_peak: 0.05,
+            moment_jump_floor: 0.10,
+            envelope_scale_percentile: 0.95,
+            envelope_scale_max_factor: 3.0,
         }
     }
 }
