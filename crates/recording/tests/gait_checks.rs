@@ -114,13 +114,21 @@ fn both_belts(w: &mut Walk, k: usize) {
     }
 }
 
+/// The walk's trial with `grf` as its ground force.
+fn with_force(w: &Walk, grf: Option<&[f64]>) -> Trial {
+    Trial {
+        grf_vertical_n: grf.map(<[f64]>::to_vec),
+        ..w.trial.clone()
+    }
+}
+
+/// The checks of the walk with its force, its EMG taken as envelopes.
 fn checks(w: &Walk) -> TrialChecks {
     check_trial_in_context(
-        &w.trial,
+        &with_force(w, Some(&w.grf)),
         None,
         &TrialContext {
             emg_is_envelope: true,
-            ground_force_n: Some(&w.grf),
             ..TrialContext::default()
         },
         &CheckSettings::default(),
@@ -209,12 +217,9 @@ fn a_clean_walk_is_gait_with_no_flagged_stride() {
 fn raw_emg_at_100_hz_keeps_the_rate_warning_and_an_envelope_does_not() {
     let w = walk(12, 2);
     let raw = check_trial_in_context(
-        &w.trial,
+        &with_force(&w, Some(&w.grf)),
         None,
-        &TrialContext {
-            ground_force_n: Some(&w.grf),
-            ..TrialContext::default()
-        },
+        &TrialContext::default(),
         &CheckSettings::default(),
     );
     assert!(
@@ -421,11 +426,10 @@ fn no_stride_and_too_few_strides_are_warnings_not_errors() {
     );
     let flat = vec![0.0; w.trial.len()];
     let c = check_trial_in_context(
-        &w.trial,
+        &with_force(&w, Some(&flat)),
         None,
         &TrialContext {
             emg_is_envelope: true,
-            ground_force_n: Some(&flat),
             ..TrialContext::default()
         },
         &CheckSettings::default(),
@@ -443,11 +447,10 @@ fn no_stride_and_too_few_strides_are_warnings_not_errors() {
     let short = &w.grf[..100];
     for f in [&nan[..], short] {
         let c = check_trial_in_context(
-            &w.trial,
+            &with_force(&w, Some(f)),
             None,
             &TrialContext {
                 emg_is_envelope: true,
-                ground_force_n: Some(f),
                 ..TrialContext::default()
             },
             &CheckSettings::default(),
@@ -461,12 +464,11 @@ fn no_stride_and_too_few_strides_are_warnings_not_errors() {
 fn a_given_kind_overrides_the_inference() {
     let w = walk(12, 9);
     let c = check_trial_in_context(
-        &w.trial,
+        &with_force(&w, Some(&w.grf)),
         None,
         &TrialContext {
             kind: Some(TrialKind::Dynamometer),
             emg_is_envelope: true,
-            ground_force_n: Some(&w.grf),
         },
         &CheckSettings::default(),
     );
@@ -475,12 +477,11 @@ fn a_given_kind_overrides_the_inference() {
     assert!(c.motion.is_some() && c.strides.is_none());
     // gait given without a force: no stride check, said so
     let c = check_trial_in_context(
-        &w.trial,
+        &with_force(&w, None),
         None,
         &TrialContext {
             kind: Some(TrialKind::Gait),
             emg_is_envelope: true,
-            ground_force_n: None,
         },
         &CheckSettings::default(),
     );

@@ -74,17 +74,16 @@ use sign::sign_check;
 use trial_kind::infer_kind;
 use values::{num, signed};
 
-/// What the caller knows about a trial beyond its samples.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct TrialContext<'a> {
+/// What the caller knows about a trial beyond its samples (the tested foot's ground force is
+/// one of them: [`Trial::grf_vertical_n`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TrialContext {
     /// What the trial is, when the caller knows (a session manifest's or a command's word);
     /// `None`: inferred (module `trial_kind`).
     pub kind: Option<TrialKind>,
     /// The EMG columns are envelopes already (a recording map's `emg_is_envelope`): no rate
     /// or power-line check.
     pub emg_is_envelope: bool,
-    /// The tested foot's vertical ground reaction force, N, on the trial's samples.
-    pub ground_force_n: Option<&'a [f64]>,
 }
 
 /// Everything [`check_trial`] found. Serialises to JSON with these (snake_case) field names;
@@ -355,7 +354,7 @@ const STRIDE_WARNINGS: usize = 5;
 pub fn check_trial_in_context(
     trial: &Trial,
     prediction_nm: Option<&[f64]>,
-    context: &TrialContext<'_>,
+    context: &TrialContext,
     settings: &CheckSettings,
 ) -> TrialChecks {
     let mut warnings = Vec::new();
@@ -375,7 +374,7 @@ pub fn check_trial_in_context(
             }
         ));
     }
-    let grf = context.ground_force_n;
+    let grf = trial.grf_vertical_n.as_deref();
     let (kind, kind_reason) = infer_kind(
         context.kind,
         grf.is_some(),
