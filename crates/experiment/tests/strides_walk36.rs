@@ -21,7 +21,7 @@ fn walk36_force() -> (Vec<f64>, Vec<f64>) {
     (t, f)
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
+fn median_s(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     let n = v.len();
     0.5 * (v[(n - 1) / 2] + v[n / 2])
@@ -41,7 +41,7 @@ fn walk36_right_foot_strides() {
         .into_iter()
         .map(Option::unwrap)
         .collect();
-    let (ms, mst) = (median(stride.clone()), median(stance.clone()));
+    let (ms, mst) = (median_s(stride.clone()), median_s(stance.clone()));
     assert!((1.12..1.18).contains(&ms), "median stride {ms} s");
     assert!((0.72..0.78).contains(&mst), "median stance {mst} s");
     let typical: Vec<usize> = (0..s.len())

@@ -16,7 +16,7 @@
 use serde::Serialize;
 
 use super::settings::CheckSettings;
-use super::values::{median, num, quantile};
+use super::values::{finite_quantile, median_of, num};
 
 /// One trial of a session, for [`check_envelope_scales`].
 #[derive(Clone, Debug)]
@@ -96,13 +96,16 @@ pub fn check_envelope_scales(trials: &[ScaleTrial<'_>], s: &CheckSettings) -> En
         .iter()
         .map(|t| TrialScale {
             trial: t.name.to_string(),
-            moment_peak_nm: positive(quantile(t.moment_nm, p)),
+            moment_peak_nm: positive(finite_quantile(t.moment_nm, p)),
             envelope_peaks: t
                 .emg
                 .iter()
                 .map(|(c, x)| ChannelPeak {
                     channel: c.clone(),
-                    peak: positive(quantile(&x.iter().map(|v| v.abs()).collect::<Vec<_>>(), p)),
+                    peak: positive(finite_quantile(
+                        &x.iter().map(|v| v.abs()).collect::<Vec<_>>(),
+                        p,
+                    )),
                 })
                 .collect(),
         })
@@ -170,7 +173,8 @@ pub fn check_envelope_scales(trials: &[ScaleTrial<'_>], s: &CheckSettings) -> En
             let r: Vec<f64> = rows.iter().map(|(_, e, m)| e / m).collect();
             let es: Vec<f64> = rows.iter().map(|x| x.1).collect();
             let ms: Vec<f64> = rows.iter().map(|x| x.2).collect();
-            let (Some(rm), Some(em), Some(mm)) = (median(&r), median(&es), median(&ms)) else {
+            let (Some(rm), Some(em), Some(mm)) = (median_of(&r), median_of(&es), median_of(&ms))
+            else {
                 continue;
             };
             for (k, &(i, e, m)) in rows.iter().enumerate() {

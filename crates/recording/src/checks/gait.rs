@@ -40,7 +40,7 @@ use experiment::{ground_force_cycles, Stride, StrideSource, Strides, MIN_STRIDE_
 use serde::Serialize;
 
 use super::settings::CheckSettings;
-use super::values::{median, num};
+use super::values::{median_of, num};
 
 /// What one stride measures (module documentation); `null` where it cannot be computed.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -215,9 +215,9 @@ fn robust_scores(
     if present.len() < min_count.max(1) {
         return None;
     }
-    let m = median(&present)?;
+    let m = median_of(&present)?;
     let dev: Vec<f64> = present.iter().map(|v| (v - m).abs()).collect();
-    let mad = median(&dev)?;
+    let mad = median_of(&dev)?;
     let sigma = (1.4826 * mad).max(floor);
     if !(sigma > 0.0 && sigma.is_finite()) {
         return None;
@@ -341,20 +341,20 @@ pub(super) fn gait_check(g: &GaitInputs<'_>, s: &CheckSettings) -> GaitCheck {
     };
     let count = short.iter().filter(|s| !**s).count();
     out.compared = count >= s.stride_min_count;
-    out.median_stride_s = median(
+    out.median_stride_s = median_of(
         &compared(|m| Some(m.duration_s))
             .into_iter()
             .flatten()
             .collect::<Vec<_>>(),
     );
-    out.median_stance_s = median(
+    out.median_stance_s = median_of(
         &compared(|m| m.stance_s)
             .into_iter()
             .flatten()
             .collect::<Vec<_>>(),
     );
     if out.compared {
-        let median_peak = median(
+        let median_peak = median_of(
             &compared(|m| m.peak_moment_nm)
                 .into_iter()
                 .flatten()
@@ -446,7 +446,7 @@ pub(super) fn gait_check(g: &GaitInputs<'_>, s: &CheckSettings) -> GaitCheck {
         for r in &rules {
             let values = compared(r.get);
             let floor = r.floor
-                * median(&values.iter().flatten().copied().collect::<Vec<_>>())
+                * median_of(&values.iter().flatten().copied().collect::<Vec<_>>())
                     .map_or(0.0, f64::abs);
             let Some((z, md)) = robust_scores(&values, floor, s.stride_min_count) else {
                 continue;
@@ -493,7 +493,7 @@ pub(super) fn gait_check(g: &GaitInputs<'_>, s: &CheckSettings) -> GaitCheck {
         let env_jumps = compared(|m| m.envelope_jump_per_s);
         let jump_floor = |v: &[Option<f64>]| {
             s.moment_jump_floor
-                * median(&v.iter().flatten().copied().collect::<Vec<_>>()).unwrap_or(0.0)
+                * median_of(&v.iter().flatten().copied().collect::<Vec<_>>()).unwrap_or(0.0)
         };
         let env_z = robust_scores(&env_jumps, jump_floor(&env_jumps), s.stride_min_count);
         if let Some((z, md)) = robust_scores(&jumps, jump_floor(&jumps), s.stride_min_count) {

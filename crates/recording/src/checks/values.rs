@@ -20,7 +20,7 @@ pub(super) fn signed(x: f64, d: usize) -> String {
 }
 
 /// Median of the values (`None` when empty); NaN-free input expected.
-pub(super) fn median(x: &[f64]) -> Option<f64> {
+pub(super) fn median_of(x: &[f64]) -> Option<f64> {
     if x.is_empty() {
         return None;
     }
@@ -32,7 +32,7 @@ pub(super) fn median(x: &[f64]) -> Option<f64> {
 
 /// The `p`-quantile (0…1) of the finite values, the sample at rank `round(p·(n − 1))` of
 /// the sorted values (`None` without finite values).
-pub(super) fn quantile(x: &[f64], p: f64) -> Option<f64> {
+pub(super) fn finite_quantile(x: &[f64], p: f64) -> Option<f64> {
     let mut v: Vec<f64> = x.iter().copied().filter(|v| v.is_finite()).collect();
     if v.is_empty() {
         return None;
