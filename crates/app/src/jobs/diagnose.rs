@@ -157,7 +157,7 @@ pub fn run(args: DiagnoseJob, rep: &Reporter) -> AppResult {
         None => loaded.trial.sample_rate_hz(),
     };
     let unloaded_name = unloaded.as_ref().map(|(_, n)| n.as_str());
-    let checks = super::inspect::trial_checks(&loaded);
+    let checks = super::inspect::trial_checks(&loaded, emg_is_envelope);
     let text = diagnosis_json(
         &d,
         &loaded.name,

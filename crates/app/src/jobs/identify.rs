@@ -427,7 +427,7 @@ fn identify_report(
     )
     .map_err(|e| e.to_string());
     let adequacy_lines = extended::adequacy_lines(&adequacy, None);
-    let checks = super::inspect::trial_checks(&prep.loaded);
+    let checks = super::inspect::trial_checks(&prep.loaded, prep.prepared.options.emg_is_envelope);
     let errors_pct = prep.truth.as_ref().map(|t| errors_pct(&estimate.params, t));
     let report = IdentifyReport {
         method: estimate.method.name(),
@@ -519,10 +519,15 @@ fn run_sa(prep: &Prepared, seed: u64, chains: Option<u32>, rep: &Reporter) -> Ap
         fit.wall_s,
         1e6 * fit.wall_s / fit.evaluations.max(1) as f64
     )];
-    lines.push(format!(
-        "  torque RMS {:.2} N·m after removing the dynamometer's cycle-locked error ({:.2} N·m against the raw torque)",
-        fit.rms_nm, rms_raw
-    ));
+    // the correction is named only when a dynamometer's unloaded run gave one
+    lines.push(if prep.dynamometer.is_some() {
+        format!(
+            "  torque RMS {:.2} N·m after removing the dynamometer's cycle-locked error ({:.2} N·m against the raw torque)",
+            fit.rms_nm, rms_raw
+        )
+    } else {
+        format!("  torque RMS {:.2} N·m", fit.rms_nm)
+    });
     let width = prep
         .problem
         .names()

@@ -25,8 +25,15 @@ const PLANNED: &[&str] = &["map.json", "inspect.json"];
 
 /// The checks of a trial, with the nominal model's torque as the EMG-driven prediction (the
 /// sign check); `None` for the prediction when the model cannot run on it.
-pub fn trial_checks(loaded: &super::LoadedTrial) -> recording::checks::TrialChecks {
-    let prediction = trial_inputs(loaded, &ModelSettings::default())
+pub fn trial_checks(
+    loaded: &super::LoadedTrial,
+    emg_is_envelope: bool,
+) -> recording::checks::TrialChecks {
+    let model = ModelSettings {
+        emg_is_envelope,
+        ..ModelSettings::default()
+    };
+    let prediction = trial_inputs(loaded, &model)
         .ok()
         .and_then(|inputs| {
             muscle_model::simulate(
@@ -38,17 +45,27 @@ pub fn trial_checks(loaded: &super::LoadedTrial) -> recording::checks::TrialChec
             .ok()
         })
         .map(|s| s.torque);
-    recording::checks::check_trial(&loaded.trial, prediction.as_deref())
+    // the kind (dynamometer or gait) is inferred from the trial: a ground force, or sweeps
+    // that do not span the range, make it gait
+    recording::checks::check_trial_in_context(
+        &loaded.trial,
+        prediction.as_deref(),
+        &recording::checks::TrialContext {
+            kind: None,
+            emg_is_envelope,
+        },
+        &recording::checks::CheckSettings::default(),
+    )
 }
 
 /// The summary lines of the checks in `identify` and `diagnose`: one line when the recording
 /// passes them all, else a line per warning.
 pub fn check_lines(checks: &recording::checks::TrialChecks) -> Vec<String> {
     if checks.warnings.is_empty() {
-        return vec![
-            "recording checks: clean (angle range, isokinetic plateaus, saturation, EMG, torque sign)"
-                .into(),
-        ];
+        return vec![format!(
+            "recording checks: clean ({})",
+            checks.applied_text()
+        )];
     }
     let mut out = vec![format!(
         "recording checks: {} warning(s) (details under \"checks\" in the JSON):",
@@ -156,7 +173,7 @@ fn run_map(args: &InspectJob, out_dir: &Path, inputs: &[&Path], rep: &Reporter) 
             .collect::<Vec<_>>()
             .join(", ")
     ));
-    let checks = trial_checks(&loaded);
+    let checks = trial_checks(&loaded, loaded.emg_is_envelope);
     for l in checks.summary_lines() {
         say(&format!("  {l}"));
     }

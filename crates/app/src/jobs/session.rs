@@ -551,14 +551,17 @@ fn load_csv_trial(
     let p = t.source.path();
     let (mut trial, geometry) = read_session_trial(p, model, rep)?;
     // the recording as recorded is what its checks judge
-    let checks = super::inspect::trial_checks(&super::LoadedTrial {
-        trial: trial.clone(),
-        name: p.display().to_string(),
-        path: Some(p.to_path_buf()),
-        data_files: Vec::new(),
-        emg_is_envelope: model.emg_is_envelope,
-        bundled: false,
-    });
+    let checks = super::inspect::trial_checks(
+        &super::LoadedTrial {
+            trial: trial.clone(),
+            name: p.display().to_string(),
+            path: Some(p.to_path_buf()),
+            data_files: Vec::new(),
+            emg_is_envelope: model.emg_is_envelope,
+            bundled: false,
+        },
+        model.emg_is_envelope,
+    );
     // the TA's crosstalk leaves the raw triceps EMG before the session's EMG
     // references are taken from it, as it leaves a single trial's
     let settings = diagnose::DiagnoseSettings {

@@ -102,7 +102,10 @@ fn schemes_of(names: &[String], trials: &[ValidationTrial<'_>]) -> AppResult<Vec
         }
         // holding out the later part of a trial asks whether a calibration carries forward
         // over strides; a trial of one stance (a CEINMS folder) has none to carry to
-        if trials.iter().any(|t| t.stride_starts.is_some_and(|s| s.len() >= 4)) {
+        if trials
+            .iter()
+            .any(|t| t.stride_starts.is_some_and(|s| s.len() >= 4))
+        {
             all.push(FoldScheme::LaterStrides);
         }
         let mut conditions: Vec<&str> = trials.iter().filter_map(|t| t.condition).collect();
@@ -121,6 +124,37 @@ fn schemes_of(names: &[String], trials: &[ValidationTrial<'_>]) -> AppResult<Vec
             })
         })
         .collect()
+}
+
+/// Where a trial's strides start (samples): from its vertical ground force (stance while it
+/// exceeds [`experiment::STANCE_THRESHOLD_N`]); `None` without one. A stride the force cannot
+/// make (shorter than 0.2 s) is an error naming the file and column the force came from.
+fn stride_starts(t: &super::session::SessionTrial) -> AppResult<Option<Vec<usize>>> {
+    let Some(trial) = t.prepared.as_ref().map(|p| &p.trial) else {
+        return Ok(None);
+    };
+    let Some(force) = trial.grf_vertical_n.as_deref() else {
+        return Ok(None);
+    };
+    match experiment::strides_from_ground_force(
+        force,
+        trial.sample_rate_hz(),
+        experiment::STANCE_THRESHOLD_N,
+    ) {
+        Ok(s) => Ok(Some(s.strides.iter().map(|x| x.start).collect())),
+        Err(e) => {
+            // name the force's own file and column, as the map gives them
+            let place = recording::read_map(Path::new(&t.source))
+                .ok()
+                .and_then(|m| {
+                    let c = m.channels.get("grf_vertical_n")?;
+                    let file = c.file.clone().or(m.file.clone())?;
+                    Some(format!("{file}: column {}", c.column))
+                })
+                .unwrap_or_else(|| t.source.clone());
+            Err(AppError::bad(format!("{}: {place}: {e}", t.source)))
+        }
+    }
 }
 
 /// The peers' parameters, each over the session's (its fixed muscles from the session).
@@ -171,15 +205,21 @@ pub fn run(job: ValidateJob, rep: &Reporter) -> AppResult {
         ..ModelSettings::default()
     };
     let session = load_session(&job.session, &model, job.free.as_deref(), rep)?;
+    let starts: Vec<Option<Vec<usize>>> = session
+        .trials
+        .iter()
+        .map(stride_starts)
+        .collect::<AppResult<_>>()?;
     let trials: Vec<ValidationTrial<'_>> = session
         .trials
         .iter()
         .zip(&session.manifest.trials)
-        .map(|(t, entry)| ValidationTrial {
+        .zip(&starts)
+        .map(|((t, entry), s)| ValidationTrial {
             name: &t.name,
             condition: entry.condition.as_deref(),
             problem: &t.problem,
-            stride_starts: None,
+            stride_starts: s.as_deref(),
         })
         .collect();
     let schemes = schemes_of(&job.folds, &trials)?;

@@ -246,6 +246,7 @@ pub(super) fn summary_lines(
     what: &str,
     m: &identify_mcmc::McmcIdentification,
     trials: &[McmcTrialReport],
+    corrected: bool,
 ) -> Vec<String> {
     let (max_rhat, min_ess) = m.worst_diagnostics();
     let mut lines = vec![format!(
@@ -261,10 +262,15 @@ pub(super) fn summary_lines(
             )
         }
     )];
-    lines.push(format!(
-        "  torque RMS at the posterior mean {:.2} N·m after removing the dynamometer's cycle-locked error ({:.2} N·m against the raw torque)",
-        m.rms_corrected_nm, m.rms_nm
-    ));
+    // the correction is named only when a dynamometer's unloaded run gave one
+    lines.push(if corrected {
+        format!(
+            "  torque RMS at the posterior mean {:.2} N·m after removing the dynamometer's cycle-locked error ({:.2} N·m against the raw torque)",
+            m.rms_corrected_nm, m.rms_nm
+        )
+    } else {
+        format!("  torque RMS at the posterior mean {:.2} N·m", m.rms_nm)
+    });
     if trials.len() > 1 {
         lines.push("  trial                     RMS (N·m)     R²   raw RMS (N·m)".into());
         for t in trials {
@@ -360,7 +366,7 @@ pub(super) fn run_mcmc(
         .map_err(|e| AppError::internal(format!("simulation of the posterior mean failed: {e}")))?;
     let fit = experiment::moment_fit(prep.problem.measured(), &prediction);
     let trials = vec![trial_entry(&prep.loaded.name, &m.trials[0], fit)];
-    let lines = summary_lines(&prep.loaded.name, &m, &trials);
+    let lines = summary_lines(&prep.loaded.name, &m, &trials, prep.dynamometer.is_some());
     let estimate = Estimate {
         method: Method::Mcmc,
         params: posterior_means(&m),

@@ -695,6 +695,7 @@ fn run_mcmc(
         &format!("session {what}, {} trials", session.trials.len()),
         &m,
         &fits,
+        session.trials.iter().any(|t| t.correction().is_some()),
     );
     let adequacy_lines = adequacy_lines(&session, &adequacy);
     let estimate = super::mcmc::posterior_means(&m);
