@@ -247,6 +247,35 @@ struct Rule {
     text: fn(f64, f64) -> String,
 }
 
+/// Every stride's measures with the too short strides left out of the comparison.
+struct Compared<'a> {
+    measures: &'a [StrideMeasures],
+    short: &'a [bool],
+}
+
+impl Compared<'_> {
+    /// One measure of each stride, `None` for a too short one.
+    fn values(&self, get: fn(&StrideMeasures) -> Option<f64>) -> Vec<Option<f64>> {
+        self.measures
+            .iter()
+            .zip(self.short)
+            .map(|(m, &sh)| if sh { None } else { get(m) })
+            .collect()
+    }
+
+    /// The median of one measure over the compared strides.
+    fn median(&self, get: fn(&StrideMeasures) -> Option<f64>) -> Option<f64> {
+        median_present(&self.values(get))
+    }
+}
+
+/// The median of the values that are present.
+fn median_present(values: &[Option<f64>]) -> Option<f64> {
+    median_of(&values.iter().flatten().copied().collect::<Vec<_>>())
+}
+
+/// The per-stride checks of the module documentation: find the strides, measure each, flag
+/// the short ones and, with enough strides, those out of line.
 pub(super) fn gait_check(g: &GaitInputs<'_>, s: &CheckSettings) -> GaitCheck {
     let mut out = GaitCheck {
         threshold_n: s.stance_threshold_n,
@@ -260,23 +289,54 @@ pub(super) fn gait_check(g: &GaitInputs<'_>, s: &CheckSettings) -> GaitCheck {
         flagged: Vec::new(),
         cycles: Vec::new(),
     };
+    let cycles = match find_cycles(g, s) {
+        Ok(c) => c,
+        Err(e) => {
+            out.error = Some(e);
+            return out;
+        }
+    };
+    out.measures = measure_strides(g, &cycles);
+    out.strides = cycles.len();
+    out.cycles = cycles;
+
+    let short: Vec<bool> = out.measures.iter().map(is_too_short).collect();
+    let mut flags = too_short_reasons(&out.measures, s);
+    let compared = Compared {
+        measures: &out.measures,
+        short: &short,
+    };
+    out.compared = short.iter().filter(|s| !**s).count() >= s.stride_min_count;
+    out.median_stride_s = compared.median(|m| Some(m.duration_s));
+    out.median_stance_s = compared.median(|m| m.stance_s);
+    if out.compared {
+        flag_rule_outliers(&compared, &stride_rules(s), s, &mut flags);
+        flag_swing_moments(&compared, s, &mut flags);
+        flag_moment_jumps(&compared, s, &mut flags);
+    }
+    out.flagged = flagged_strides(&out.measures, flags);
+    out
+}
+
+/// The strides of the ground force, or why there are none (columns of unequal length, or
+/// no foot strike).
+fn find_cycles(g: &GaitInputs<'_>, s: &CheckSettings) -> Result<Vec<Stride>, String> {
     let n = g.time_s.len();
     if g.grf_n.len() != n || g.torque_nm.len() != n {
-        out.error = Some(format!(
+        return Err(format!(
             "grf_vertical_n has {} samples and torque_nm {} but time_s {n}",
             g.grf_n.len(),
             g.torque_nm.len()
         ));
-        return out;
     }
-    let cycles = match ground_force_cycles(g.grf_n, 1.0 / g.dt, s.stance_threshold_n) {
-        Ok(c) => c,
-        Err(e) => {
-            out.error = Some(e.to_string());
-            return out;
-        }
-    };
+    ground_force_cycles(g.grf_n, 1.0 / g.dt, s.stance_threshold_n).map_err(|e| e.to_string())
+}
+
+/// Every stride's measures (module documentation), in order.
+fn measure_strides(g: &GaitInputs<'_>, cycles: &[Stride]) -> Vec<StrideMeasures> {
+    let n = g.time_s.len();
     let dt = g.dt;
+    // A stride may end one sample past the last: its time is extrapolated.
     let time_at = |i: usize| -> f64 {
         g.time_s
             .get(i)
@@ -285,40 +345,48 @@ pub(super) fn gait_check(g: &GaitInputs<'_>, s: &CheckSettings) -> GaitCheck {
     };
     let env = normalised_envelopes(&g.emg, !g.emg_is_envelope, dt);
     let tq = g.torque_nm;
-    for (k, c) in cycles.iter().enumerate() {
-        let stance_end = c.stance_end.unwrap_or(c.end);
-        let peak_force = finite_max(g.grf_n[c.start..stance_end].iter().copied());
-        let peak_moment = finite_max(tq[c.start..stance_end].iter().copied());
-        let swing = finite_max(tq[stance_end..c.end].iter().map(|v| v.abs()));
-        let env_jump = finite_max(env.iter().filter_map(|e| max_jump(e, c.start, c.end, dt)));
-        out.measures.push(StrideMeasures {
-            stride: k,
-            start_s: time_at(c.start),
-            end_s: time_at(c.end),
-            duration_s: c.len() as f64 * dt,
-            stance_s: c.stance_end.map(|e| (e - c.start) as f64 * dt),
-            peak_force_n: peak_force,
-            peak_moment_nm: peak_moment,
-            moment_per_force_m: peak_moment
-                .zip(peak_force)
-                .and_then(|(m, f)| (f > 0.0).then(|| m / f)),
-            swing_moment_nm: swing,
-            moment_jump_nm_s: max_jump(tq, c.start, c.end, dt),
-            envelope_jump_per_s: env_jump,
-        });
-    }
-    out.strides = cycles.len();
-    out.cycles = cycles;
-
-    let mut flags: Vec<Vec<StrideReason>> = vec![Vec::new(); out.strides];
-    let short: Vec<bool> = out
-        .measures
+    cycles
         .iter()
-        .map(|m| m.duration_s < MIN_STRIDE_S - 1e-9)
-        .collect();
-    for (m, f) in out.measures.iter().zip(&mut flags) {
-        if m.duration_s < MIN_STRIDE_S - 1e-9 {
-            f.push(StrideReason {
+        .enumerate()
+        .map(|(k, c)| {
+            let stance_end = c.stance_end.unwrap_or(c.end);
+            let peak_force = finite_max(g.grf_n[c.start..stance_end].iter().copied());
+            let peak_moment = finite_max(tq[c.start..stance_end].iter().copied());
+            let swing = finite_max(tq[stance_end..c.end].iter().map(|v| v.abs()));
+            let env_jump = finite_max(env.iter().filter_map(|e| max_jump(e, c.start, c.end, dt)));
+            StrideMeasures {
+                stride: k,
+                start_s: time_at(c.start),
+                end_s: time_at(c.end),
+                duration_s: c.len() as f64 * dt,
+                stance_s: c.stance_end.map(|e| (e - c.start) as f64 * dt),
+                peak_force_n: peak_force,
+                peak_moment_nm: peak_moment,
+                moment_per_force_m: peak_moment
+                    .zip(peak_force)
+                    .and_then(|(m, f)| (f > 0.0).then(|| m / f)),
+                swing_moment_nm: swing,
+                moment_jump_nm_s: max_jump(tq, c.start, c.end, dt),
+                envelope_jump_per_s: env_jump,
+            }
+        })
+        .collect()
+}
+
+/// Whether a stride is shorter than a stride can be (a blip of the force).
+fn is_too_short(m: &StrideMeasures) -> bool {
+    m.duration_s < MIN_STRIDE_S - 1e-9
+}
+
+/// Each stride's reasons so far: `too_short` for a force blip, else none.
+fn too_short_reasons(measures: &[StrideMeasures], s: &CheckSettings) -> Vec<Vec<StrideReason>> {
+    measures
+        .iter()
+        .map(|m| {
+            if !is_too_short(m) {
+                return Vec::new();
+            }
+            vec![StrideReason {
                 measure: "too_short",
                 value: m.duration_s,
                 median: None,
@@ -328,209 +396,210 @@ pub(super) fn gait_check(g: &GaitInputs<'_>, s: &CheckSettings) -> GaitCheck {
                     num(m.duration_s, 2),
                     num(s.stance_threshold_n, 0)
                 ),
-            });
+            }]
+        })
+        .collect()
+}
+
+/// The rules of the measures compared against their own median (module documentation).
+fn stride_rules(s: &CheckSettings) -> [Rule; 5] {
+    [
+        Rule {
+            measure: "duration_s",
+            two_sided: true,
+            floor: s.stride_time_floor,
+            get: |m| Some(m.duration_s),
+            text: duration_text,
+        },
+        Rule {
+            measure: "stance_s",
+            two_sided: true,
+            floor: s.stride_time_floor,
+            get: |m| m.stance_s,
+            text: stance_text,
+        },
+        Rule {
+            measure: "peak_force_n",
+            two_sided: true,
+            floor: s.peak_force_floor,
+            get: |m| m.peak_force_n,
+            text: peak_force_text,
+        },
+        Rule {
+            measure: "peak_moment_nm",
+            two_sided: true,
+            floor: s.peak_moment_floor,
+            get: |m| m.peak_moment_nm,
+            text: peak_moment_text,
+        },
+        Rule {
+            measure: "moment_per_force_m",
+            two_sided: true,
+            floor: s.peak_moment_floor,
+            get: |m| m.moment_per_force_m,
+            text: moment_per_force_text,
+        },
+    ]
+}
+
+fn duration_text(v: f64, md: f64) -> String {
+    format!(
+        "stride {} s (median {} s{})",
+        num(v, 2),
+        num(md, 2),
+        if v > md {
+            ": a missed strike?"
+        } else {
+            ": an extra strike?"
         }
-    }
-    // The compared strides: all but the too short ones.
-    let compared = |get: fn(&StrideMeasures) -> Option<f64>| -> Vec<Option<f64>> {
-        out.measures
-            .iter()
-            .zip(&short)
-            .map(|(m, &sh)| if sh { None } else { get(m) })
-            .collect()
-    };
-    let count = short.iter().filter(|s| !**s).count();
-    out.compared = count >= s.stride_min_count;
-    out.median_stride_s = median_of(
-        &compared(|m| Some(m.duration_s))
-            .into_iter()
-            .flatten()
-            .collect::<Vec<_>>(),
-    );
-    out.median_stance_s = median_of(
-        &compared(|m| m.stance_s)
-            .into_iter()
-            .flatten()
-            .collect::<Vec<_>>(),
-    );
-    if out.compared {
-        let median_peak = median_of(
-            &compared(|m| m.peak_moment_nm)
-                .into_iter()
-                .flatten()
-                .collect::<Vec<_>>(),
-        )
-        .filter(|p| *p > 0.0);
-        let rules = [
-            Rule {
-                measure: "duration_s",
-                two_sided: true,
-                floor: s.stride_time_floor,
-                get: |m| Some(m.duration_s),
-                text: |v, md| {
-                    format!(
-                        "stride {} s (median {} s{})",
-                        num(v, 2),
-                        num(md, 2),
-                        if v > md {
-                            ": a missed strike?"
-                        } else {
-                            ": an extra strike?"
-                        }
-                    )
-                },
-            },
-            Rule {
-                measure: "stance_s",
-                two_sided: true,
-                floor: s.stride_time_floor,
-                get: |m| m.stance_s,
-                text: |v, md| {
-                    format!(
-                        "stance {} s (median {} s{})",
-                        num(v, 2),
-                        num(md, 2),
-                        if v > md {
-                            ": the other foot on this belt?"
-                        } else {
-                            ""
-                        }
-                    )
-                },
-            },
-            Rule {
-                measure: "peak_force_n",
-                two_sided: true,
-                floor: s.peak_force_floor,
-                get: |m| m.peak_force_n,
-                text: |v, md| {
-                    format!(
-                        "peak vertical force {} N (median {} N{})",
-                        num(v, 0),
-                        num(md, 0),
-                        if v > md {
-                            ": the other foot on this belt?"
-                        } else {
-                            ""
-                        }
-                    )
-                },
-            },
-            Rule {
-                measure: "peak_moment_nm",
-                two_sided: true,
-                floor: s.peak_moment_floor,
-                get: |m| m.peak_moment_nm,
-                text: |v, md| {
-                    format!(
-                        "peak plantarflexion moment {} N·m (median {} N·m)",
-                        num(v, 1),
-                        num(md, 1)
-                    )
-                },
-            },
-            Rule {
-                measure: "moment_per_force_m",
-                two_sided: true,
-                floor: s.peak_moment_floor,
-                get: |m| m.moment_per_force_m,
-                text: |v, md| {
-                    format!(
-                        "peak moment per peak force {} m (median {} m: the moment does not follow the foot's force)",
-                        num(v, 3),
-                        num(md, 3)
-                    )
-                },
-            },
-        ];
-        for r in &rules {
-            let values = compared(r.get);
-            let floor = r.floor
-                * median_of(&values.iter().flatten().copied().collect::<Vec<_>>())
-                    .map_or(0.0, f64::abs);
-            let Some((z, md)) = robust_scores(&values, floor, s.stride_min_count) else {
-                continue;
-            };
-            for (k, zk) in z.iter().enumerate() {
-                if let Some(zk) = *zk {
-                    let out_of_line = if r.two_sided { zk.abs() } else { zk };
-                    if out_of_line > s.stride_outlier_z {
-                        let v = values[k].unwrap_or(f64::NAN);
-                        flags[k].push(StrideReason {
-                            measure: r.measure,
-                            value: v,
-                            median: Some(md),
-                            robust_z: Some(zk),
-                            text: (r.text)(v, md),
-                        });
-                    }
-                }
-            }
+    )
+}
+
+fn stance_text(v: f64, md: f64) -> String {
+    format!(
+        "stance {} s (median {} s{})",
+        num(v, 2),
+        num(md, 2),
+        if v > md {
+            ": the other foot on this belt?"
+        } else {
+            ""
         }
-        // The moment in swing: one-sided, its floor a share of the stance's peak moment.
-        let swing = compared(|m| m.swing_moment_nm);
-        let floor = s.swing_moment_floor_of_peak * median_peak.unwrap_or(0.0);
-        if let Some((z, md)) = robust_scores(&swing, floor, s.stride_min_count) {
-            for (k, zk) in z.iter().enumerate() {
-                if zk.is_some_and(|z| z > s.stride_outlier_z) {
-                    let v = swing[k].unwrap_or(f64::NAN);
-                    flags[k].push(StrideReason {
-                        measure: "swing_moment_nm",
-                        value: v,
-                        median: Some(md),
-                        robust_z: *zk,
-                        text: format!(
-                            "a moment of {} N·m in swing, the foot off the ground (median {} N·m: a force on the wrong foot?)",
-                            num(v, 1),
-                            num(md, 1)
-                        ),
-                    });
-                }
-            }
+    )
+}
+
+fn peak_force_text(v: f64, md: f64) -> String {
+    format!(
+        "peak vertical force {} N (median {} N{})",
+        num(v, 0),
+        num(md, 0),
+        if v > md {
+            ": the other foot on this belt?"
+        } else {
+            ""
         }
-        // Jumps of the moment that no envelope explains.
-        let jumps = compared(|m| m.moment_jump_nm_s);
-        let env_jumps = compared(|m| m.envelope_jump_per_s);
-        let jump_floor = |v: &[Option<f64>]| {
-            s.moment_jump_floor
-                * median_of(&v.iter().flatten().copied().collect::<Vec<_>>()).unwrap_or(0.0)
+    )
+}
+
+fn peak_moment_text(v: f64, md: f64) -> String {
+    format!(
+        "peak plantarflexion moment {} N·m (median {} N·m)",
+        num(v, 1),
+        num(md, 1)
+    )
+}
+
+fn moment_per_force_text(v: f64, md: f64) -> String {
+    format!(
+        "peak moment per peak force {} m (median {} m: the moment does not follow the foot's force)",
+        num(v, 3),
+        num(md, 3)
+    )
+}
+
+/// Adds a reason to each stride whose measure is out of line by one of `rules`, rule by rule.
+fn flag_rule_outliers(
+    compared: &Compared<'_>,
+    rules: &[Rule],
+    s: &CheckSettings,
+    flags: &mut [Vec<StrideReason>],
+) {
+    for r in rules {
+        let values = compared.values(r.get);
+        let floor = r.floor * median_present(&values).map_or(0.0, f64::abs);
+        let Some((z, md)) = robust_scores(&values, floor, s.stride_min_count) else {
+            continue;
         };
-        let env_z = robust_scores(&env_jumps, jump_floor(&env_jumps), s.stride_min_count);
-        if let Some((z, md)) = robust_scores(&jumps, jump_floor(&jumps), s.stride_min_count) {
-            for (k, zk) in z.iter().enumerate() {
-                let explained = env_z
-                    .as_ref()
-                    .and_then(|(ez, _)| ez[k])
-                    .is_some_and(|e| e > s.stride_outlier_z);
-                if zk.is_some_and(|z| z > s.stride_outlier_z) && !explained {
-                    let v = jumps[k].unwrap_or(f64::NAN);
+        for (k, zk) in z.iter().enumerate() {
+            if let Some(zk) = *zk {
+                let out_of_line = if r.two_sided { zk.abs() } else { zk };
+                if out_of_line > s.stride_outlier_z {
+                    let v = values[k].unwrap_or(f64::NAN);
                     flags[k].push(StrideReason {
-                        measure: "moment_jump_nm_s",
+                        measure: r.measure,
                         value: v,
                         median: Some(md),
-                        robust_z: *zk,
-                        text: format!(
-                            "the moment jumps at {} N·m/s (median {} N·m/s) where no EMG envelope jumps: an impact spike?",
-                            num(v, 0),
-                            num(md, 0)
-                        ),
+                        robust_z: Some(zk),
+                        text: (r.text)(v, md),
                     });
                 }
             }
         }
     }
-    for (k, reasons) in flags.into_iter().enumerate() {
-        if !reasons.is_empty() {
-            let m = &out.measures[k];
-            out.flagged.push(StrideFlag {
-                stride: k,
-                start_s: m.start_s,
-                end_s: m.end_s,
-                reasons,
+}
+
+/// Adds a reason to each stride with a moment in swing: one-sided, its floor a share of the
+/// median peak moment in stance, since a regular swing's moment is near zero.
+fn flag_swing_moments(compared: &Compared<'_>, s: &CheckSettings, flags: &mut [Vec<StrideReason>]) {
+    let median_peak = compared.median(|m| m.peak_moment_nm).filter(|p| *p > 0.0);
+    let swing = compared.values(|m| m.swing_moment_nm);
+    let floor = s.swing_moment_floor_of_peak * median_peak.unwrap_or(0.0);
+    let Some((z, md)) = robust_scores(&swing, floor, s.stride_min_count) else {
+        return;
+    };
+    for (k, zk) in z.iter().enumerate() {
+        if zk.is_some_and(|z| z > s.stride_outlier_z) {
+            let v = swing[k].unwrap_or(f64::NAN);
+            flags[k].push(StrideReason {
+                measure: "swing_moment_nm",
+                value: v,
+                median: Some(md),
+                robust_z: *zk,
+                text: format!(
+                    "a moment of {} N·m in swing, the foot off the ground (median {} N·m: a force on the wrong foot?)",
+                    num(v, 1),
+                    num(md, 1)
+                ),
             });
         }
     }
-    out
+}
+
+/// Adds a reason to each stride whose moment jumps where no EMG envelope jumps: a jump the
+/// muscles explain is no impact spike.
+fn flag_moment_jumps(compared: &Compared<'_>, s: &CheckSettings, flags: &mut [Vec<StrideReason>]) {
+    let jumps = compared.values(|m| m.moment_jump_nm_s);
+    let env_jumps = compared.values(|m| m.envelope_jump_per_s);
+    let jump_floor = |v: &[Option<f64>]| s.moment_jump_floor * median_present(v).unwrap_or(0.0);
+    let env_z = robust_scores(&env_jumps, jump_floor(&env_jumps), s.stride_min_count);
+    let Some((z, md)) = robust_scores(&jumps, jump_floor(&jumps), s.stride_min_count) else {
+        return;
+    };
+    for (k, zk) in z.iter().enumerate() {
+        let explained = env_z
+            .as_ref()
+            .and_then(|(ez, _)| ez[k])
+            .is_some_and(|e| e > s.stride_outlier_z);
+        if zk.is_some_and(|z| z > s.stride_outlier_z) && !explained {
+            let v = jumps[k].unwrap_or(f64::NAN);
+            flags[k].push(StrideReason {
+                measure: "moment_jump_nm_s",
+                value: v,
+                median: Some(md),
+                robust_z: *zk,
+                text: format!(
+                    "the moment jumps at {} N·m/s (median {} N·m/s) where no EMG envelope jumps: an impact spike?",
+                    num(v, 0),
+                    num(md, 0)
+                ),
+            });
+        }
+    }
+}
+
+/// The strides with at least one reason, in order.
+fn flagged_strides(measures: &[StrideMeasures], flags: Vec<Vec<StrideReason>>) -> Vec<StrideFlag> {
+    flags
+        .into_iter()
+        .enumerate()
+        .filter(|(_, reasons)| !reasons.is_empty())
+        .map(|(k, reasons)| StrideFlag {
+            stride: k,
+            start_s: measures[k].start_s,
+            end_s: measures[k].end_s,
+            reasons,
+        })
+        .collect()
 }
 
 #[cfg(test)]

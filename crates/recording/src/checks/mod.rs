@@ -360,20 +360,9 @@ pub fn check_trial_in_context(
     let mut warnings = Vec::new();
     let mut applied = Vec::new();
     let n = trial.time_s.len();
-    let dt = trial.dt();
-    let dt = (dt.is_finite() && dt > 0.0).then_some(dt);
+    let dt = sample_interval(trial, &mut warnings);
     let fs = dt.map(|d| 1.0 / d);
     let t0 = trial.time_s.first().copied().filter(|t| t.is_finite());
-    if dt.is_none() {
-        warnings.push(format!(
-            "time_s: {n} samples{}: no sampling rate, so no velocity, stride or spectrum checks",
-            if n < 2 {
-                ""
-            } else {
-                " with a non-increasing or non-finite span"
-            }
-        ));
-    }
     let grf = trial.grf_vertical_n.as_deref();
     let (kind, kind_reason) = infer_kind(
         context.kind,
@@ -382,28 +371,7 @@ pub fn check_trial_in_context(
         dt,
         settings,
     );
-    let raw_emg = !context.emg_is_envelope;
-
-    let mut columns: Vec<(String, &[f64])> = vec![
-        ("ankle_angle_deg".into(), &trial.ankle_angle_deg),
-        ("torque_nm".into(), &trial.torque_nm),
-    ];
-    columns.extend(trial.emg_channels());
-    if let Some(knee) = &trial.knee_angle_deg {
-        columns.push(("knee_angle_deg".into(), knee));
-    }
-    if let Some(f) = grf {
-        columns.push(("grf_vertical_n".into(), f));
-    }
-    for (name, x) in &columns {
-        if x.len() != n {
-            warnings.push(format!("{name}: {} samples but time_s has {n}", x.len()));
-        }
-        let bad = x.iter().filter(|v| !v.is_finite()).count();
-        if bad > 0 {
-            warnings.push(format!("{name}: {bad} non-finite samples (NaN or ±inf)"));
-        }
-    }
+    column_warnings(trial, &mut warnings);
 
     applied.push("angle");
     let angle = angle_check(&trial.ankle_angle_deg, settings, &mut warnings);
@@ -417,60 +385,177 @@ pub fn check_trial_in_context(
             &mut warnings,
         )
     });
-    let emg_channels = trial.emg_channels();
-    let strides = match (kind, grf, dt) {
-        (TrialKind::Gait, Some(f), Some(d)) => {
-            applied.push("strides");
-            let g = gait_check(
-                &GaitInputs {
-                    time_s: &trial.time_s,
-                    dt: d,
-                    torque_nm: &trial.torque_nm,
-                    grf_n: f,
-                    emg: emg_channels.iter().map(|(_, x)| *x).collect(),
-                    emg_is_envelope: context.emg_is_envelope,
-                },
-                settings,
-            );
-            stride_warnings(&g, &mut warnings);
-            Some(g)
-        }
-        _ => None,
+    let strides = if kind == TrialKind::Gait {
+        gait_stage(trial, dt, context, settings, &mut applied, &mut warnings)
+    } else {
+        None
     };
 
     applied.push("saturation");
-    let mut saturation = Vec::new();
-    saturation.push(saturation_check("torque_nm", &trial.torque_nm, settings));
-    for (name, x) in &emg_channels {
-        saturation.push(saturation_check(name, x, settings));
+    let saturation = saturation_checks(trial, settings);
+    let emg = emg_stage(trial, fs, context, settings, &mut applied, &mut warnings);
+
+    // Warnings in check order: saturation, then EMG, then sign.
+    saturation_warnings(&saturation, &emg, settings, &mut warnings);
+    emg_warnings(&emg, settings, &mut warnings);
+    let sign = prediction_nm.map(|p| sign_check(&trial.torque_nm, p, settings, &mut warnings));
+    if sign.is_some() {
+        applied.push("sign");
     }
 
+    TrialChecks {
+        samples: n,
+        sample_rate_hz: fs,
+        duration_s: dt.map(|d| d * (n - 1) as f64),
+        kind,
+        kind_reason,
+        emg_is_envelope: context.emg_is_envelope,
+        applied,
+        angle,
+        motion,
+        strides,
+        saturation,
+        emg,
+        sign,
+        warnings,
+        settings: *settings,
+    }
+}
+
+/// The sampling interval of `time_s` (`None`, with a warning, when there is none: fewer than
+/// two samples or a non-increasing or non-finite span).
+fn sample_interval(trial: &Trial, warnings: &mut Vec<String>) -> Option<f64> {
+    let n = trial.time_s.len();
+    let dt = trial.dt();
+    let dt = (dt.is_finite() && dt > 0.0).then_some(dt);
+    if dt.is_none() {
+        warnings.push(format!(
+            "time_s: {n} samples{}: no sampling rate, so no velocity, stride or spectrum checks",
+            if n < 2 {
+                ""
+            } else {
+                " with a non-increasing or non-finite span"
+            }
+        ));
+    }
+    dt
+}
+
+/// Warns of each column whose length differs from `time_s` or that holds non-finite samples.
+fn column_warnings(trial: &Trial, warnings: &mut Vec<String>) {
+    let n = trial.time_s.len();
+    let mut columns: Vec<(String, &[f64])> = vec![
+        ("ankle_angle_deg".into(), &trial.ankle_angle_deg),
+        ("torque_nm".into(), &trial.torque_nm),
+    ];
+    columns.extend(trial.emg_channels());
+    if let Some(knee) = &trial.knee_angle_deg {
+        columns.push(("knee_angle_deg".into(), knee));
+    }
+    if let Some(f) = trial.grf_vertical_n.as_deref() {
+        columns.push(("grf_vertical_n".into(), f));
+    }
+    for (name, x) in &columns {
+        if x.len() != n {
+            warnings.push(format!("{name}: {} samples but time_s has {n}", x.len()));
+        }
+        let bad = x.iter().filter(|v| !v.is_finite()).count();
+        if bad > 0 {
+            warnings.push(format!("{name}: {bad} non-finite samples (NaN or ±inf)"));
+        }
+    }
+}
+
+/// The per-stride checks of a gait trial and their warnings; `None` (not applied) without a
+/// ground force or a sampling interval.
+fn gait_stage(
+    trial: &Trial,
+    dt: Option<f64>,
+    context: &TrialContext,
+    settings: &CheckSettings,
+    applied: &mut Vec<&'static str>,
+    warnings: &mut Vec<String>,
+) -> Option<GaitCheck> {
+    let (Some(grf_n), Some(dt)) = (trial.grf_vertical_n.as_deref(), dt) else {
+        return None;
+    };
+    applied.push("strides");
+    let emg_channels = trial.emg_channels();
+    let g = gait_check(
+        &GaitInputs {
+            time_s: &trial.time_s,
+            dt,
+            torque_nm: &trial.torque_nm,
+            grf_n,
+            emg: emg_channels.iter().map(|(_, x)| *x).collect(),
+            emg_is_envelope: context.emg_is_envelope,
+        },
+        settings,
+    );
+    stride_warnings(&g, warnings);
+    Some(g)
+}
+
+/// Saturation of `torque_nm` and each EMG channel, in that order.
+fn saturation_checks(trial: &Trial, settings: &CheckSettings) -> Vec<SaturationCheck> {
+    let mut saturation = vec![saturation_check("torque_nm", &trial.torque_nm, settings)];
+    for (name, x) in &trial.emg_channels() {
+        saturation.push(saturation_check(name, x, settings));
+    }
+    saturation
+}
+
+/// The EMG checks: flat channels always; the sampling rate and power-line interference only
+/// for raw EMG, since an envelope is low-passed and holds neither the band nor the mains.
+fn emg_stage(
+    trial: &Trial,
+    fs: Option<f64>,
+    context: &TrialContext,
+    settings: &CheckSettings,
+    applied: &mut Vec<&'static str>,
+    warnings: &mut Vec<String>,
+) -> Vec<EmgCheck> {
+    let raw_emg = !context.emg_is_envelope;
     applied.push("emg_flat");
     if raw_emg {
         applied.push("emg_rate");
         applied.push("power_line");
     }
-    if let Some(f) = fs.filter(|_| raw_emg) {
-        if f < 2.0 * settings.emg_band_hz[1] {
-            warnings.push(format!(
-                "time_s: sampled at {} Hz, below the {} Hz the {}–{} Hz EMG band needs (if the EMG columns are envelopes already, say so: emg_is_envelope)",
-                num(f, 0),
-                num(2.0 * settings.emg_band_hz[1], 0),
-                num(settings.emg_band_hz[0], 0),
-                num(settings.emg_band_hz[1], 0)
-            ));
-        }
+    let fs_raw = fs.filter(|_| raw_emg);
+    if let Some(f) = fs_raw {
+        emg_rate_warning(f, settings, warnings);
     }
-    let spectrum = fs
-        .filter(|_| raw_emg)
-        .and_then(|f| Welch::new(f, n, settings));
-    let mut emg = Vec::new();
-    for (name, x) in &emg_channels {
-        emg.push(emg_check(name, x, spectrum.as_ref(), settings));
-    }
+    let n = trial.time_s.len();
+    let spectrum = fs_raw.and_then(|f| Welch::new(f, n, settings));
+    trial
+        .emg_channels()
+        .iter()
+        .map(|(name, x)| emg_check(name, x, spectrum.as_ref(), settings))
+        .collect()
+}
 
-    // Warnings in check order: saturation, then EMG, then sign.
-    for s in &saturation {
+/// Warns when the sampling rate `fs` is below the Nyquist rate of the raw EMG band.
+fn emg_rate_warning(fs: f64, settings: &CheckSettings, warnings: &mut Vec<String>) {
+    if fs < 2.0 * settings.emg_band_hz[1] {
+        warnings.push(format!(
+            "time_s: sampled at {} Hz, below the {} Hz the {}–{} Hz EMG band needs (if the EMG columns are envelopes already, say so: emg_is_envelope)",
+            num(fs, 0),
+            num(2.0 * settings.emg_band_hz[1], 0),
+            num(settings.emg_band_hz[0], 0),
+            num(settings.emg_band_hz[1], 0)
+        ));
+    }
+}
+
+/// The saturation warnings: a constant torque and each clipped side. A flat EMG channel is
+/// left to its flat warning, which says more.
+fn saturation_warnings(
+    saturation: &[SaturationCheck],
+    emg: &[EmgCheck],
+    settings: &CheckSettings,
+    warnings: &mut Vec<String>,
+) {
+    for s in saturation {
         let flat_emg = emg.iter().any(|e| e.channel == s.channel && e.flat);
         if flat_emg {
             continue;
@@ -494,7 +579,11 @@ pub fn check_trial_in_context(
             }
         }
     }
-    for e in &emg {
+}
+
+/// The EMG warnings: a flat channel, else its power-line interference.
+fn emg_warnings(emg: &[EmgCheck], settings: &CheckSettings, warnings: &mut Vec<String>) {
+    for e in emg {
         if e.flat {
             warnings.push(format!(
                 "{}: flat: {} distinct value{} (sd {})",
@@ -519,29 +608,6 @@ pub fn check_trial_in_context(
                 ));
             }
         }
-    }
-
-    let sign = prediction_nm.map(|p| sign_check(&trial.torque_nm, p, settings, &mut warnings));
-    if sign.is_some() {
-        applied.push("sign");
-    }
-
-    TrialChecks {
-        samples: n,
-        sample_rate_hz: fs,
-        duration_s: dt.map(|d| d * (n - 1) as f64),
-        kind,
-        kind_reason,
-        emg_is_envelope: context.emg_is_envelope,
-        applied,
-        angle,
-        motion,
-        strides,
-        saturation,
-        emg,
-        sign,
-        warnings,
-        settings: *settings,
     }
 }
 
