@@ -597,6 +597,38 @@ struct LoadedCsv {
     crosstalk: Vec<experiment::CrosstalkCheck>,
 }
 
+/// Warns of a trial file whose EMG scale against its moment differs from the session's other
+/// trials far more than a change of task explains (a changed gain, electrode or
+/// normalisation; `recording::checks::check_envelope_scales` on the EMG as recorded).
+fn warn_envelope_scales(manifest: &SessionManifest, loaded: &[Loaded], rep: &Reporter) {
+    let trials: Vec<recording::checks::ScaleTrial<'_>> = manifest
+        .trials
+        .iter()
+        .zip(loaded)
+        .filter_map(|(entry, l)| match l {
+            Loaded::Csv(csv) => {
+                let recorded = csv.as_recorded.as_ref().unwrap_or(&csv.trial);
+                Some(recording::checks::ScaleTrial {
+                    name: &entry.name,
+                    moment_nm: &recorded.torque_nm,
+                    emg: recorded.emg_channels(),
+                })
+            }
+            Loaded::Ceinms(_) => None,
+        })
+        .collect();
+    if trials.len() < 2 {
+        return;
+    }
+    let check = recording::checks::check_envelope_scales(
+        &trials,
+        &recording::checks::CheckSettings::default(),
+    );
+    for w in check.warnings {
+        rep.warn(format!("{}: {w}", manifest.path.display()));
+    }
+}
+
 /// Reads a session and prepares its trials. `model` may override the session's parameters
 /// (`--params`), effects (`--effects`) and EMG handling; `free` overrides its free parameters.
 pub fn load_session(
@@ -641,6 +673,7 @@ pub fn load_session(
         })
         .collect();
     let emg = session_emg_references(&manifest, &csv_trials, model, &mut read, rep)?;
+    warn_envelope_scales(&manifest, &loaded, rep);
 
     // parameters: the session's, replaced by --params or with an identify.json over them
     let (osim, params, effects) = session_params(&manifest, model, &ceinms_muscles, &mut read)?;
