@@ -104,7 +104,7 @@ pub struct LoadedSession {
     /// Every file read (outputs never overwrite them).
     pub inputs_read: Vec<PathBuf>,
     /// The free parameters and bounds are the recording defaults (no trial has a dynamometer
-    /// correction and none were given): calibrations then take [`RECORDING_CHAINS`] starts.
+    /// correction and none were given): calibrations then take 8 starts.
     pub recording_defaults: bool,
 }
 
