@@ -210,19 +210,9 @@ fn peer_predictions(
         .collect()
 }
 
-/// `problem` weighted to the samples of `part` (times its own weights).
+/// `problem` weighted to the samples of `part` (its own weights inside, 0 outside).
 fn restricted(problem: &Problem, part: &TrialPart) -> Result<Problem, muscle_model::ModelError> {
-    let w: Vec<f64> = (0..problem.inputs().len())
-        .map(|i| {
-            let own = problem.weights().map_or(1.0, |w| w[i]);
-            if part.samples.contains(&i) {
-                own
-            } else {
-                0.0
-            }
-        })
-        .collect();
-    problem.clone().with_weights(w)
+    problem.clone().with_weights(judged_weights(problem, part))
 }
 
 /// The weights that judge `part` of `problem`: its own weights inside the part, 0 outside.
