@@ -10,6 +10,8 @@
 //! polynomials), against the polynomial fast path. `--model-only` prints the forward-model
 //! rows alone (no identification, diagnosis or peer).
 
+mod long_recording;
+
 use anyhow::{bail, Context, Result};
 use muscle_model::{
     simulate, simulate_into, Effects, GeometrySeries, ModelParams, Muscle, Problem,
@@ -332,6 +334,9 @@ pub fn run(args: &mut impl Iterator<Item = String>) -> Result<bool> {
             us(t_series),
             t_series / t_fwd
         );
+        for row in long_recording::measure(reps)?.rows(3, t_fwd) {
+            println!("{row}");
+        }
         println!();
         println!(
             "series vs polynomial geometry: {series_err:.2e} N·m RMS; default settings: {err:.2e} N·m RMS from SimSettings::tight(); {reps} repetitions"
@@ -443,6 +448,9 @@ pub fn run(args: &mut impl Iterator<Item = String>) -> Result<bool> {
         "| full diagnosis (`fixtures/electromechanical_delay`, unloaded run; named {dg_causes:?}) | {dg_wall:.2} s wall{} | — | — |",
         cpu_note(dg_cpu)
     );
+    for row in long_recording::measure(reps)?.rows(4, t_fwd) {
+        println!("{row}");
+    }
     println!();
     println!(
         "default settings: {:.2e} N·m RMS from SimSettings::tight(); {} accepted steps, {} RHS calls (3 muscles); {} Rust repetitions, {repeat} peer simulations",
