@@ -5,7 +5,7 @@
 //! differences (one-sided at the ends), so `q(t)` is C¹ and `q̇(t)` is its exact derivative.
 //! Envelopes, the knee angle and geometry series are interpolated linearly, except in a
 //! trial sampled below [`LOW_RATE_BELOW_HZ`]: there the envelopes are monotone cubics and the
-//! knee angle and series central-difference cubics ([`crate::interp`]), so that no input has
+//! knee angle and series central-difference cubics (module `interp`), so that no input has
 //! a kink at the samples. Times outside the trial are clamped to its ends.
 
 use crate::error::ModelError;
