@@ -10,6 +10,8 @@
 //! polynomials), against the polynomial fast path. `--model-only` prints the forward-model
 //! rows alone (no identification, diagnosis or peer).
 
+mod long_recording;
+
 use anyhow::{bail, Context, Result};
 use muscle_model::{
     simulate, simulate_into, Effects, GeometrySeries, ModelParams, Muscle, Problem,
@@ -370,7 +372,7 @@ fn cpu_note(c: Option<f64>) -> String {
 }
 
 /// The table of `--model-only`: the forward model alone, without the peer.
-fn print_model_only(f: &ForwardRows, reps: usize) {
+fn print_model_only(f: &ForwardRows, reps: usize) -> Result<()> {
     let ForwardRows {
         t_fwd,
         t_series,
@@ -389,10 +391,14 @@ fn print_model_only(f: &ForwardRows, reps: usize) {
         us(t_series),
         t_series / t_fwd
     );
+    for row in long_recording::measure(reps)?.rows(3, t_fwd) {
+        println!("{row}");
+    }
     println!();
     println!(
         "series vs polynomial geometry: {series_err:.2e} N·m RMS; default settings: {err:.2e} N·m RMS from SimSettings::tight(); {reps} repetitions"
     );
+    Ok(())
 }
 
 /// Median times of one cost evaluation (s): every coordinate moved, and one coordinate moved.
@@ -581,7 +587,7 @@ pub fn run(args: &mut impl Iterator<Item = String>) -> Result<bool> {
 
     let forward = forward_rows(&inputs, reps)?;
     if model_only {
-        print_model_only(&forward, reps);
+        print_model_only(&forward, reps)?;
         return Ok(true);
     }
     let cost = cost_rows(&inputs, &trial, reps)?;
@@ -594,6 +600,9 @@ pub fn run(args: &mut impl Iterator<Item = String>) -> Result<bool> {
     println!("|---|---|---|---|");
     print_model_rows(&forward, &cost, t_peer);
     print_end_to_end_rows(&runs, t_peer);
+    for row in long_recording::measure(reps)?.rows(4, forward.t_fwd) {
+        println!("{row}");
+    }
     println!();
     println!(
         "default settings: {:.2e} N·m RMS from SimSettings::tight(); {} accepted steps, {} RHS calls (3 muscles); {} Rust repetitions, {repeat} peer simulations",

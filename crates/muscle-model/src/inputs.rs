@@ -2,8 +2,11 @@
 //! interpolation between samples.
 //!
 //! Between samples the angle is a cubic Hermite interpolant whose node slopes are central
-//! differences (one-sided at the ends), so `q(t)` is C¹ and `q̇(t)` is its exact derivative;
-//! envelopes are interpolated linearly. Times outside the trial are clamped to its ends.
+//! differences (one-sided at the ends), so `q(t)` is C¹ and `q̇(t)` is its exact derivative.
+//! Envelopes, the knee angle and geometry series are interpolated linearly, except in a
+//! trial sampled below [`LOW_RATE_BELOW_HZ`]: there the envelopes are monotone cubics and the
+//! knee angle and series central-difference cubics (module `interp`), so that no input has
+//! a kink at the samples. Times outside the trial are clamped to its ends.
 
 use crate::error::ModelError;
 use crate::params::Muscle;
@@ -38,11 +41,25 @@ static NEXT_UID: AtomicU64 = AtomicU64::new(1);
 /// Half-width of the central second difference used for `q̈` (inertia effect), in seconds.
 pub const ACCEL_HALF_WINDOW_S: f64 = 0.005;
 
+/// A trial sampled below this rate (Hz) is a *low-rate* trial: its envelopes, knee angle and
+/// geometry series are read between samples by C¹ cubics instead of straight lines.
+///
+/// Why: a linear interpolant has a kink at every sample. Where the samples are closer than the
+/// integrator's steps (2048 Hz: 0.5 ms against steps of 4–30 ms) a step spans many small kinks
+/// and sees their smooth mean; where they are as far apart as the steps (envelopes exported at
+/// 100–250 Hz by a motion-capture system), every kink of the envelope is a kink of the
+/// activation's rate that the step control has to find, and a signal that was low-passed at a
+/// few hertz is better represented by a smooth curve through its samples anyway. Raw EMG needs
+/// at least 700 Hz (its 10–350 Hz band), so a trial below 500 Hz carries envelopes.
+pub const LOW_RATE_BELOW_HZ: f64 = 500.0;
+
 /// Validated inputs of one trial, with derived velocity and acceleration at the samples.
 #[derive(Clone, Debug)]
 pub struct TrialInputs {
     uid: u64,
     fs: f64,
+    /// `fs < LOW_RATE_BELOW_HZ`.
+    low_rate: bool,
     t0: f64,
     times: Vec<f64>,
     angle: Vec<f64>,
@@ -58,8 +75,9 @@ pub struct TrialInputs {
 
 /// A muscle's musculotendon length and signed ankle moment arm at the trial's samples, from
 /// the user's own musculoskeletal model (OpenSim's MuscleAnalysis, CEINMS's `lmt.txt` and
-/// `<joint>Ma.txt`), used instead of the length polynomial. Between samples both are
-/// interpolated linearly in time.
+/// `<joint>Ma.txt`), used instead of the length polynomial. Between samples the length is
+/// interpolated linearly in time (in a low-rate trial by the central-difference cubic); the
+/// moment arm is used at the samples.
 #[derive(Clone, Debug, PartialEq)]
 pub struct GeometrySeries {
     /// Musculotendon length (m).
@@ -137,6 +155,7 @@ impl TrialInputs {
         Ok(TrialInputs {
             uid: NEXT_UID.fetch_add(1, Ordering::Relaxed),
             fs,
+            low_rate: fs < LOW_RATE_BELOW_HZ,
             t0,
             times,
             angle: angle_rad,
@@ -259,6 +278,12 @@ impl TrialInputs {
         self.fs
     }
 
+    /// Whether the trial is sampled below [`LOW_RATE_BELOW_HZ`] (its envelopes, knee angle and
+    /// geometry series are then read between samples by cubics).
+    pub fn is_low_rate(&self) -> bool {
+        self.low_rate
+    }
+
     /// Time of the first sample (s).
     pub fn t0(&self) -> f64 {
         self.t0
@@ -344,31 +369,56 @@ impl TrialInputs {
             + (s3 - s2) * dt * dv[i + 1]
     }
 
-    /// Envelope of muscle index `j` (0..3) at time `t` (linear interpolation).
+    /// Envelope of muscle index `j` (0..3) at time `t` (linear interpolation; a monotone cubic
+    /// in a low-rate trial).
     #[inline]
     pub fn envelope_at(&self, j: usize, t: f64) -> f64 {
-        lerp(&self.env[j], self.locate(t))
+        self.envelope_value_at(&self.env[j], t)
     }
 
-    /// A series `v` known at the samples, at time `t` (linear interpolation; the first or last
-    /// value outside the trial).
+    /// An envelope `v` known at the samples, at time `t`: linear interpolation, or in a
+    /// low-rate trial the monotone cubic, which stays between neighbouring samples (so in
+    /// `[0, 1]`); the first or last value outside the trial.
     #[inline]
-    pub(crate) fn linear_at(&self, v: &[f64], t: f64) -> f64 {
-        lerp(v, self.locate(t))
+    pub(crate) fn envelope_value_at(&self, v: &[f64], t: f64) -> f64 {
+        let (i, s) = self.locate(t);
+        if self.low_rate {
+            crate::interp::pchip(v, i, s).0
+        } else {
+            lerp(v, (i, s))
+        }
     }
 
-    /// The slope of [`TrialInputs::linear_at`] on the sample interval holding `t` (per
-    /// second; the first or last interval's outside the trial).
+    /// A series `v` known at the samples (knee angle, musculotendon length), at time `t`:
+    /// linear interpolation, or in a low-rate trial the central-difference cubic; the first or
+    /// last value outside the trial.
     #[inline]
-    pub(crate) fn linear_rate_at(&self, v: &[f64], t: f64) -> f64 {
-        let (i, _) = self.locate(t);
-        (v[i + 1] - v[i]) * self.fs
+    pub(crate) fn series_at(&self, v: &[f64], t: f64) -> f64 {
+        let (i, s) = self.locate(t);
+        if self.low_rate {
+            crate::interp::central(v, i, s).0
+        } else {
+            lerp(v, (i, s))
+        }
     }
 
-    /// TA envelope at time `t`, if given.
+    /// The time derivative of [`TrialInputs::series_at`] (per second): the slope of the
+    /// linear interpolant on the sample interval holding `t`, or the cubic's derivative (the
+    /// first or last interval's outside the trial).
+    #[inline]
+    pub(crate) fn series_rate_at(&self, v: &[f64], t: f64) -> f64 {
+        let (i, s) = self.locate(t);
+        if self.low_rate {
+            crate::interp::central(v, i, s).1 * self.fs
+        } else {
+            (v[i + 1] - v[i]) * self.fs
+        }
+    }
+
+    /// TA envelope at time `t`, if given (as [`TrialInputs::envelope_at`]).
     #[inline]
     pub fn envelope_ta_at(&self, t: f64) -> Option<f64> {
-        self.env_ta.as_ref().map(|e| lerp(e, self.locate(t)))
+        self.env_ta.as_ref().map(|e| self.envelope_value_at(e, t))
     }
 }
 
@@ -376,6 +426,7 @@ impl PartialEq for TrialInputs {
     /// Equal data (the cache identity is ignored).
     fn eq(&self, o: &Self) -> bool {
         self.fs == o.fs
+            && self.low_rate == o.low_rate
             && self.t0 == o.t0
             && self.times == o.times
             && self.angle == o.angle

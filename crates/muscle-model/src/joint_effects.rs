@@ -69,7 +69,7 @@ pub(crate) fn run_ta(
         k2: act.k2,
         delay,
     };
-    ode::dopri5_dense(&mut sys, [u0], t, &settings.adaptive(), |i, y| {
+    ode::dopri5_dense(&mut sys, [u0], t, &settings.adaptive(inputs), |i, y| {
         out[i] = y[0]
     })
     .map_err(|source| ModelError::Integration {

@@ -91,6 +91,7 @@ pub mod error;
 mod fast_simulation;
 pub mod geometry;
 pub mod inputs;
+mod interp;
 mod joint_effects;
 pub mod likelihood;
 mod muscle_torque;

@@ -77,7 +77,7 @@ pub(crate) fn fast_prepare(
     let env = envelope_of(inputs, unit)?;
     let path = MusclePath::new(unit, inputs)?;
     let y0 = unit.equilibrium_state_lmt(
-        inputs.linear_at(env, inputs.times()[0] - delay),
+        inputs.envelope_value_at(env, inputs.times()[0] - delay),
         path.lmt_sample(inputs, 0),
     );
     let ch = fast_simulation::channel_for(current, inputs, unit, env, &path, delay);
@@ -124,7 +124,7 @@ struct UnitSystem<'a> {
 impl OdeSystem<STATE_DIM> for UnitSystem<'_> {
     #[inline]
     fn rhs(&mut self, t: f64, y: &[f64; STATE_DIM], dydt: &mut [f64; STATE_DIM]) {
-        let u = self.inputs.linear_at(self.env, t - self.delay);
+        let u = self.inputs.envelope_value_at(self.env, t - self.delay);
         if self.reduced {
             let lmt = self.path.lmt_at(self.inputs, t);
             self.unit.derivative_reduced_lmt(u, lmt, y, dydt);
@@ -162,8 +162,8 @@ pub(crate) fn run_muscle(
             let ft = fib.tendon_force(lmt, lmi);
             // the same operations as `fast::unit_torque` followed by the F0 scaling
             torque[i] = f0 * (ft * ch.r[i]);
-            if let (Some(st), Some((a, z))) = (states.as_deref_mut(), activation) {
-                st[i] = fast_simulation::state(a[i], z[i], lmi, lmt, ft);
+            if let (Some(st), Some((a, z, m))) = (states.as_deref_mut(), activation) {
+                st[i] = fast_simulation::state(a[i * m], z[i * m], lmi, lmt, ft);
             }
         }
         *current = Some(ch);
@@ -172,7 +172,7 @@ pub(crate) fn run_muscle(
     let env = envelope_of(inputs, &unit)?;
     let path = MusclePath::new(&unit, inputs)?;
     let y0 = unit.equilibrium_state_lmt(
-        inputs.linear_at(env, t[0] - delay),
+        inputs.envelope_value_at(env, t[0] - delay),
         path.lmt_sample(inputs, 0),
     );
     let reduced = settings.formulation == Formulation::Reduced;
@@ -184,7 +184,7 @@ pub(crate) fn run_muscle(
         delay,
         reduced,
     };
-    let stats = ode::dopri5_dense(&mut sys, y0, t, &settings.adaptive(), |i, y| {
+    let stats = ode::dopri5_dense(&mut sys, y0, t, &settings.adaptive(inputs), |i, y| {
         let r = path.moment_arm_sample(inputs, i);
         if reduced {
             let mut yp = *y;

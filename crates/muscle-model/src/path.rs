@@ -7,13 +7,17 @@
 //! ```
 //!
 //! `q(t)` is the trial's cubic Hermite angle, `k(t)` its knee angle linear in time between
-//! samples (0 without a knee series). Where a formulation integrates `LMT` from `vMT`
-//! ([`crate::Formulation::FourState`]), `k̇` and the series' rate are the slopes of the linear
-//! interpolants on the current sample interval: their integral is then the interpolant itself,
-//! so the integrated `LMT` stays on the path. The fast formulation reads `LMT` by cubic
-//! Hermite from its values and rates at the samples, and there the rates are central
-//! differences (one-sided at the ends), the same rule as the ankle velocity; that curve passes
-//! through every sample and departs from the linear interpolant by `O(Δt²·L̈)` between them.
+//! samples (0 without a knee series); in a low-rate trial ([`TrialInputs::is_low_rate`]) the
+//! knee angle and the series' length are cubics through the samples with central-difference
+//! slopes instead ([`TrialInputs::series_at`]). Where a formulation integrates `LMT` from `vMT`
+//! ([`crate::Formulation::FourState`]), `k̇` and the series' rate are the derivatives of those
+//! interpolants (on the current sample interval for the linear ones): their integral is then
+//! the interpolant itself, so the integrated `LMT` stays on the path. The fast formulation
+//! reads `LMT` by cubic Hermite from its values and rates at its table's points; on the
+//! samples' grid the rates are central differences (one-sided at the ends), the same rule as
+//! the ankle velocity, so that curve passes through every sample and departs from the linear
+//! interpolant by `O(Δt²·L̈)` between them; in a low-rate trial its points, several per
+//! sample interval, lie on the path's own `LMT(t)` above.
 //! Without a knee series, or for a muscle with no knee moment arm, the polynomial path is the
 //! ankle polynomial alone, evaluated with exactly the operations of the knee-extended model.
 
@@ -105,11 +109,11 @@ impl<'a> MusclePath<'a> {
             MusclePath::Poly { c, knee } => {
                 let l = crate::geometry::lmt(c, inputs.angle_value_at(t));
                 match knee {
-                    Some((rk, k)) => l - rk * inputs.linear_at(k, t),
+                    Some((rk, k)) => l - rk * inputs.series_at(k, t),
                     None => l,
                 }
             }
-            MusclePath::Series(g) => inputs.linear_at(&g.lmt_m, t),
+            MusclePath::Series(g) => inputs.series_at(&g.lmt_m, t),
         }
     }
 
@@ -121,11 +125,11 @@ impl<'a> MusclePath<'a> {
                 let (q, qd) = inputs.angle_at(t);
                 let v = crate::geometry::moment_arm(c, q) * qd;
                 match knee {
-                    Some((rk, k)) => v - rk * inputs.linear_rate_at(k, t),
+                    Some((rk, k)) => v - rk * inputs.series_rate_at(k, t),
                     None => v,
                 }
             }
-            MusclePath::Series(g) => inputs.linear_rate_at(&g.lmt_m, t),
+            MusclePath::Series(g) => inputs.series_rate_at(&g.lmt_m, t),
         }
     }
 }

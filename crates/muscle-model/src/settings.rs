@@ -5,6 +5,7 @@
 //! `sqrt(mean (eᵢ / (atol + rtol·max(|yᵢ|, |y₁ᵢ|)))²)` is at most 1, with steps no longer than
 //! [`SimSettings::h_max`].
 
+use crate::inputs::TrialInputs;
 use ode::AdaptiveSettings;
 use serde::{Deserialize, Serialize};
 
@@ -40,8 +41,9 @@ pub enum Formulation {
     /// quantised or noisy angles. [`SimSettings::tight`] uses it.
     Reduced,
     /// The reduced system with its inputs precomputed once per trial (default): activation
-    /// `a`, `â`, the fatigue factor and `LMT(q)` at every sample (activation integrated once
-    /// with RK4, 4 substeps per sample interval; cubic Hermite between samples), so each
+    /// `a`, `â`, the fatigue factor and `LMT(q)` at every sample, or at 400 points per second
+    /// or more in a low-rate trial (activation integrated once with RK4, 4 substeps per
+    /// interval; cubic Hermite between the points), so each
     /// muscle integrates only its fibre length `LM`. Same exact solution as
     /// [`Formulation::Reduced`]; the error control acts on `LM` alone. The per-trial part is
     /// kept with the [`crate::TrialInputs`] (shared by their clones and by every thread and
@@ -87,13 +89,27 @@ impl SimSettings {
         self
     }
 
-    pub(crate) fn adaptive(&self) -> AdaptiveSettings {
-        AdaptiveSettings {
+    /// The integrator's settings for `inputs`: these tolerances and limits, and for a low-rate
+    /// trial ([`TrialInputs::is_low_rate`]) the damped step-size controller
+    /// ([`ode::STABILISED_PI_BETA`]).
+    ///
+    /// Why the damped controller there: with its inputs smooth cubics, what still rejects steps
+    /// on a low-rate trial is the controller overshooting near the explicit method's stability
+    /// limit (the fibre's `h·|∂L̇M/∂LM|` reaches 1–2.5 through a gait cycle), and a damped
+    /// controller spends the same right-hand sides on accepted steps instead
+    /// (`docs/model.md`, "Low-rate trials").
+    pub(crate) fn adaptive(&self, inputs: &TrialInputs) -> AdaptiveSettings {
+        let s = AdaptiveSettings {
             rtol: self.rtol,
             atol: self.atol,
             h_max: self.h_max,
             max_steps: self.max_steps,
             ..AdaptiveSettings::default()
+        };
+        if inputs.is_low_rate() {
+            s.with_pi_beta(ode::STABILISED_PI_BETA)
+        } else {
+            s
         }
     }
 }

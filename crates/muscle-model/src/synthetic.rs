@@ -158,3 +158,59 @@ pub fn constant_velocity_trial(
     let e = vec![level; n];
     TrialInputs::new(fs, 0.0, angle, [e.clone(), e.clone(), e], None)
 }
+
+/// Stride period of [`gait_like_trial`] (s).
+pub const GAIT_STRIDE_S: f64 = 1.1;
+
+/// A periodic bump of the gait phase `phi` (cycles) centred on `centre` with concentration
+/// `kappa` (a von Mises shape, 1 at its centre, smooth and periodic).
+fn bump(phi: f64, centre: f64, kappa: f64) -> f64 {
+    (kappa * ((std::f64::consts::TAU * (phi - centre)).cos() - 1.0)).exp()
+}
+
+/// A treadmill-walking-like trial of `duration_s` sampled at `fs`, for tests and benchmarks of
+/// long recordings: strides of about [`GAIT_STRIDE_S`] (the phase drifts by ±2 % and the
+/// envelopes' amplitude by ±10 % over several strides, so no two strides are the same), the
+/// ankle between about 12° of dorsiflexion and 15° of plantarflexion, the knee flexed 5–70°
+/// (a knee-angle series), and smooth normalised envelopes with bursts where the muscles of
+/// walking are active (soleus and gastrocnemii in mid to late stance, peaks 0.15, 0.6 and
+/// 0.3; tibialis anterior in swing and at heel strike). The shapes are those of normal gait
+/// only roughly (no subject's data): what matters is that every input changes throughout,
+/// as in a recorded gait trial.
+pub fn gait_like_trial(fs: f64, duration_s: f64) -> Result<TrialInputs, ModelError> {
+    use std::f64::consts::TAU;
+    let n = (duration_s * fs).round() as usize + 1;
+    let t: Vec<f64> = (0..n).map(|i| i as f64 / fs).collect();
+    let phase = |t: f64| t / GAIT_STRIDE_S + 0.02 * (TAU * t / 7.3).sin();
+    let gain = |t: f64| 1.0 + 0.1 * (TAU * t / 13.1).sin();
+    let angle = t
+        .iter()
+        .map(|&t| {
+            let p = phase(t);
+            (2.0 + 8.0 * (TAU * p - 1.2).sin() - 18.0 * bump(p, 0.63, 12.0)).to_radians()
+        })
+        .collect();
+    let knee = t
+        .iter()
+        .map(|&t| {
+            let p = phase(t);
+            (5.0 + 15.0 * bump(p, 0.15, 20.0) + 65.0 * bump(p, 0.73, 7.0)).to_radians()
+        })
+        .collect();
+    let env = |level: f64, centre: f64, kappa: f64, rest: f64| -> Vec<f64> {
+        t.iter()
+            .map(|&t| rest + gain(t) * level * bump(phase(t), centre, kappa))
+            .collect()
+    };
+    let sol = env(0.15, 0.40, 6.0, 0.02);
+    let gm = env(0.6, 0.42, 8.0, 0.03);
+    let gl = env(0.3, 0.42, 8.0, 0.02);
+    let ta: Vec<f64> = t
+        .iter()
+        .map(|&t| {
+            let p = phase(t);
+            0.03 + gain(t) * (0.3 * bump(p, 0.8, 6.0) + 0.2 * bump(p, 0.02, 25.0))
+        })
+        .collect();
+    TrialInputs::new(fs, 0.0, angle, [sol, gm, gl], Some(ta))?.with_knee_angle(knee)
+}

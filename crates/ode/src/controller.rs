@@ -8,12 +8,15 @@
 //! h_new = h / fac                                                 β = 0.04, safety = 0.9
 //! ```
 //!
+//! (β is [`crate::AdaptiveSettings::pi_beta`], 0.04 by default; Hairer's `DOPRI5` allows up to
+//! 0.1, where larger values damp the oscillation of the step size that sets in near the
+//! method's stability limit)
+//!
 //! accepted when `err ≤ 1` (after a rejection the step may not grow), else retried with
 //! `h / min(1/0.2, err^α / safety)`; an attempt whose error cannot be evaluated is retried
 //! with `h/4`.
 
 const SAFETY: f64 = 0.9;
-const BETA: f64 = 0.04;
 const FAC_MIN: f64 = 0.2;
 const FAC_MAX: f64 = 10.0;
 /// `ln(1e-4)`, the floor of the previous error in the PI controller.
@@ -33,6 +36,8 @@ pub(crate) enum Verdict {
 /// The PI controller's memory of the previous steps.
 #[derive(Clone, Debug)]
 pub(crate) struct PiController {
+    /// The weight `β` of the previous error.
+    beta: f64,
     err_prev: f64,
     /// `err_prev^β`, kept when the controller works with logarithms.
     err_prev_pow: f64,
@@ -42,11 +47,13 @@ pub(crate) struct PiController {
 }
 
 impl PiController {
-    /// A controller at the start of an integration (`err_prev = 1e-4`), with powers by `powf`.
-    pub(crate) fn new() -> Self {
+    /// A controller with weight `beta` at the start of an integration (`err_prev = 1e-4`), with
+    /// powers by `powf`.
+    pub(crate) fn new(beta: f64) -> Self {
         PiController {
+            beta,
             err_prev: 1e-4,
-            err_prev_pow: (BETA * LN_1E_4).exp(),
+            err_prev_pow: (beta * LN_1E_4).exp(),
             log: false,
             rejected_last: false,
         }
@@ -60,7 +67,7 @@ impl PiController {
     /// Back to the start of an integration (keeping how powers are evaluated).
     pub(crate) fn restart(&mut self) {
         self.err_prev = 1e-4;
-        self.err_prev_pow = (BETA * LN_1E_4).exp();
+        self.err_prev_pow = (self.beta * LN_1E_4).exp();
         self.rejected_last = false;
     }
 
@@ -68,7 +75,7 @@ impl PiController {
     /// evaluated) and remembers what the next decision needs.
     #[inline(always)]
     pub(crate) fn judge(&mut self, h: f64, err: f64) -> Verdict {
-        let expo1 = 0.2 - BETA * 0.75;
+        let expo1 = 0.2 - self.beta * 0.75;
         if !err.is_finite() {
             // could not evaluate: shrink hard and retry
             self.rejected_last = true;
@@ -84,7 +91,7 @@ impl PiController {
             let prev_pow = if self.log {
                 self.err_prev_pow
             } else {
-                self.err_prev.powf(BETA)
+                self.err_prev.powf(self.beta)
             };
             let mut fac = fac11 / prev_pow;
             fac = (fac / SAFETY).clamp(1.0 / FAC_MAX, 1.0 / FAC_MIN);
@@ -94,7 +101,7 @@ impl PiController {
             }
             self.err_prev = err.max(1e-4);
             if self.log {
-                self.err_prev_pow = (BETA * ln_err.max(LN_1E_4)).exp();
+                self.err_prev_pow = (self.beta * ln_err.max(LN_1E_4)).exp();
             }
             self.rejected_last = false;
             return Verdict::Accept(h_new);

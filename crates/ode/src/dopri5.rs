@@ -69,7 +69,7 @@ impl<const N: usize> DoPri5<N> {
             ytmp: [0.0; N],
             ynew: [0.0; N],
             dense: DenseCoefficients::constant([0.0; N]),
-            control: PiController::new(),
+            control: PiController::new(settings.pi_beta),
             stats: Stats::default(),
             initialised: false,
         })

@@ -25,8 +25,8 @@
 //!
 //! and the step is accepted when `err ≤ 1`. The next step size follows the PI
 //! controller `h_new = h · safety · err^(−α) · err_prev^(β)` with
-//! `α = 0.2 − 0.75 β`, `β = 0.04`, `safety = 0.9`, limited to a factor in
-//! `[0.2, 10]`; after a rejection the step may not grow.
+//! `α = 0.2 − 0.75 β`, `β = 0.04` ([`AdaptiveSettings::pi_beta`]), `safety = 0.9`, limited to
+//! a factor in `[0.2, 10]`; after a rejection the step may not grow.
 //!
 //! Dense output uses the continuous extension of Dormand & Prince (as in
 //! Hairer's `DOPRI5`): with `θ = (t − t_n)/h`,
@@ -83,7 +83,7 @@ pub use dopri5::DoPri5;
 pub use driver::dopri5_dense;
 pub use error::OdeError;
 pub use lanes::attempt_lanes;
-pub use settings::AdaptiveSettings;
+pub use settings::{AdaptiveSettings, DEFAULT_PI_BETA, STABILISED_PI_BETA};
 pub use stats::Stats;
 pub use system::OdeSystem;
 pub use tableau::{rk4_fixed, rk4_step, rk_fixed, rk_step, Tableau, DP5, RK4};

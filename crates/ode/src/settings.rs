@@ -17,7 +17,19 @@ pub struct AdaptiveSettings {
     pub h_min: f64,
     /// Largest number of attempted steps (default 1 000 000).
     pub max_steps: usize,
+    /// Weight `β` of the previous step's error in the PI step-size controller
+    /// ([`crate::DoPri5`]'s `h_new = h·safety·err^(−α)·err_prev^β`, `α = 0.2 − 0.75β`), in
+    /// `[0, 0.1]` (default [`DEFAULT_PI_BETA`]). Larger values make the step size follow the
+    /// error more slowly, which damps its oscillation where the steps run near the method's
+    /// stability limit (Hairer & Wanner II, section IV.2; `DOPRI5`'s `WORK(5)`).
+    pub pi_beta: f64,
 }
+
+/// The default [`AdaptiveSettings::pi_beta`], Hairer's `DOPRI5` default.
+pub const DEFAULT_PI_BETA: f64 = 0.04;
+
+/// A damped [`AdaptiveSettings::pi_beta`] for steps that run near the stability limit.
+pub const STABILISED_PI_BETA: f64 = 0.08;
 
 impl Default for AdaptiveSettings {
     fn default() -> Self {
@@ -28,6 +40,7 @@ impl Default for AdaptiveSettings {
             h_max: f64::INFINITY,
             h_min: 1e-14,
             max_steps: 1_000_000,
+            pi_beta: DEFAULT_PI_BETA,
         }
     }
 }
@@ -63,6 +76,12 @@ impl AdaptiveSettings {
         self.max_steps = n;
         self
     }
+    /// Sets the step controller's weight `β` of the previous error.
+    #[must_use]
+    pub fn with_pi_beta(mut self, beta: f64) -> Self {
+        self.pi_beta = beta;
+        self
+    }
 
     /// Checks the tolerances, step sizes and step budget.
     pub(crate) fn validate(&self) -> Result<(), OdeError> {
@@ -87,6 +106,11 @@ impl AdaptiveSettings {
         {
             return Err(OdeError::InvalidInput {
                 what: "need 0 <= h_min <= h_max and h_max > 0",
+            });
+        }
+        if !(0.0..=0.1).contains(&self.pi_beta) {
+            return Err(OdeError::InvalidInput {
+                what: "pi_beta must be in [0, 0.1]",
             });
         }
         if self.max_steps == 0 {

@@ -227,3 +227,44 @@ fn step_budget_is_enforced() {
         "{r:?}"
     );
 }
+
+/// `y'' = −k·y − c·y' + f(t)` with a forcing whose slope jumps at the zeros of `cos 3t`
+/// (`|cos 3t|`), `k = 400`: stiff enough that the steps run near DoPri5's stability limit.
+fn forced(t: f64, y: &[f64; 2], dy: &mut [f64; 2]) {
+    dy[0] = y[1];
+    dy[1] = -400.0 * y[0] - 0.5 * y[1] + (7.0 * t).sin() * (1.0 + (3.0 * t).cos().abs());
+}
+
+#[test]
+fn near_the_stability_limit_a_damped_controller_rejects_fewer_steps_for_the_same_work() {
+    // at rtol 1e-4 the steps are set by stability (eigenvalues about ±20i: h·20 runs near
+    // DoPri5's stability boundary), where the plain controller swings between too long and too
+    // short steps (measured: 16 % of the attempts rejected against 1.6 %, for the same number
+    // of right-hand sides)
+    let t = grid(20.0, 2000);
+    let run = |beta: f64| {
+        let s = AdaptiveSettings::default()
+            .with_rtol(1e-4)
+            .with_atol(1e-6)
+            .with_pi_beta(beta);
+        dopri5_dense(&mut forced, [0.0, 0.0], &t, &s, |_, _| {}).unwrap()
+    };
+    let (plain, damped) = (run(ode::DEFAULT_PI_BETA), run(ode::STABILISED_PI_BETA));
+    let share = |s: ode::Stats| s.rejected as f64 / (s.accepted + s.rejected) as f64;
+    assert!(share(plain) > 0.1, "{plain:?}");
+    assert!(
+        share(damped) < 0.25 * share(plain),
+        "{damped:?} vs {plain:?}"
+    );
+    let ratio = damped.rhs_calls as f64 / plain.rhs_calls as f64;
+    assert!((0.95..1.05).contains(&ratio), "{damped:?} vs {plain:?}");
+}
+
+#[test]
+fn pi_beta_outside_its_range_is_an_error() {
+    for beta in [-0.01, 0.11, f64::NAN] {
+        let s = AdaptiveSettings::default().with_pi_beta(beta);
+        assert!(DoPri5::<1>::new(s).is_err(), "β {beta}");
+    }
+    assert!(DoPri5::<1>::new(AdaptiveSettings::default().with_pi_beta(0.1)).is_ok());
+}

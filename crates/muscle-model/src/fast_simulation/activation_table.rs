@@ -1,5 +1,6 @@
-//! The activation of one muscle tabulated at the samples of a trial ([`ActTable`]): `a`, `ȧ`
-//! and, when asked for, `∫₀ᵗ â dt`.
+//! The activation of one muscle tabulated at the points of a trial's [`TableGrid`] (its
+//! samples, or several points per sample interval in a low-rate trial) ([`ActTable`]): `a`,
+//! `ȧ` and, when asked for, `∫₀ᵗ â dt`.
 //!
 //! With `u(t) = env(t − d)` clamped to `[0, 1]`, the activation follows
 //!
@@ -7,11 +8,12 @@
 //! ȧ = (u − a)(k1·u + k2),     â = f_A(a)
 //! ```
 //!
-//! integrated with classical RK4, [`ACT_SUBSTEPS`] substeps per sample interval (the envelope is
-//! linear inside an interval). A table with a delay `d > 0` is the undelayed one read at
-//! `tᵢ − d` by cubic Hermite interpolation (`a₀(t₀)` before `t₀ + d`), with
-//! `∫₀ᵗ â_d = â(a₀(t₀))·min(t − t₀, d) + ∫₀^{t−d} â₀`.
+//! integrated with classical RK4, [`ACT_SUBSTEPS`] substeps per grid interval (the envelope is
+//! a polynomial inside one: linear, or the low-rate trial's monotone cubic). A table with a
+//! delay `d > 0` is the undelayed one read at `tⱼ − d` by cubic Hermite interpolation
+//! (`a₀(t₀)` before `t₀ + d`), with `∫₀ᵗ â_d = â(a₀(t₀))·min(t − t₀, d) + ∫₀^{t−d} â₀`.
 
+use super::grid::TableGrid;
 use super::kept::KeptList;
 use crate::activation::Activation;
 use crate::inputs::TrialInputs;
@@ -19,7 +21,7 @@ use crate::musculotendon::MuscleUnit;
 use crate::params::Muscle;
 use std::sync::{Arc, OnceLock};
 
-/// RK4 substeps per sample interval when the activation is precomputed.
+/// RK4 substeps per grid interval when the activation is precomputed.
 pub(super) const ACT_SUBSTEPS: usize = 4;
 
 /// What an [`ActTable`] was computed from: everything the activation `a(t)` depends on.
@@ -51,7 +53,7 @@ impl TableKey {
     }
 }
 
-/// The activation of one muscle at the samples: `a`, `ȧ` and (on first use) `∫₀ᵗ â dt`.
+/// The activation of one muscle at the grid's points: `a`, `ȧ` and (on first use) `∫₀ᵗ â dt`.
 ///
 /// It depends on the activation parameters and the delay but not on the fatigue rate or the
 /// muscle's identified parameters, so the channels of every fatigue rate share one table (a
@@ -61,11 +63,11 @@ impl TableKey {
 pub(super) struct ActTable {
     pub(super) key: TableKey,
     act: Activation,
-    /// `a` at the samples.
+    /// `a` at the grid's points.
     pub(super) a: Vec<f64>,
-    /// `ȧ = rate(u(tᵢ), aᵢ)` at the samples.
+    /// `ȧ = rate(u(tⱼ), aⱼ)` at the grid's points.
     pub(super) adot: Vec<f64>,
-    /// `∫₀ᵗ â dt` at the samples, computed on first use.
+    /// `∫₀ᵗ â dt` at the grid's points, computed on first use.
     z: OnceLock<Vec<f64>>,
     /// For a delayed table, the undelayed one it was shifted from.
     pub(super) base: Option<Arc<ActTable>>,
@@ -162,19 +164,21 @@ impl ActTable {
         alone(key)
     }
 
-    /// `base` (undelayed) delayed by `key.delay > 0`: `a(tᵢ) = a₀(tᵢ − d)` by cubic Hermite
-    /// interpolation of `a₀` and `ȧ₀` (`a₀(t₀)` before `t₀ + d`), `ȧ(tᵢ)` from the activation
-    /// equation at `u(tᵢ − d)`.
+    /// `base` (undelayed) delayed by `key.delay > 0`: `a(tⱼ) = a₀(tⱼ − d)` by cubic Hermite
+    /// interpolation of `a₀` and `ȧ₀` (`a₀(t₀)` before `t₀ + d`), `ȧ(tⱼ)` from the activation
+    /// equation at `u(tⱼ − d)`.
     fn shifted(base: &Arc<ActTable>, key: TableKey, env: &[f64], inputs: &TrialInputs) -> ActTable {
         let act = base.act;
         let (a0, adot0) = (&base.a, &base.adot);
-        let mut a = Vec::with_capacity(key.n);
-        let mut adot = Vec::with_capacity(key.n);
-        for &ti in inputs.times() {
+        let g = TableGrid::of(inputs);
+        let mut a = Vec::with_capacity(g.len);
+        let mut adot = Vec::with_capacity(g.len);
+        for j in 0..g.len {
+            let ti = g.time(j);
             // `a₀(t₀)` at and before the first sample: the rest before `t₀ + d`
-            let ai = inputs.hermite_at(a0, adot0, ti - key.delay);
+            let ai = g.hermite_at(a0, adot0, ti - key.delay);
             a.push(ai);
-            let u = inputs.linear_at(env, ti - key.delay);
+            let u = inputs.envelope_value_at(env, ti - key.delay);
             adot.push(act.rate(u.clamp(0.0, 1.0), ai));
         }
         ActTable {
@@ -187,12 +191,13 @@ impl ActTable {
         }
     }
 
-    /// `∫₀ᵗ â dt` at the samples, on the first call: integrated together with `a` (with the
+    /// `∫₀ᵗ â dt` at the grid's points, on the first call: integrated together with `a` (with the
     /// same arithmetic for `a`), or for a delayed table `â(a₀(t₀))·min(t − t₀, d)` plus the
     /// undelayed integral at `t − d` (cubic Hermite, slopes `â₀`).
     pub(super) fn z(&self, env: &[f64], inputs: &TrialInputs) -> &[f64] {
         self.z.get_or_init(|| {
-            let mut z = Vec::with_capacity(self.key.n);
+            let g = TableGrid::of(inputs);
+            let mut z = Vec::with_capacity(g.len);
             match &self.base {
                 None => {
                     integrate_activation_and_integral(&self.key, env, inputs, self.act, |zi| {
@@ -204,10 +209,11 @@ impl ActTable {
                     let ah0: Vec<f64> = b.a.iter().map(|&a| nl.apply(a)).collect();
                     let rest = ah0[0];
                     let t0 = inputs.t0();
-                    for &ti in inputs.times() {
+                    for j in 0..g.len {
+                        let ti = g.time(j);
                         let s = ti - d;
                         let zi = if s > t0 {
-                            rest * d + inputs.hermite_at(z0, &ah0, s)
+                            rest * d + g.hermite_at(z0, &ah0, s)
                         } else {
                             rest * (ti - t0)
                         };
@@ -222,9 +228,9 @@ impl ActTable {
 
 /// Classical RK4 on `ȧ = rate(u_l(t − d), a)` for the muscles `keys[l]` (envelopes `envs[l]`) together (their
 /// independent recurrences interleaved, which keeps the processor busy: each alone is one
-/// long dependency chain), [`ACT_SUBSTEPS`] substeps per sample interval (`u` clamped to
-/// [0, 1]). Returns `a` and `ȧ` at the samples per muscle; each muscle's numbers are the same
-/// whatever it is integrated with.
+/// long dependency chain), [`ACT_SUBSTEPS`] substeps per interval of the trial's
+/// [`TableGrid`] (`u` clamped to [0, 1]). Returns `a` and `ȧ` at the grid's points per
+/// muscle; each muscle's numbers are the same whatever it is integrated with.
 ///
 /// `u` is read once per distinct time: the two midpoint stages share one, and a substep's
 /// last stage time is the next substep's first (the same `tt + hs` rounding).
@@ -234,18 +240,19 @@ fn integrate_activation<const L: usize>(
     inputs: &TrialInputs,
     act: Activation,
 ) -> [(Vec<f64>, Vec<f64>); L] {
-    let n = inputs.len();
-    let t = inputs.times();
-    let hs = 1.0 / inputs.fs() / ACT_SUBSTEPS as f64;
+    let g = TableGrid::of(inputs);
+    let n = g.len;
+    let hs = 1.0 / g.rate / ACT_SUBSTEPS as f64;
     let u_at = |l: usize, tt: f64| {
         inputs
-            .linear_at(envs[l], tt - keys[l].delay)
+            .envelope_value_at(envs[l], tt - keys[l].delay)
             .clamp(0.0, 1.0)
     };
     let mut out: [(Vec<f64>, Vec<f64>); L] =
         std::array::from_fn(|_| (Vec::with_capacity(n), Vec::with_capacity(n)));
-    let mut y: [f64; L] = std::array::from_fn(|l| u_at(l, t[0]));
-    for (i, &ti) in t.iter().enumerate() {
+    let mut y: [f64; L] = std::array::from_fn(|l| u_at(l, g.time(0)));
+    for i in 0..n {
+        let ti = g.time(i);
         let mut u0: [f64; L] = std::array::from_fn(|l| u_at(l, ti));
         for l in 0..L {
             out[l].0.push(y[l]);
@@ -274,7 +281,7 @@ fn integrate_activation<const L: usize>(
 }
 
 /// The same RK4 as [`integrate_activation`] on `[a, ∫â]` (the `a` component is computed
-/// identically: it does not read `∫â`); calls `out(∫â)` at every sample.
+/// identically: it does not read `∫â`); calls `out(∫â)` at every point of the grid.
 fn integrate_activation_and_integral(
     key: &TableKey,
     env: &[f64],
@@ -282,15 +289,16 @@ fn integrate_activation_and_integral(
     act: Activation,
     mut out: impl FnMut(f64),
 ) {
-    let n = key.n;
+    let g = TableGrid::of(inputs);
+    let n = g.len;
     let delay = key.delay;
-    let t = inputs.times();
-    let hs = 1.0 / inputs.fs() / ACT_SUBSTEPS as f64;
+    let hs = 1.0 / g.rate / ACT_SUBSTEPS as f64;
     let nl = act.nonlinearity;
-    let u_at = |tt: f64| inputs.linear_at(env, tt - delay).clamp(0.0, 1.0);
+    let u_at = |tt: f64| inputs.envelope_value_at(env, tt - delay).clamp(0.0, 1.0);
     let f = |tt: f64, y: [f64; 2]| -> [f64; 2] { [act.rate(u_at(tt), y[0]), nl.apply(y[0])] };
-    let mut y = [u_at(t[0]), 0.0];
-    for (i, &ti) in t.iter().enumerate() {
+    let mut y = [u_at(g.time(0)), 0.0];
+    for i in 0..n {
+        let ti = g.time(i);
         out(y[1]);
         if i + 1 < n {
             let mut tt = ti;

@@ -134,7 +134,8 @@ mod tests {
         let c1 = chan(&tr, &u1[1], d);
         assert!(Arc::ptr_eq(&c0.table, &c1.table));
         assert!(Arc::ptr_eq(&c0, &chan(&tr, &u0[1], d)));
-        let (a, z) = c1.activation(tr.envelope(crate::params::Muscle::Gm), &tr);
+        let (a, z, m) = c1.activation(tr.envelope(crate::params::Muscle::Gm), &tr);
+        assert_eq!(m, 1);
         let nl = u1[1].activation.nonlinearity;
         for i in (0..tr.len()).step_by(97) {
             assert_eq!(c0.drive[i][0], nl.apply(a[i]));

@@ -7,7 +7,7 @@
 //! L̇M = vM(act(t), LMT(t), LM),     d(act)/dt read from the drive
 //! ```
 //!
-//! with `act`, `d(act)/dt` and `LMT` interpolated between samples by cubic Hermite from the
+//! with `act`, `d(act)/dt` and `LMT` interpolated between the drive's points by cubic Hermite from the
 //! [`Channel`]'s drive. The activation input needs no integration (it is tabulated), but its
 //! embedded error estimate enters the step-size control.
 
@@ -18,7 +18,8 @@ use crate::settings::SimSettings;
 use crate::stats::SimStats;
 use ode::{DoPri5, OdeError, OdeSystem};
 
-/// Cubic Hermite interpolation of the drive at time `t`: `(act, d(act)/dt, LMT)`.
+/// Cubic Hermite interpolation of the drive (tabulated at `t0 + j/fs`) at time `t`:
+/// `(act, d(act)/dt, LMT)`.
 #[inline(always)]
 fn drive_at(drive: &[[f64; 4]], t0: f64, fs: f64, t: f64) -> (f64, f64, f64) {
     let n = drive.len();
@@ -98,7 +99,6 @@ pub(crate) fn run_lanes<const L: usize>(
     let times = inputs.times();
     let n = times.len();
     let t0 = times[0];
-    let fs = inputs.fs();
     let t_end = times[n - 1];
     let mut stats = [SimStats::default(); L];
     let mut outs: [Option<&mut [f64]>; L] = std::array::from_fn(|_| None);
@@ -113,8 +113,8 @@ pub(crate) fn run_lanes<const L: usize>(
             y0[l] = [lm0, ch.drive[0][0]];
             systems[l] = Some(FibreSystem {
                 drive: &ch.drive,
-                t0,
-                fs,
+                t0: ch.grid.t0,
+                fs: ch.grid.rate,
                 fib,
             });
             outs[l] = Some(out);
@@ -132,7 +132,7 @@ pub(crate) fn run_lanes<const L: usize>(
         active[l] = systems[l].is_some();
         systems[l].take().unwrap_or(first)
     });
-    let stepper = DoPri5::<2>::new(settings.adaptive())
+    let stepper = DoPri5::<2>::new(settings.adaptive(inputs))
         .map_err(|e| (0, e))?
         .with_log_controller();
     let mut steppers: [DoPri5<2>; L] = std::array::from_fn(|_| stepper.clone());

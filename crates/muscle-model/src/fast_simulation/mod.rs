@@ -4,10 +4,13 @@
 //!
 //! Activation `a(t)`, `â = f_A(a)`, the fatigue factor `exp(−k∫â)` and `LMT(q(t))` do not
 //! depend on the identified parameters (LST, F0, α0), so a [`Channel`] holds them at every
-//! sample (value and time derivative) and the integrator reads them by cubic Hermite
-//! interpolation. The activation is integrated once with classical RK4, four
-//! substeps per sample interval (the envelope is linear inside an interval). The only state
-//! left per muscle is the fibre length `LM`; `F̃T = fT(ε(LMT, LM))` at the samples.
+//! point of the trial's table grid (value and time derivative) and the integrator reads them
+//! by cubic Hermite interpolation. The grid is the samples, or in a low-rate trial
+//! ([`crate::TrialInputs::is_low_rate`]) several points per sample interval, at least 400 per
+//! second ([`grid`]). The activation is integrated once with classical RK4, four substeps per
+//! grid interval (the envelope is a polynomial inside one: linear, or a low-rate trial's
+//! monotone cubic). The only state left per muscle is the fibre length `LM`;
+//! `F̃T = fT(ε(LMT, LM))` at the samples.
 //!
 //! A delay `d` only shifts the activation in time: the input `u(t) = env(t − d)` is held at
 //! `env(t₀)` before `t₀ + d`, where the activation rests at equilibrium, so
@@ -28,8 +31,8 @@
 //! Both interleave independent recurrences for the processor's sake only: every muscle's
 //! numbers are the same bits as when it is computed alone.
 //!
-//! Submodules: the activation tables ([`activation_table`]), the per-muscle drive built from
-//! them ([`channel`]), where both are kept per trial ([`cache`]), the fibre right-hand side
+//! Submodules: the grid the tables are computed on ([`grid`]), the activation tables
+//! ([`activation_table`]), the per-muscle drive built from them ([`channel`]), where both are kept per trial ([`cache`]), the fibre right-hand side
 //! and the torque read from `LM` ([`fibre`]), and the integration of one or several muscles
 //! ([`integrate`]).
 
@@ -37,6 +40,7 @@ mod activation_table;
 mod cache;
 mod channel;
 mod fibre;
+mod grid;
 mod integrate;
 mod kept;
 #[cfg(test)]
