@@ -51,6 +51,20 @@ impl TableKey {
             delay,
         }
     }
+
+    /// The same key without a delay.
+    pub(super) fn undelayed(self) -> TableKey {
+        TableKey { delay: 0.0, ..self }
+    }
+
+    /// Whether a table of `self` has the same `a` and `ȧ` as one of `other`: every field but
+    /// the A-model's shape, which only `∫â` reads.
+    pub(super) fn same_dynamics(&self, other: &TableKey) -> bool {
+        TableKey {
+            shape: other.shape,
+            ..*self
+        } == *other
+    }
 }
 
 /// The activation of one muscle at the grid's points: `a`, `ȧ` and (on first use) `∫₀ᵗ â dt`.
@@ -129,6 +143,15 @@ impl ActTable {
         if let Ok(all) = <[Arc<ActTable>; 3]>::try_from(found) {
             return all;
         }
+        let other_shape: Vec<Arc<ActTable>> = keys
+            .iter()
+            .filter_map(|k| list.find_where(|t| t.key.same_dynamics(k)))
+            .collect();
+        if let Ok(all) = <[Arc<ActTable>; 3]>::try_from(other_shape) {
+            return std::array::from_fn(|j| {
+                list.keep(Arc::new(all[j].reshaped(keys[j], act, None)), |t| &t.key)
+            });
+        }
         Self::build_all(keys[0], inputs, act, list).map(|t| list.keep(Arc::new(t), |t| &t.key))
     }
 
@@ -162,6 +185,27 @@ impl ActTable {
             return Self::shifted(&base, key, env, inputs);
         }
         alone(key)
+    }
+
+    /// This table under `key`, which differs from its own key at most in the A-model's shape
+    /// (activation `act`): `a` and `ȧ` are copied, since the shape acts only on `â = f_A(a)`,
+    /// so an activation-shape fit does not integrate the activation again. A delayed table
+    /// takes `base`, the undelayed table of the new shape, from which its `∫â` is read.
+    pub(super) fn reshaped(
+        &self,
+        key: TableKey,
+        act: Activation,
+        base: Option<Arc<ActTable>>,
+    ) -> ActTable {
+        debug_assert!(self.key.same_dynamics(&key));
+        ActTable {
+            key,
+            act,
+            a: self.a.clone(),
+            adot: self.adot.clone(),
+            z: OnceLock::new(),
+            base,
+        }
     }
 
     /// `base` (undelayed) delayed by `key.delay > 0`: `a(tⱼ) = a₀(tⱼ − d)` by cubic Hermite

@@ -93,6 +93,20 @@ fn triceps_table(
     j: usize,
 ) -> Arc<ActTable> {
     if key.table.delay > 0.0 {
+        if let Some(t) = cache.tables.find(&key.table, |t| &t.key) {
+            return t;
+        }
+        // the same delay under another activation shape: its `a` and `ȧ` hold
+        if let Some(t) = cache.tables.find_where(|t| t.key.same_dynamics(&key.table)) {
+            let base = ActTable::undelayed(
+                key.table.undelayed(),
+                inputs,
+                unit.activation,
+                &cache.undelayed,
+            );
+            let t = t.reshaped(key.table, unit.activation, Some(Arc::clone(&base[j])));
+            return cache.tables.keep(Arc::new(t), |t| &t.key);
+        }
         match cache.tables.find(&key.table, |t| &t.key) {
             Some(t) => t,
             None => {
@@ -123,6 +137,38 @@ mod tests {
         }
         assert!(c0.table.base.is_none());
         assert!(Arc::ptr_eq(&c1, &chan(&tr, &u[2], 0.021)));
+    }
+
+    #[test]
+    fn a_new_activation_shape_reuses_the_activation_and_changes_nothing_else() {
+        use crate::activation::ManalBuchanan;
+        let reshape = |u: &MuscleUnit| {
+            let mut v = u.clone();
+            v.activation.nonlinearity = ManalBuchanan::new(0.05);
+            v
+        };
+        for (fatigue, delay_ms) in [
+            (None, 0.0),
+            (None, 20.0),
+            (Some(0.03), 0.0),
+            (Some(0.03), 20.0),
+        ] {
+            let (tr, u, d) = units(fatigue, delay_ms);
+            let first = chan(&tr, &u[1], d);
+            let reused = chan(&tr, &reshape(&u[1]), d);
+            // a fresh trial (its own cache) builds the new shape's table from nothing
+            let (fresh_tr, fresh_u, _) = units(fatigue, delay_ms);
+            let built = chan(&fresh_tr, &reshape(&fresh_u[1]), d);
+            assert!(!Arc::ptr_eq(&first.table, &reused.table));
+            assert_eq!(reused.table.a, built.table.a, "{fatigue:?} {delay_ms}");
+            assert_eq!(reused.table.adot, built.table.adot);
+            assert_eq!(reused.drive, built.drive);
+            let env = tr.envelope(crate::params::Muscle::Gm);
+            let (_, z_reused, _) = reused.activation(env, &tr);
+            let (_, z_built, _) = built.activation(env, &fresh_tr);
+            assert_eq!(z_reused, z_built);
+            assert_ne!(first.drive, reused.drive, "the shape changes the drive");
+        }
     }
 
     #[test]

@@ -27,6 +27,12 @@ impl<T> KeptList<T> {
         list.iter().find(|c| key_of(c) == key).map(Arc::clone)
     }
 
+    /// The newest item that `pred` accepts.
+    pub(super) fn find_where(&self, pred: impl Fn(&T) -> bool) -> Option<Arc<T>> {
+        let list = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        list.iter().rev().find(|c| pred(c)).map(Arc::clone)
+    }
+
     /// Keeps `item` (unless an equal one arrived meanwhile, which is returned instead),
     /// dropping the oldest beyond [`SHARED_CHANNELS`].
     pub(super) fn keep<K: PartialEq>(&self, item: Arc<T>, key_of: impl Fn(&T) -> &K) -> Arc<T> {
