@@ -216,6 +216,49 @@ impl TrialInputs {
         Ok(self.renewed())
     }
 
+    /// The inputs of the samples `range` alone, as a trial of their own starting at
+    /// `times()[range.start]`: every series cut to the range, velocity and acceleration
+    /// differenced again inside it (one-sided at its ends). A calibration searches on windows of
+    /// a long recording because the simulation's cost grows with the length it integrates.
+    ///
+    /// # Errors
+    /// [`ModelError::Input`] for a range of fewer than 2 samples or beyond the trial.
+    pub fn window(&self, range: std::ops::Range<usize>) -> Result<Self, ModelError> {
+        if range.end > self.len() || range.end < range.start + 2 {
+            return Err(ModelError::input(
+                "window",
+                format!(
+                    "samples {}..{} are not a range of at least 2 of the trial's {}",
+                    range.start,
+                    range.end,
+                    self.len()
+                ),
+            ));
+        }
+        let cut = |v: &[f64]| v[range.clone()].to_vec();
+        let mut w = TrialInputs::new(
+            self.fs,
+            self.times[range.start],
+            cut(&self.angle),
+            std::array::from_fn(|j| cut(&self.env[j])),
+            self.env_ta.as_deref().map(cut),
+        )?;
+        if let Some(k) = &self.knee {
+            w = w.with_knee_angle(cut(k))?;
+        }
+        for (name, env) in &self.channels {
+            w = w.with_envelope(name, cut(env))?;
+        }
+        for (name, g) in &self.geometry {
+            let series = GeometrySeries {
+                lmt_m: cut(&g.lmt_m),
+                moment_arm_m: cut(&g.moment_arm_m),
+            };
+            w = w.with_geometry(name, series)?;
+        }
+        Ok(w)
+    }
+
     /// A new cache identity: what was derived from the earlier inputs no longer holds.
     fn renewed(mut self) -> Self {
         self.uid = NEXT_UID.fetch_add(1, Ordering::Relaxed);

@@ -412,6 +412,45 @@ impl Problem {
         Ok(self)
     }
 
+    /// The problem on the samples `range` alone, with up to `lead_in` samples before it
+    /// integrated but weighted 0: the simulation starts a window at equilibrium, and the lead-in
+    /// lets activation and fibres settle before the window is judged. Free parameters, bounds,
+    /// base values and settings are kept; weights inside the range are kept.
+    ///
+    /// # Errors
+    /// As [`TrialInputs::window`]; [`ModelError::Input`] when every weight of `range` is 0.
+    pub fn window(
+        &self,
+        range: std::ops::Range<usize>,
+        lead_in: usize,
+    ) -> Result<Problem, ModelError> {
+        let start = range.start.saturating_sub(lead_in);
+        let inputs = self.inputs.window(start..range.end)?;
+        let weights = (start..range.end)
+            .map(|i| {
+                if i < range.start {
+                    0.0
+                } else {
+                    self.weights.as_ref().map_or(1.0, |w| w[i])
+                }
+            })
+            .collect();
+        let mut p = Problem {
+            inputs,
+            measured: self.measured[start..range.end].to_vec(),
+            weights: None,
+            weight_sum: 0.0,
+            base_params: self.base_params,
+            base_effects: self.base_effects.clone(),
+            free: self.free.clone(),
+            names: self.names.clone(),
+            bounds: self.bounds.clone(),
+            settings: self.settings,
+        };
+        p = p.with_weights(weights)?;
+        Ok(p)
+    }
+
     /// Replaces the simulation settings.
     #[must_use]
     pub fn with_settings(mut self, settings: SimSettings) -> Self {
