@@ -22,6 +22,10 @@ pub enum Error {
     /// `f64`), a start point outside the bounds, or an objective failing at the start point.
     #[error(transparent)]
     Numerics(#[from] numerics::NumericsError),
+    /// The search set of [`crate::identify_set_with_search`] does not fit the whole set: other
+    /// free parameters or bounds, or no chain's point can be simulated on the whole set.
+    #[error("search set: {0}")]
+    Search(&'static str),
     /// The evaluation budget is too small to evaluate even the start point.
     #[error("evaluation budget {budget} is too small (need at least {needed})")]
     BudgetTooSmall {

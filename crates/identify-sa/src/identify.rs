@@ -258,8 +258,12 @@ pub struct ChainSummary {
     pub annealing_cost: f64,
     /// Cost after the annealer's Nelder–Mead polish.
     pub nelder_mead_cost: f64,
-    /// Cost after the Levenberg–Marquardt polish.
+    /// Cost after the Levenberg–Marquardt polish (with a search set, [`identify_set_with_search`]:
+    /// the cost of the chain's point on the whole set, after the final polish for the best chain).
     pub cost: f64,
+    /// With a search set, the chain's cost on it after its polish there; `None` otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub search_cost: Option<f64>,
     /// The chain's final point.
     pub x: Vec<f64>,
     /// Evaluations of the annealer (Nelder–Mead included).
@@ -392,6 +396,43 @@ pub fn identify_set<B: IdentifyObserver + ?Sized>(
     settings: &SaIdentifySettings,
     observer: &B,
 ) -> Result<Identification, Error> {
+    identify_searched(set, None, settings, observer)
+}
+
+/// [`identify_set`] with the chains' search on `search`, a set that is cheaper to simulate
+/// than `set` and says the same about the parameters (windows of strides spread over a long
+/// recording): every chain anneals and is polished on `search`, each chain's point is then
+/// scored on `set` (its [`ChainSummary::cost`]; the search's cost is kept in
+/// [`ChainSummary::search_cost`]), and the best is polished again on `set` with the same
+/// Levenberg–Marquardt. The result's costs, RMS and point are `set`'s.
+///
+/// Why: the annealing's thousands of evaluations cost what the integrated length costs, while
+/// the basin it finds is fixed by a few representative strides; the final polish on every
+/// sample removes what the choice of strides moved.
+///
+/// # Errors
+/// As [`identify`]; [`Error::Search`] when `search` has other free parameters or bounds than
+/// `set`, or no chain's point can be simulated on `set`.
+pub fn identify_set_with_search<B: IdentifyObserver + ?Sized>(
+    set: &ProblemSet,
+    search: &ProblemSet,
+    settings: &SaIdentifySettings,
+    observer: &B,
+) -> Result<Identification, Error> {
+    if search.names() != set.names() || search.bounds() != set.bounds() {
+        return Err(Error::Search(
+            "it must have the whole set's free parameters and bounds",
+        ));
+    }
+    identify_searched(set, Some(search), settings, observer)
+}
+
+fn identify_searched<B: IdentifyObserver + ?Sized>(
+    set: &ProblemSet,
+    search: Option<&ProblemSet>,
+    settings: &SaIdentifySettings,
+    observer: &B,
+) -> Result<Identification, Error> {
     let settings = settings.validate()?;
     let start = Instant::now();
     let base: Vec<f64> = set
@@ -400,23 +441,61 @@ pub fn identify_set<B: IdentifyObserver + ?Sized>(
         .zip(set.bounds())
         .map(|(&v, &(lo, hi))| v.clamp(lo, hi))
         .collect();
+    let on = search.unwrap_or(set);
     let chains: Vec<Result<ChainSummary, Error>> = (0..settings.chains)
         .into_par_iter()
-        .map(|k| run_chain(set, &settings, k, &base, observer))
+        .map(|k| run_chain(on, &settings, k, &base, observer))
         .collect();
-    let chains = chains.into_iter().collect::<Result<Vec<_>, _>>()?;
+    let mut chains = chains.into_iter().collect::<Result<Vec<_>, _>>()?;
+    let mut evaluations: u64 = chains
+        .iter()
+        .map(|c| c.annealing_evaluations + c.polish_evaluations)
+        .sum();
+    if search.is_some() {
+        let whole: Vec<f64> = chains
+            .par_iter()
+            .map(|c| {
+                let mut ws = ProblemSetWorkspace::new(set);
+                set.sse_with(&c.x, &mut ws).unwrap_or(f64::INFINITY)
+            })
+            .collect();
+        evaluations += whole.len() as u64;
+        for (c, w) in chains.iter_mut().zip(whole) {
+            c.search_cost = Some(c.cost);
+            c.cost = w;
+        }
+    }
     let mut best = 0usize;
     for (k, c) in chains.iter().enumerate() {
         if c.cost < chains[best].cost {
             best = k;
         }
     }
+    if search.is_some() {
+        let c = &mut chains[best];
+        let k = best as u32;
+        let lm = levenberg_marquardt_polish(set, &c.x, c.cost, &settings.polish, |it, cost, ev| {
+            let _ = observer.observe(&IdentifyEvent::Polish {
+                chain: k,
+                iteration: it,
+                cost,
+                evaluations: ev,
+            });
+        });
+        evaluations += lm.evaluations;
+        c.x = lm.x;
+        c.cost = lm.cost;
+        c.polish_evaluations += lm.evaluations;
+        c.polish_iterations += lm.iterations;
+        c.failed_evaluations += lm.failed;
+    }
     let x = chains[best].x.clone();
     let sse = chains[best].cost;
-    let evaluations = chains
-        .iter()
-        .map(|c| c.annealing_evaluations + c.polish_evaluations)
-        .sum();
+    if !sse.is_finite() {
+        return Err(Error::Search(
+            "no chain's point can be simulated on the whole set",
+        ));
+    }
     let trial_rms_nm = set.rms_per_trial(&x)?;
     Ok(Identification {
         free: set.free().to_vec(),
@@ -462,6 +541,7 @@ fn run_chain<B: IdentifyObserver + ?Sized>(
         annealing_cost: out.annealing_cost,
         nelder_mead_cost: out.cost,
         cost: lm.cost,
+        search_cost: None,
         x: lm.x,
         annealing_evaluations: out.evaluations,
         polish_evaluations: lm.evaluations,

@@ -182,8 +182,9 @@ pub use annealer::{reflect_into_unit, AnnealStopReason, Annealer, StageRecord};
 pub use error::Error;
 pub use executor::{run, AnnealPhase, AnnealProgress, NoObserver, Observer, Outcome};
 pub use identify::{
-    chain_seed, errors_pct, identify, identify_set, truth_values, ChainSummary, Identification,
-    IdentifyEvent, IdentifyObserver, ProblemObjective, ProblemSetObjective, SaIdentifySettings,
+    chain_seed, errors_pct, identify, identify_set, identify_set_with_search, truth_values,
+    ChainSummary, Identification, IdentifyEvent, IdentifyObserver, ProblemObjective,
+    ProblemSetObjective, SaIdentifySettings,
 };
 /// Nelder–Mead and the objective trait live in `numerics`; they are part of this crate's API.
 pub use numerics::{nelder_mead, FnObjective, NelderMeadOutcome, NelderMeadSettings, Objective};
