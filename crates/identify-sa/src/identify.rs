@@ -98,6 +98,14 @@ pub struct SaIdentifySettings {
     /// The Levenberg–Marquardt polish applied to every chain's best point. Defaults:
     /// [`SaIdentifySettings::default_polish`]; `max_iterations` 0 disables it.
     pub polish: LevenbergMarquardtSettings,
+    /// Chains added (seeded as chains `chains…chains + extra_chains − 1`) when the best two of
+    /// the first `chains` disagree: their RMS errors differ by more than `agreement_rel` of the
+    /// better. Default 0 (never). A cost with several minima then gets more starts only where
+    /// the first ones did not settle it.
+    pub extra_chains: u32,
+    /// Relative difference of the best two chains' RMS errors below which they agree. Default
+    /// 0.01.
+    pub agreement_rel: f64,
 }
 
 impl Default for SaIdentifySettings {
@@ -107,6 +115,8 @@ impl Default for SaIdentifySettings {
             chains: 4,
             annealer: Self::default_annealer(),
             polish: Self::default_polish(),
+            extra_chains: 0,
+            agreement_rel: 0.01,
         }
     }
 }
@@ -164,6 +174,15 @@ impl SaIdentifySettings {
         self
     }
 
+    /// Add `extra` chains when the best two of the first ones disagree by more than
+    /// `agreement_rel` of the RMS.
+    #[must_use]
+    pub fn with_extra_chains(mut self, extra: u32, agreement_rel: f64) -> Self {
+        self.extra_chains = extra;
+        self.agreement_rel = agreement_rel;
+        self
+    }
+
     /// Set the per-chain evaluation budget of the annealer.
     #[must_use]
     pub fn with_chain_evaluations(mut self, evaluations: u64) -> Self {
@@ -181,6 +200,13 @@ impl SaIdentifySettings {
                 name: "chains",
                 value: 0.0,
                 reason: "must be at least 1",
+            }));
+        }
+        if !(self.agreement_rel.is_finite() && self.agreement_rel >= 0.0) {
+            return Err(Error::Numerics(numerics::NumericsError::InvalidSetting {
+                name: "agreement_rel",
+                value: self.agreement_rel,
+                reason: "must be finite and non-negative",
             }));
         }
         self.annealer.validate()?;
@@ -441,29 +467,27 @@ fn identify_searched<B: IdentifyObserver + ?Sized>(
         .zip(set.bounds())
         .map(|(&v, &(lo, hi))| v.clamp(lo, hi))
         .collect();
-    let on = search.unwrap_or(set);
-    let chains: Vec<Result<ChainSummary, Error>> = (0..settings.chains)
-        .into_par_iter()
-        .map(|k| run_chain(on, &settings, k, &base, observer))
-        .collect();
-    let mut chains = chains.into_iter().collect::<Result<Vec<_>, _>>()?;
-    let mut evaluations: u64 = chains
-        .iter()
-        .map(|c| c.annealing_evaluations + c.polish_evaluations)
-        .sum();
-    if search.is_some() {
-        let whole: Vec<f64> = chains
-            .par_iter()
-            .map(|c| {
-                let mut ws = ProblemSetWorkspace::new(set);
-                set.sse_with(&c.x, &mut ws).unwrap_or(f64::INFINITY)
-            })
-            .collect();
-        evaluations += whole.len() as u64;
-        for (c, w) in chains.iter_mut().zip(whole) {
-            c.search_cost = Some(c.cost);
-            c.cost = w;
-        }
+    let mut evaluations = 0;
+    let mut chains = run_chains(
+        set,
+        search,
+        &settings,
+        0..settings.chains,
+        &base,
+        observer,
+        &mut evaluations,
+    )?;
+    if settings.extra_chains > 0 && !best_two_agree(&chains, settings.agreement_rel) {
+        let more = settings.chains..settings.chains + settings.extra_chains;
+        chains.extend(run_chains(
+            set,
+            search,
+            &settings,
+            more,
+            &base,
+            observer,
+            &mut evaluations,
+        )?);
     }
     let mut best = 0usize;
     for (k, c) in chains.iter().enumerate() {
@@ -509,6 +533,56 @@ fn identify_searched<B: IdentifyObserver + ?Sized>(
         best_chain: best as u32,
         chains,
     })
+}
+
+/// Chains `ks` annealed and polished on `search` (else on `set`), each scored on `set` when
+/// searched elsewhere; adds their evaluations to `evaluations`.
+fn run_chains<B: IdentifyObserver + ?Sized>(
+    set: &ProblemSet,
+    search: Option<&ProblemSet>,
+    settings: &SaIdentifySettings,
+    ks: std::ops::Range<u32>,
+    base: &[f64],
+    observer: &B,
+    evaluations: &mut u64,
+) -> Result<Vec<ChainSummary>, Error> {
+    let on = search.unwrap_or(set);
+    let chains: Vec<Result<ChainSummary, Error>> = ks
+        .into_par_iter()
+        .map(|k| run_chain(on, settings, k, base, observer))
+        .collect();
+    let mut chains = chains.into_iter().collect::<Result<Vec<_>, _>>()?;
+    *evaluations += chains
+        .iter()
+        .map(|c| c.annealing_evaluations + c.polish_evaluations)
+        .sum::<u64>();
+    if search.is_some() {
+        let whole: Vec<f64> = chains
+            .par_iter()
+            .map(|c| {
+                let mut ws = ProblemSetWorkspace::new(set);
+                set.sse_with(&c.x, &mut ws).unwrap_or(f64::INFINITY)
+            })
+            .collect();
+        *evaluations += whole.len() as u64;
+        for (c, w) in chains.iter_mut().zip(whole) {
+            c.search_cost = Some(c.cost);
+            c.cost = w;
+        }
+    }
+    Ok(chains)
+}
+
+/// Whether the two chains of lowest cost have RMS errors within `rel` of the better (a single
+/// chain agrees with itself).
+#[must_use]
+pub fn best_two_agree(chains: &[ChainSummary], rel: f64) -> bool {
+    let mut costs: Vec<f64> = chains.iter().map(|c| c.cost).collect();
+    costs.sort_by(f64::total_cmp);
+    match costs.as_slice() {
+        [a, b, ..] => b.sqrt() - a.sqrt() <= rel * a.sqrt(),
+        _ => true,
+    }
 }
 
 fn run_chain<B: IdentifyObserver + ?Sized>(

@@ -174,6 +174,7 @@ mod annealer;
 mod error;
 mod executor;
 pub mod identify;
+mod search;
 mod settings;
 #[cfg(feature = "test-support")]
 pub mod test_functions;
@@ -182,10 +183,11 @@ pub use annealer::{reflect_into_unit, AnnealStopReason, Annealer, StageRecord};
 pub use error::Error;
 pub use executor::{run, AnnealPhase, AnnealProgress, NoObserver, Observer, Outcome};
 pub use identify::{
-    chain_seed, errors_pct, identify, identify_set, identify_set_with_search, truth_values,
-    ChainSummary, Identification, IdentifyEvent, IdentifyObserver, ProblemObjective,
+    best_two_agree, chain_seed, errors_pct, identify, identify_set, identify_set_with_search,
+    truth_values, ChainSummary, Identification, IdentifyEvent, IdentifyObserver, ProblemObjective,
     ProblemSetObjective, SaIdentifySettings,
 };
 /// Nelder–Mead and the objective trait live in `numerics`; they are part of this crate's API.
 pub use numerics::{nelder_mead, FnObjective, NelderMeadOutcome, NelderMeadSettings, Objective};
+pub use search::{search_set, SearchSettings};
 pub use settings::{Acceptance, AnnealSettings};

@@ -73,7 +73,11 @@ fn a_search_on_windows_finds_what_the_search_on_the_whole_trial_finds() {
     let (errors, whole_errors) = (searched.errors_pct(&truth), whole.errors_pct(&truth));
     println!("errors (%) searched on windows {errors:.2?}; on the whole trial {whole_errors:.2?}");
     for name in ["sol.lst_m", "gm.lst_m", "gl.lst_m"] {
-        assert!(errors[name] < 0.5, "{name}: {:.2} % from the truth", errors[name]);
+        assert!(
+            errors[name] < 0.5,
+            "{name}: {:.2} % from the truth",
+            errors[name]
+        );
     }
 }
 
@@ -95,4 +99,27 @@ fn a_search_set_with_other_bounds_is_refused() {
     let err = identify_set_with_search(&set, &other, &SaIdentifySettings::default(), &NoObserver)
         .unwrap_err();
     assert!(err.to_string().contains("bounds"), "{err}");
+}
+
+#[test]
+fn chains_are_added_only_when_the_best_two_disagree() {
+    let tr = synthetic::gait_like_trial(100.0, 8.0).unwrap();
+    let measured = simulate(&tr, &truth(), &Effects::none(), &SimSettings::default())
+        .unwrap()
+        .torque;
+    let set = ProblemSet::single(Problem::standard(tr, measured).unwrap());
+    let base = SaIdentifySettings::default()
+        .with_seed(9)
+        .with_chains(2)
+        .with_chain_evaluations(400);
+    let plain = identify_set(&set, &base, &NoObserver).unwrap();
+    // a strict agreement (0) adds the two extra chains after the first two, which are unchanged
+    let strict = identify_set(&set, &base.with_extra_chains(2, 0.0), &NoObserver).unwrap();
+    assert_eq!(strict.chains.len(), 4);
+    assert_eq!(strict.chains[..2], plain.chains[..]);
+    assert!(strict.sse <= plain.sse);
+    // a loose one (any two chains agree) adds none
+    let loose = identify_set(&set, &base.with_extra_chains(2, f64::MAX), &NoObserver).unwrap();
+    assert_eq!(loose.chains.len(), 2);
+    assert!(identify_set(&set, &base.with_extra_chains(2, f64::NAN), &NoObserver).is_err());
 }
