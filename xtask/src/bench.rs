@@ -11,6 +11,7 @@
 //! rows alone (no identification, diagnosis or peer).
 
 mod long_recording;
+mod walk36;
 
 use anyhow::{bail, Context, Result};
 use muscle_model::{
@@ -592,6 +593,8 @@ pub fn run(args: &mut impl Iterator<Item = String>) -> Result<bool> {
     }
     let cost = cost_rows(&inputs, &trial, reps)?;
     let runs = end_to_end_rows(&root, &trial_path, &trial)?;
+    eprintln!("running surae identify --method sa --session fixtures/walk36/session.json ...");
+    let walk36 = walk36::measure(&root)?;
 
     eprintln!("running the Python peer ({repeat} simulations) ...");
     let t_peer = peer(&root, &trial_path, repeat)?;
@@ -600,6 +603,7 @@ pub fn run(args: &mut impl Iterator<Item = String>) -> Result<bool> {
     println!("|---|---|---|---|");
     print_model_rows(&forward, &cost, t_peer);
     print_end_to_end_rows(&runs, t_peer);
+    println!("{}", walk36.row(4));
     for row in long_recording::measure(reps)?.rows(4, forward.t_fwd) {
         println!("{row}");
     }

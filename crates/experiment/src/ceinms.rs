@@ -360,6 +360,9 @@ pub struct CeinmsSubjectParams {
     pub params: ModelParams,
     /// CEINMS's global electromechanical delay (s), not applied by the model.
     pub em_delay_s: f64,
+    /// The maximum isometric forces of sol, gm and gl before their strength coefficients (N):
+    /// the subject's own forces, which a calibration's strength coefficient scales.
+    pub unscaled_fom_n: [f64; 3],
 }
 
 /// The muscle parameters of `mtu` in surae's terms, keeping `base`'s geometry polynomial and
@@ -397,8 +400,11 @@ pub fn ceinms_model_params(
         })
     };
     let mut params = ModelParams::nominal();
+    let mut unscaled_fom_n = [0.0; 3];
     for m in Muscle::ALL {
-        let p = muscle_params(mtu(CEINMS_IDENTIFIED[m.index()])?, *params.muscle(m));
+        let unit = mtu(CEINMS_IDENTIFIED[m.index()])?;
+        unscaled_fom_n[m.index()] = unit.max_isometric_force_n;
+        let p = muscle_params(unit, *params.muscle(m));
         *params.muscle_mut(m) = p;
     }
     for name in fixed {
@@ -423,6 +429,7 @@ pub fn ceinms_model_params(
     Ok(CeinmsSubjectParams {
         params,
         em_delay_s: subject.global_em_delay_s(),
+        unscaled_fom_n,
     })
 }
 

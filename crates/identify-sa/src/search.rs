@@ -3,10 +3,12 @@
 //!
 //! A chain's annealing evaluates the model thousands of times, and each evaluation costs what
 //! the integrated length costs; on 60 s of steady walking most strides repeat what the others
-//! say. With the judged length `T` of the set and the search's length `S` ([`SearchSettings::judged_s`]),
-//! a set with `T ≤ 1.5·S` is searched as it is; a longer one by `k = ⌈S / d̄⌉` of its `N`
-//! candidate windows (its strides, else chunks of [`SearchSettings::chunk_s`]; `d̄` their mean
-//! duration), window `⌊(j + ½)·N/k⌋` for `j = 0…k−1` in trial order, so that every part of
+//! say. With the judged length `T` of the set and the search's length `S`
+//! ([`SearchSettings::judged_s`], 5 s: two or three windows of two strides of walking), a set
+//! with `T ≤ 1.5·S` is searched as it is; a longer one by `k = ⌈S / d̄⌉` of its `N` candidate
+//! windows (runs of [`SearchSettings::strides_per_window`] strides, else chunks of
+//! [`SearchSettings::chunk_s`]; `d̄` their mean duration), window `⌊(j + ½)·N/k⌋` for
+//! `j = 0…k−1` in trial order, so that every part of
 //! every trial is represented. A window is integrated from [`SearchSettings::lead_in_s`] before
 //! its start (weighted 0), which covers the longest electromechanical delay (150 ms) and lets
 //! activation (τ ≤ 50 ms) and fibres forget the equilibrium start.
@@ -20,20 +22,24 @@ use crate::Error;
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct SearchSettings {
-    /// Judged seconds of the search set (8).
+    /// Judged seconds of the search set (5).
     pub judged_s: f64,
     /// Lead-in integrated before each window, weighted 0 (0.4 s).
     pub lead_in_s: f64,
-    /// Length of a window where a trial has no strides (1.2 s, about one stride of walking).
+    /// Consecutive strides in one window (2): a window's lead-in and the integrator's first
+    /// steps are a cost per window, not per stride.
+    pub strides_per_window: usize,
+    /// Length of a window where a trial has no strides (2.4 s, about two strides of walking).
     pub chunk_s: f64,
 }
 
 impl Default for SearchSettings {
     fn default() -> Self {
         SearchSettings {
-            judged_s: 8.0,
+            judged_s: 5.0,
             lead_in_s: 0.4,
-            chunk_s: 1.2,
+            strides_per_window: 2,
+            chunk_s: 2.4,
         }
     }
 }
@@ -56,7 +62,7 @@ pub fn search_set(
             "one list of stride starts per trial is needed",
         ));
     }
-    if !(s.judged_s > 0.0 && s.lead_in_s >= 0.0 && s.chunk_s > 0.0) {
+    if !(s.judged_s > 0.0 && s.lead_in_s >= 0.0 && s.chunk_s > 0.0 && s.strides_per_window > 0) {
         return Err(Error::Search("its lengths must be positive"));
     }
     let mut judged_s = 0.0;
@@ -71,10 +77,15 @@ pub fn search_set(
             |r: &std::ops::Range<usize>| r.len() >= 2 && judged[r.clone()].iter().all(|&j| j);
         match cycles[i] {
             Some(starts) => {
-                for w in starts.windows(2) {
-                    let r = w[0]..w[1].min(judged.len());
+                let per = s.strides_per_window;
+                let mut k = 0;
+                while k + per < starts.len() {
+                    let r = starts[k]..starts[k + per].min(judged.len());
                     if all_judged(&r) {
                         candidates.push((i, r));
+                        k += per;
+                    } else {
+                        k += 1;
                     }
                 }
             }
@@ -126,7 +137,7 @@ mod tests {
 
     #[test]
     fn a_short_set_is_searched_as_it_is() {
-        let set = ProblemSet::single(problem(10.0));
+        let set = ProblemSet::single(problem(7.0));
         assert!(search_set(&set, &[None], &SearchSettings::default())
             .unwrap()
             .is_none());
@@ -145,11 +156,11 @@ mod tests {
         let set = ProblemSet::single(p.with_weights(w).unwrap());
         let s = SearchSettings::default();
         let search = search_set(&set, &[Some(&starts)], &s).unwrap().unwrap();
-        // ⌈8 / 1.15⌉ = 7 strides, each after a 0.4 s lead-in
-        assert_eq!(search.len(), 7);
+        // ⌈5 / 2.3⌉ = 3 windows of two strides, each after a 0.4 s lead-in
+        assert_eq!(search.len(), 3);
         let mut last_t0 = f64::NEG_INFINITY;
         for w in search.problems() {
-            assert_eq!(w.inputs().len(), 115 + 40);
+            assert_eq!(w.inputs().len(), 230 + 40);
             let t0 = w.inputs().t0();
             assert!(t0 > last_t0);
             last_t0 = t0;
@@ -160,14 +171,14 @@ mod tests {
             );
         }
         let judged = search.weight_sum() / 100.0;
-        assert!((judged - 7.0 * 1.15).abs() < 1e-9, "{judged}");
-        // spread: the first window in the first sixth, the last in the last sixth of the half
+        assert!((judged - 3.0 * 2.3).abs() < 1e-9, "{judged}");
+        // spread: the first window in the first sixth, the last in the last quarter of the half
         let t0s: Vec<f64> = search
             .problems()
             .iter()
             .map(|w| w.inputs().t0() + 0.4)
             .collect();
-        assert!(t0s[0] < 5.0 && t0s[6] > 25.0, "{t0s:?}");
+        assert!(t0s[0] < 6.0 && t0s[2] > 20.0, "{t0s:?}");
     }
 
     #[test]
@@ -175,7 +186,7 @@ mod tests {
         let set = ProblemSet::single(problem(30.0));
         let s = SearchSettings::default();
         let search = search_set(&set, &[None], &s).unwrap().unwrap();
-        assert_eq!(search.len(), 7, "⌈8 / 1.2⌉ chunks");
+        assert_eq!(search.len(), 3, "⌈5 / 2.4⌉ chunks");
         assert!(search_set(&set, &[], &s).is_err());
         let bad = SearchSettings { judged_s: 0.0, ..s };
         assert!(search_set(&set, &[None], &bad).is_err());

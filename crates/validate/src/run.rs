@@ -4,7 +4,10 @@
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-use identify_sa::{identify_set, NoObserver, SaIdentifySettings};
+use identify_sa::{
+    identify_set, identify_set_with_search, search_set, NoObserver, SaIdentifySettings,
+    SearchSettings,
+};
 use muscle_model::{Effects, ModelParams, Problem, ProblemSet};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -53,6 +56,11 @@ pub struct ValidateSettings {
     pub max_delay_ms: f64,
     /// Its delay grid's step (ms). Default 10.
     pub delay_step_ms: f64,
+    /// Where a fold's calibration searches when its training parts have strides: windows of
+    /// them spread over the parts ([`identify_sa::search_set`]), the result polished on every
+    /// training sample. `None` searches on every training sample. Default: the search
+    /// settings' defaults.
+    pub search: Option<SearchSettings>,
 }
 
 impl Default for ValidateSettings {
@@ -62,6 +70,7 @@ impl Default for ValidateSettings {
             later_fraction: 0.5,
             max_delay_ms: 150.0,
             delay_step_ms: 10.0,
+            search: Some(SearchSettings::default()),
         }
     }
 }
@@ -210,9 +219,14 @@ fn peer_predictions(
         .collect()
 }
 
-/// `problem` weighted to the samples of `part` (its own weights inside, 0 outside).
+/// `problem` weighted to the samples of `part` (its own weights inside, 0 outside) and cut
+/// after them: the samples after a part cannot change its simulation, so they are not
+/// integrated; the samples before it are kept, weighted 0, as its lead-in.
 fn restricted(problem: &Problem, part: &TrialPart) -> Result<Problem, muscle_model::ModelError> {
-    problem.clone().with_weights(judged_weights(problem, part))
+    problem
+        .clone()
+        .with_weights(judged_weights(problem, part))?
+        .window(0..part.samples.end, 0)
 }
 
 /// The weights that judge `part` of `problem`: its own weights inside the part, 0 outside.
@@ -251,12 +265,26 @@ fn run_fold(
         trial: format!("fold {}", fold.name),
         source,
     })?;
-    let fit = identify_set(&set, &settings.sa, &NoObserver).map_err(|source| {
-        ValidateError::Calibration {
-            fold: fold.name.clone(),
-            source,
+    let calibration_error = |source| ValidateError::Calibration {
+        fold: fold.name.clone(),
+        source,
+    };
+    let cycles: Vec<Option<&[usize]>> = fold
+        .train
+        .iter()
+        .map(|part| trials[part.trial].stride_starts)
+        .collect();
+    let search = match &settings.search {
+        Some(s) if cycles.iter().any(Option::is_some) => {
+            search_set(&set, &cycles, s).map_err(calibration_error)?
         }
-    })?;
+        _ => None,
+    };
+    let fit = match &search {
+        Some(search) => identify_set_with_search(&set, search, &settings.sa, &NoObserver),
+        None => identify_set(&set, &settings.sa, &NoObserver),
+    }
+    .map_err(calibration_error)?;
     let problems: Vec<&Problem> = trials.iter().map(|t| t.problem).collect();
     let linear = LinearBaseline::fit(
         &problems,

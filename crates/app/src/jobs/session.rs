@@ -14,7 +14,7 @@ use super::{read_json, read_text, ModelSettings};
 use crate::error::{AppError, AppResult};
 use crate::Reporter;
 use experiment::CeinmsModelTrial;
-use muscle_model::{Effects, ModelParams, ParamId, Problem, ProblemSet};
+use muscle_model::{Effects, ModelParams, Muscle, ParamId, Problem, ProblemSet};
 use serde_json::Value;
 use session::{SessionManifest, TrialSource};
 use std::path::{Path, PathBuf};
@@ -24,7 +24,7 @@ mod emg;
 mod read;
 
 use defaults::maps_say_envelopes;
-pub use defaults::{recording_bounds, recording_free, RECORDING_CHAINS};
+pub use defaults::{recording_annealing, recording_bounds, recording_free};
 use emg::session_emg_references;
 pub use emg::{EmgNormalisationReport, SessionEmgNormalisation};
 pub use read::read_session_trial;
@@ -79,6 +79,38 @@ impl SessionTrial {
     /// The trial's dynamometer correction, when it has an unloaded run.
     pub fn correction(&self) -> Option<&experiment::UnloadedCorrection> {
         self.prepared.as_ref().and_then(|p| p.unloaded.as_ref())
+    }
+
+    /// Where a trial's strides start (samples): from its vertical ground force (stance while it
+    /// exceeds [`experiment::STANCE_THRESHOLD_N`]); `None` without one. A stride the force cannot
+    /// make (shorter than 0.2 s) is an error naming the file and column the force came from.
+    pub fn stride_starts(&self) -> AppResult<Option<Vec<usize>>> {
+        let t = self;
+        let Some(trial) = t.prepared.as_ref().map(|p| &p.trial) else {
+            return Ok(None);
+        };
+        let Some(force) = trial.grf_vertical_n.as_deref() else {
+            return Ok(None);
+        };
+        match experiment::strides_from_ground_force(
+            force,
+            trial.sample_rate_hz(),
+            experiment::STANCE_THRESHOLD_N,
+        ) {
+            Ok(s) => Ok(Some(s.strides.iter().map(|x| x.start).collect())),
+            Err(e) => {
+                // name the force's own file and column, as the map gives them
+                let place = recording::read_map(Path::new(&t.source))
+                    .ok()
+                    .and_then(|m| {
+                        let c = m.channels.get("grf_vertical_n")?;
+                        let file = c.file.clone().or(m.file.clone())?;
+                        Some(format!("{file}: column {}", c.column))
+                    })
+                    .unwrap_or_else(|| t.source.clone());
+                Err(AppError::bad(format!("{}: {place}: {e}", t.source)))
+            }
+        }
     }
 
     /// The trial's dynamometer report (`null` without an unloaded run).
@@ -163,6 +195,28 @@ impl LoadedSession {
         ProblemSet::new(self.trials.iter().map(|t| t.problem.clone()).collect())
             .map_err(|e| AppError::bad(format!("{}: {e}", self.manifest.path.display())))
     }
+
+    /// Where every trial's strides start (`None` for a trial without a ground force).
+    pub fn stride_starts(&self) -> AppResult<Vec<Option<Vec<usize>>>> {
+        self.trials
+            .iter()
+            .map(SessionTrial::stride_starts)
+            .collect()
+    }
+
+    /// The search set of a calibration of `set` (this session's trials, in order): windows of
+    /// strides spread over a long gait session ([`identify_sa::search_set`]); `None` when no
+    /// trial has strides or the session is short enough to search as it is. Dynamometer
+    /// sessions are always searched as they are.
+    pub fn search_set(&self, set: &ProblemSet) -> AppResult<Option<ProblemSet>> {
+        let starts = self.stride_starts()?;
+        if starts.iter().all(Option::is_none) {
+            return Ok(None);
+        }
+        let cycles: Vec<Option<&[usize]>> = starts.iter().map(|s| s.as_deref()).collect();
+        identify_sa::search_set(set, &cycles, &identify_sa::SearchSettings::default())
+            .map_err(|e| AppError::internal(format!("{}: {e}", self.manifest.path.display())))
+    }
 }
 
 /// The parameters of a parameters file: a parameters JSON (over the nominal values), an
@@ -175,11 +229,35 @@ pub fn load_params_file(
     fixed: &[String],
     base: &ModelParams,
 ) -> AppResult<(ModelParams, Option<Effects>)> {
+    read_params_file(path, osim, fixed, base).map(|f| (f.params, f.effects))
+}
+
+/// A parameters file read by [`read_params_file`].
+struct ParamsFromFile {
+    params: ModelParams,
+    effects: Option<Effects>,
+    /// The triceps' forces before a CEINMS subject's strength coefficients; `None` for a file
+    /// without them.
+    unscaled_fom_n: Option<[f64; 3]>,
+}
+
+/// [`load_params_file`], with a CEINMS subject's forces before its strength coefficients.
+fn read_params_file(
+    path: &Path,
+    osim: &opensim_files::OsimMuscleNames,
+    fixed: &[String],
+    base: &ModelParams,
+) -> AppResult<ParamsFromFile> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase)
         .unwrap_or_default();
+    let plain = |(params, effects)| ParamsFromFile {
+        params,
+        effects,
+        unscaled_fom_n: None,
+    };
     match ext.as_str() {
         "osim" => {
             let text = read_text(path)?;
@@ -190,14 +268,18 @@ pub fn load_params_file(
                 &ModelParams::nominal(),
             )
             .map_err(AppError::bad)?;
-            Ok((p, None))
+            Ok(plain((p, None)))
         }
         "xml" => {
             let subject = ceinms_files::read_subject(path).map_err(AppError::bad)?;
             let p = experiment::ceinms_model_params(&subject, fixed).map_err(AppError::bad)?;
-            Ok((p.params, None))
+            Ok(ParamsFromFile {
+                params: p.params,
+                effects: None,
+                unscaled_fom_n: Some(p.unscaled_fom_n),
+            })
         }
-        _ => params_of_json(&read_json(path)?, base, &path.display().to_string()),
+        _ => params_of_json(&read_json(path)?, base, &path.display().to_string()).map(plain),
     }
 }
 
@@ -265,7 +347,7 @@ fn session_params(
     model: &ModelSettings,
     ceinms_muscles: &[String],
     read: &mut Vec<PathBuf>,
-) -> AppResult<(opensim_files::OsimMuscleNames, ModelParams, Effects)> {
+) -> AppResult<SessionParams> {
     let osim = opensim_files::OsimMuscleNames::renamed(
         manifest
             .osim_muscles
@@ -275,22 +357,27 @@ fn session_params(
     .map_err(|e| AppError::bad(format!("{}: {e}", manifest.path.display())))?;
     let mut params = ModelParams::nominal();
     let mut effects_from_params = None;
+    let mut unscaled = None;
     if let Some(p) = &manifest.params {
         read.push(p.clone());
-        let (pp, e) = load_params_file(p, &osim, ceinms_muscles, &params)?;
-        params = pp;
-        effects_from_params = e;
+        let f = read_params_file(p, &osim, ceinms_muscles, &params)?;
+        params = f.params;
+        effects_from_params = f.effects;
+        unscaled = f.unscaled_fom_n;
     }
     if let Some(d) = &model.params_data {
         let (pp, e) = params_of_json(&d.value, &params, &d.label)?;
         params = pp;
         effects_from_params = e.or(effects_from_params);
+        unscaled = None;
     } else if let Some(p) = &model.params {
         read.push(p.clone());
-        let (pp, e) = load_params_file(p, &osim, ceinms_muscles, &params)?;
-        params = pp;
-        effects_from_params = e.or(effects_from_params);
+        let f = read_params_file(p, &osim, ceinms_muscles, &params)?;
+        params = f.params;
+        effects_from_params = f.effects.or(effects_from_params);
+        unscaled = f.unscaled_fom_n;
     }
+    let reference_fom_n = unscaled.unwrap_or_else(|| Muscle::ALL.map(|m| params.muscle(m).fom_n));
     let effects_path = model.effects.as_ref().or(manifest.effects.as_ref());
     let effects = match (&model.effects_data, effects_path) {
         (Some(d), _) => super::effects_of_json(&d.value, &d.label)?,
@@ -300,7 +387,22 @@ fn session_params(
         }
         (None, None) => effects_from_params.unwrap_or_else(Effects::none),
     };
-    Ok((osim, params, effects))
+    Ok(SessionParams {
+        osim,
+        params,
+        effects,
+        reference_fom_n,
+    })
+}
+
+/// The parameters a session shares, as [`session_params`] reads them.
+struct SessionParams {
+    osim: opensim_files::OsimMuscleNames,
+    params: ModelParams,
+    effects: Effects,
+    /// The triceps' forces the recording defaults' F0 bounds scale: a CEINMS subject's maximum
+    /// isometric forces before its strength coefficients, else the parameters' own F0.
+    reference_fom_n: [f64; 3],
 }
 
 /// A free parameter's lower and upper bound.
@@ -314,6 +416,7 @@ fn free_and_bounds(
     free: Option<&[String]>,
     params: &ModelParams,
     effects: &Effects,
+    reference_fom_n: [f64; 3],
 ) -> AppResult<(Vec<ParamId>, Vec<Bounds>, bool)> {
     let free_names: Option<Vec<String>> =
         free.map(|f| f.to_vec()).or_else(|| manifest.free.clone());
@@ -334,7 +437,7 @@ fn free_and_bounds(
             let name = id.name();
             match manifest.bounds.get(&name) {
                 Some(&b) => b,
-                None if recording => recording_bounds(*id, params, effects),
+                None if recording => recording_bounds(*id, params, effects, reference_fom_n),
                 None => id.default_bounds(params, effects),
             }
         })
@@ -676,8 +779,14 @@ pub fn load_session(
     warn_envelope_scales(&manifest, &loaded, rep);
 
     // parameters: the session's, replaced by --params or with an identify.json over them
-    let (osim, params, effects) = session_params(&manifest, model, &ceinms_muscles, &mut read)?;
-    let (free, bounds, recording_defaults) = free_and_bounds(&manifest, free, &params, &effects)?;
+    let SessionParams {
+        osim,
+        params,
+        effects,
+        reference_fom_n,
+    } = session_params(&manifest, model, &ceinms_muscles, &mut read)?;
+    let (free, bounds, recording_defaults) =
+        free_and_bounds(&manifest, free, &params, &effects, reference_fom_n)?;
     let shared = SessionModel {
         params,
         effects,

@@ -126,37 +126,6 @@ fn schemes_of(names: &[String], trials: &[ValidationTrial<'_>]) -> AppResult<Vec
         .collect()
 }
 
-/// Where a trial's strides start (samples): from its vertical ground force (stance while it
-/// exceeds [`experiment::STANCE_THRESHOLD_N`]); `None` without one. A stride the force cannot
-/// make (shorter than 0.2 s) is an error naming the file and column the force came from.
-fn stride_starts(t: &super::session::SessionTrial) -> AppResult<Option<Vec<usize>>> {
-    let Some(trial) = t.prepared.as_ref().map(|p| &p.trial) else {
-        return Ok(None);
-    };
-    let Some(force) = trial.grf_vertical_n.as_deref() else {
-        return Ok(None);
-    };
-    match experiment::strides_from_ground_force(
-        force,
-        trial.sample_rate_hz(),
-        experiment::STANCE_THRESHOLD_N,
-    ) {
-        Ok(s) => Ok(Some(s.strides.iter().map(|x| x.start).collect())),
-        Err(e) => {
-            // name the force's own file and column, as the map gives them
-            let place = recording::read_map(Path::new(&t.source))
-                .ok()
-                .and_then(|m| {
-                    let c = m.channels.get("grf_vertical_n")?;
-                    let file = c.file.clone().or(m.file.clone())?;
-                    Some(format!("{file}: column {}", c.column))
-                })
-                .unwrap_or_else(|| t.source.clone());
-            Err(AppError::bad(format!("{}: {place}: {e}", t.source)))
-        }
-    }
-}
-
 /// The peers' parameters, each over the session's (its fixed muscles from the session).
 fn load_peers(job: &ValidateJob, session: &LoadedSession) -> AppResult<Vec<(Peer, String)>> {
     let fixed: Vec<String> = session
@@ -208,7 +177,7 @@ pub fn run(job: ValidateJob, rep: &Reporter) -> AppResult {
     let starts: Vec<Option<Vec<usize>>> = session
         .trials
         .iter()
-        .map(stride_starts)
+        .map(super::session::SessionTrial::stride_starts)
         .collect::<AppResult<_>>()?;
     let trials: Vec<ValidationTrial<'_>> = session
         .trials
@@ -241,12 +210,15 @@ pub fn run(job: ValidateJob, rep: &Reporter) -> AppResult {
     let mut settings = ValidateSettings::default();
     settings.later_fraction = job.later_fraction;
     settings.sa = settings.sa.with_seed(job.seed);
-    match job.chains {
-        Some(c) => settings.sa = settings.sa.with_chains(c),
-        None if session.recording_defaults => {
-            settings.sa = settings.sa.with_chains(super::session::RECORDING_CHAINS);
-        }
-        None => {}
+    if session.recording_defaults {
+        settings.sa = super::session::recording_annealing(settings.sa);
+    }
+    // chains asked for are run as asked, none added
+    if let Some(c) = job.chains {
+        settings.sa = settings
+            .sa
+            .with_chains(c)
+            .with_extra_chains(0, settings.sa.agreement_rel);
     }
     let chains = settings.sa.chains;
     let progress = rep.progress(0, "validate");

@@ -56,12 +56,14 @@ pub(super) fn run(
     let out = OutDir::prepare_or_discard(&out_dir, &input_refs, &planned_refs, args.discard_files)?;
 
     let mut settings = identify_sa::SaIdentifySettings::default().with_seed(args.seed);
-    match args.chains {
-        Some(c) => settings = settings.with_chains(c),
-        None if session.recording_defaults => {
-            settings = settings.with_chains(super::super::session::RECORDING_CHAINS);
-        }
-        None => {}
+    if session.recording_defaults {
+        settings = super::super::session::recording_annealing(settings);
+    }
+    // chains asked for are run as asked, none added
+    if let Some(c) = args.chains {
+        settings = settings
+            .with_chains(c)
+            .with_extra_chains(0, settings.agreement_rel);
     }
     let show = rep.show();
     let total = u64::from(settings.chains) * settings.annealer.max_evaluations;
@@ -70,7 +72,12 @@ pub(super) fn run(
         progress.on_sa_event(ev);
         progress.flow()
     };
-    let fit = identify_sa::identify_set(&set, &settings, &observer).map_err(|e| {
+    let search = session.search_set(&set)?;
+    let fit = match &search {
+        Some(search) => identify_sa::identify_set_with_search(&set, search, &settings, &observer),
+        None => identify_sa::identify_set(&set, &settings, &observer),
+    }
+    .map_err(|e| {
         AppError::bad(format!(
             "{}: identification failed: {e}",
             session_path.display()

@@ -5,11 +5,42 @@
 
 use super::SessionManifest;
 use crate::error::{AppError, AppResult};
+use identify_sa::SaIdentifySettings;
 use muscle_model::{Effects, ModelParams, ParamId};
 
-/// Annealing chains of a calibration with the recording defaults: on CEINMS's four trials the
-/// cost has two minima and one start in three reaches the better (docs/real-data.md).
-pub const RECORDING_CHAINS: u32 = 8;
+/// Annealing chains of a calibration with the recording defaults, before more are added: four
+/// run two at a time on two cores.
+pub const RECORDING_CHAINS: u32 = 4;
+
+/// Chains added when the best two of the first [`RECORDING_CHAINS`] disagree by more than
+/// [`CHAIN_AGREEMENT_REL`]: on CEINMS's four trials the cost has two minima and one start in
+/// three reaches the better (docs/real-data.md), so a first batch that splits between them
+/// gets four more starts.
+pub const RECORDING_EXTRA_CHAINS: u32 = 4;
+
+/// Relative difference of the best two chains' RMS errors below which they agree.
+pub const CHAIN_AGREEMENT_REL: f64 = 0.01;
+
+/// Annealing evaluations per chain with the recording defaults (the seed protocol's 6 000
+/// searched a cost of 9 parameters on one dynamometer trial; a recording's search set of
+/// strides, [`identify_sa::search_set`], is followed by a polish on every sample).
+pub const RECORDING_CHAIN_EVALUATIONS: u64 = 3_000;
+
+/// Moves per event of the initial-temperature search with the recording defaults (200 in the
+/// seed protocol): the search then costs a tenth of a chain's evaluations, not a third.
+pub const RECORDING_T0_EVENT_MOVES: u32 = 100;
+
+/// `settings` with the recording defaults' annealing: [`RECORDING_CHAINS`] chains, four more
+/// when the best two disagree, [`RECORDING_CHAIN_EVALUATIONS`] evaluations per chain and
+/// [`RECORDING_T0_EVENT_MOVES`] moves per initial-temperature event.
+pub fn recording_annealing(settings: SaIdentifySettings) -> SaIdentifySettings {
+    let mut s = settings
+        .with_chains(RECORDING_CHAINS)
+        .with_extra_chains(RECORDING_EXTRA_CHAINS, CHAIN_AGREEMENT_REL)
+        .with_chain_evaluations(RECORDING_CHAIN_EVALUATIONS);
+    s.annealer.t0_event_moves = RECORDING_T0_EVENT_MOVES;
+    s
+}
 
 /// The parameters a recording without a dynamometer correction calibrates by default: LST, F0
 /// and α0 of the triceps, the activation's shape `A` and one electromechanical delay (the
@@ -21,16 +52,33 @@ pub fn recording_free() -> Vec<ParamId> {
     free
 }
 
-/// The recording defaults' bounds around the base value `v`: LST ±10 % (a subject's tendon is
-/// not the model's to within 5 %), F0 from 0.5 to 2.5 times (the specific tension of muscle
-/// ranges over about a factor of five), α0 ±40 %, the shape `A` over [0, 0.12] (linear to
-/// strongly curved) and the delay over 0–150 ms; any other parameter its default range.
-pub fn recording_bounds(id: ParamId, params: &ModelParams, effects: &Effects) -> (f64, f64) {
+/// The recording defaults' bounds around the base value `v`, chosen by held-out prediction on
+/// CEINMS's four trials and walk36 split by time (docs/real-data.md):
+///
+/// * LST ±20 % of `v`: the tendon slack length is the least certain parameter of a scaled
+///   model, and on walk36 ±10 % held every tendon at its upper bound;
+/// * F0 from 0.5 to 10 times `reference_fom_n`, the muscle's force before a CEINMS strength
+///   coefficient (else its own F0). F0 here is the force at an envelope of 1, the product of
+///   the muscle's strength and its envelope's gain, and a lab's normalisation reference is
+///   not the muscle's maximum: walk36's soleus envelope peaks at 0.14 in walking, and its
+///   calibrations held F0 at an upper bound of 2.5 and of 5 times;
+/// * α0 ±40 %, the shape `A` over [0, 0.12] (linear to strongly curved) and the delay over
+///   0–150 ms (a lab's envelopes are filtered with a delay of their own);
+/// * any other parameter its default range.
+pub fn recording_bounds(
+    id: ParamId,
+    params: &ModelParams,
+    effects: &Effects,
+    reference_fom_n: [f64; 3],
+) -> (f64, f64) {
     use muscle_model::MuscleField;
     let v = id.get(params, effects);
     match id {
         ParamId::Muscle(_, MuscleField::LstM) => (0.9 * v, 1.1 * v),
-        ParamId::Muscle(_, MuscleField::FomN) => (0.5 * v, 2.5 * v),
+        ParamId::Muscle(m, MuscleField::FomN) => {
+            let f = reference_fom_n[m.index()];
+            (0.5 * f, 10.0 * f)
+        }
         ParamId::Muscle(_, MuscleField::AlphaDeg) => (0.6 * v, 1.4 * v),
         ParamId::Activation(2) => (0.0, 0.12),
         ParamId::Effect(muscle_model::EffectKind::ElectromechanicalDelay, _) => (0.0, 150.0),
