@@ -558,3 +558,32 @@ fn add_ensembles(
         ),
     )
 }
+
+#[cfg(test)]
+mod tests {
+    use super::flagged_by_checks;
+    use recording::checks::StrideFlag;
+
+    fn flag(start_s: f64, end_s: f64) -> StrideFlag {
+        StrideFlag {
+            stride: 0,
+            start_s,
+            end_s,
+            reasons: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn a_stride_is_flagged_when_a_flagged_span_holds_its_middle() {
+        let time: Vec<f64> = (0..500).map(|i| 10.0 + 0.01 * f64::from(i)).collect();
+        // samples 100..220: 11.00 s to 12.20 s, its middle at 11.60 s
+        assert!(flagged_by_checks(&time, 100, 220, &[flag(11.0, 12.2)]));
+        assert!(flagged_by_checks(&time, 100, 220, &[flag(11.5, 11.7)]));
+        assert!(!flagged_by_checks(&time, 100, 220, &[flag(12.2, 13.4)]));
+        assert!(!flagged_by_checks(&time, 100, 220, &[flag(9.8, 11.0)]));
+        assert!(!flagged_by_checks(&time, 100, 220, &[]));
+        // a stride ending one past the last sample still has a middle
+        assert!(flagged_by_checks(&time, 400, 500, &[flag(14.0, 15.0)]));
+        assert!(!flagged_by_checks(&time, 600, 700, &[flag(0.0, 100.0)]));
+    }
+}
