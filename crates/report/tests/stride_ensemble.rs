@@ -116,3 +116,49 @@ fn bad_input_is_an_error() {
     back.swap(3, 4);
     assert!(figures::stride_ensemble(&back, &m, &[], "stance").is_err());
 }
+
+#[test]
+fn the_residual_alone_draws_one_band_per_model_around_zero() {
+    let measured = curves(12, 100.0);
+    let model = curves(12, 92.0);
+    let resid: Vec<Vec<f64>> = measured
+        .iter()
+        .zip(&model)
+        .map(|(a, b)| a.iter().zip(b).map(|(x, y)| x - y).collect())
+        .collect();
+    let linear: Vec<Vec<f64>> = resid
+        .iter()
+        .map(|r| r.iter().map(|v| 2.0 * v - 5.0).collect())
+        .collect();
+    let svg = figures::residual_ensemble(
+        &percent(),
+        &[("model", &resid), ("linear", &linear)],
+        "gait cycle",
+    )
+    .unwrap();
+    let s = check_svg(&svg).unwrap();
+    assert_eq!(s.count("polygon"), 2, "{:?}", s.elements);
+    let all: Vec<f64> = resid.iter().flatten().copied().collect();
+    for label in [
+        "Residual of the ankle moment over strides, by % of gait cycle".to_string(),
+        "residual: measured − model (N·m)".to_string(),
+        "% of gait cycle".to_string(),
+        format!(
+            "model (RMS residual {:.2} N·m over 12 strides)",
+            numerics::rms(&all)
+        ),
+        "shaded: mean ± 1 sd across strides".to_string(),
+    ] {
+        assert!(s.has_text(&label), "missing {label:?} in {:?}", s.texts);
+    }
+    assert!(!s.has_text("ankle moment (N·m, plantarflexion > 0)"));
+    // bad input
+    let p = percent();
+    assert!(figures::residual_ensemble(&p, &[], "stance").is_err());
+    let e =
+        figures::residual_ensemble(&p, &[("model", &resid), ("linear", &linear[..3])], "stance")
+            .unwrap_err();
+    assert!(matches!(e, ReportError::LengthMismatch { .. }), "{e}");
+    assert!(figures::residual_ensemble(&p, &[("model", &resid)], "").is_err());
+    assert!(figures::residual_ensemble(&p[..50], &[("model", &resid)], "stance").is_err());
+}

@@ -162,7 +162,9 @@ struct RawTrial {
     unloaded: Option<String>,
     knee_angle_deg: Option<f64>,
     geometry: Option<RawGeometry>,
-    condition: Option<String>,
+    /// Taken as any JSON value so a label that is not a string is refused naming its key and
+    /// trial, not only a line and column.
+    condition: Option<serde_json::Value>,
 }
 
 #[derive(Deserialize)]
@@ -287,11 +289,27 @@ pub fn parse_session_manifest(text: &str, path: &Path) -> Result<SessionManifest
                 "a recording carries its own lengths and moment arms".into(),
             ));
         }
-        if t.condition.as_deref().is_some_and(|c| c.trim().is_empty()) {
-            return Err(invalid(key("condition"), "is empty".into()));
-        }
+        let condition = match t.condition {
+            None => None,
+            Some(serde_json::Value::String(c)) if c.trim().is_empty() => {
+                return Err(invalid(
+                    key("condition"),
+                    format!("is empty (trial {}): give a label or leave it out", t.name),
+                ));
+            }
+            Some(serde_json::Value::String(c)) => Some(c),
+            Some(v) => {
+                return Err(invalid(
+                    key("condition"),
+                    format!(
+                        "{v} is not a text label (trial {}): give a string such as \"walk_3.6kmh\"",
+                        t.name
+                    ),
+                ));
+            }
+        };
         trials.push(SessionTrialEntry {
-            condition: t.condition,
+            condition,
             name: t.name,
             source,
             unloaded: t.unloaded.as_deref().map(resolve),

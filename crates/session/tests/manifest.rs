@@ -91,6 +91,18 @@ fn bad_manifests_name_the_key_or_position() {
             r#"{"osim_muscles": {"ta": "tib_ant_r"}, "trials": [{"name": "a", "trial": "a.csv"}]}"#,
             "osim_muscles.ta",
         ),
+        (
+            r#"{"trials": [{"name": "a", "trial": "a.csv"}, {"name": "b", "trial": "b.csv", "condition": " "}]}"#,
+            "trials[1].condition: is empty (trial b)",
+        ),
+        (
+            r#"{"trials": [{"name": "a", "trial": "a.csv", "condition": 36}]}"#,
+            "trials[0].condition: 36 is not a text label (trial a)",
+        ),
+        (
+            r#"{"trials": [{"name": "a", "trial": "a.csv", "condition": ["slow"]}]}"#,
+            "trials[0].condition: [\"slow\"] is not a text label (trial a)",
+        ),
     ];
     for (text, want) in cases {
         let err = parse(text).unwrap_err().to_string();

@@ -12,13 +12,16 @@
 //!   are. Folds run in parallel; the result does not depend on the thread count.
 //!
 //! A trial's samples are judged with its problem's weights (a CEINMS trial's moment samples);
-//! a fold's parts are weights of 0 outside the part.
+//! a fold's parts are weights of 0 outside the part. When a trial's strides are known, each
+//! stride inside a held-out part is also scored alone ([`StrideScore`]), flagged where the
+//! recording checks flagged it.
 
 mod baseline;
 mod error;
 mod folds;
 mod run;
 mod score;
+mod strides;
 
 pub use baseline::LinearBaseline;
 pub use error::ValidateError;
@@ -28,3 +31,4 @@ pub use run::{
     ValidationTrial,
 };
 pub use score::FitScore;
+pub use strides::StrideScore;

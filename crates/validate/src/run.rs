@@ -15,11 +15,13 @@ use serde::Serialize;
 use crate::baseline::LinearBaseline;
 use crate::folds::{folds, Fold, FoldScheme, TrialPart};
 use crate::score::FitScore;
+use crate::strides::{stride_scores, StrideScore};
 use crate::ValidateError;
 
 /// One trial of the session: its problem (the session's model, free parameters, bounds and
-/// sample weights on this trial), its condition label and, when known, where its strides
-/// start (samples).
+/// sample weights on this trial), its condition label and, when known, its strides (where
+/// they start and end, samples, and which ones the recording checks flagged) so a held-out
+/// part is also scored stride by stride ([`StrideScore`]).
 #[derive(Clone, Copy, Debug)]
 pub struct ValidationTrial<'a> {
     /// The trial's name.
@@ -30,6 +32,13 @@ pub struct ValidationTrial<'a> {
     pub problem: &'a Problem,
     /// The first sample of each of its strides, if known.
     pub stride_starts: Option<&'a [usize]>,
+    /// Where each stride ends (the next foot strike, exclusive), parallel to `stride_starts`;
+    /// `None`: each ends where the next starts and the last, whose end is unknown, is not
+    /// scored.
+    pub stride_ends: Option<&'a [usize]>,
+    /// Whether the recording checks flagged each stride, parallel to `stride_starts`; `None`:
+    /// none is.
+    pub stride_flagged: Option<&'a [bool]>,
 }
 
 /// Parameters from elsewhere (another tool's calibration, a subject's uncalibrated model),
@@ -91,6 +100,9 @@ pub struct HeldOutScore {
     pub linear: FitScore,
     /// Each peer, by name.
     pub peers: BTreeMap<String, FitScore>,
+    /// Every stride of the trial that lies inside the held-out samples, scored alone (empty
+    /// when the trial's strides are not known).
+    pub strides: Vec<StrideScore>,
     /// The held-out samples (indices into the trial).
     #[serde(skip)]
     pub samples_range: std::ops::Range<usize>,
@@ -304,6 +316,18 @@ fn run_fold(
             .map(|(name, per_trial)| (name.clone(), FitScore::of(y, &per_trial[part.trial], &w)))
             .collect();
         let linear_nm = linear.predict(p);
+        let peer_nm: Vec<(&str, &[f64])> = peer_predictions
+            .iter()
+            .map(|(name, per_trial)| (name.as_str(), per_trial[part.trial].as_slice()))
+            .collect();
+        let strides = stride_scores(
+            &trials[part.trial],
+            &part.samples,
+            &w,
+            &predicted,
+            &linear_nm,
+            &peer_nm,
+        );
         held_out.push(HeldOutScore {
             trial: trials[part.trial].name.to_string(),
             span_s: (
@@ -314,6 +338,7 @@ fn run_fold(
             model: FitScore::of(y, &predicted, &w),
             linear: FitScore::of(y, &linear_nm, &w),
             peers,
+            strides,
             samples_range: part.samples.clone(),
             model_nm: predicted[part.samples.clone()].to_vec(),
             linear_nm: linear_nm[part.samples.clone()].to_vec(),

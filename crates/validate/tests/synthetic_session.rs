@@ -72,6 +72,8 @@ fn held_out_errors_are_at_the_noise_level_on_a_session_with_a_known_truth() {
             condition: Some(condition),
             problem: p,
             stride_starts: None,
+            stride_ends: None,
+            stride_flagged: None,
         })
         .collect();
     let mut settings = ValidateSettings::default();
@@ -137,6 +139,8 @@ fn folds_that_cannot_be_formed_are_one_line_errors() {
         condition: None,
         problem: &p,
         stride_starts: None,
+        stride_ends: None,
+        stride_flagged: None,
     }];
     let s = ValidateSettings::default();
     let e = validate(&one, &[FoldScheme::LeaveOneTrialOut], &[], &s).unwrap_err();

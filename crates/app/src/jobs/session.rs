@@ -81,36 +81,41 @@ impl SessionTrial {
         self.prepared.as_ref().and_then(|p| p.unloaded.as_ref())
     }
 
-    /// Where a trial's strides start (samples): from its vertical ground force (stance while it
-    /// exceeds [`experiment::STANCE_THRESHOLD_N`]); `None` without one. A stride the force cannot
-    /// make (shorter than 0.2 s) is an error naming the file and column the force came from.
-    pub fn stride_starts(&self) -> AppResult<Option<Vec<usize>>> {
-        let t = self;
-        let Some(trial) = t.prepared.as_ref().map(|p| &p.trial) else {
+    /// The trial's strides from its vertical ground force (stance while it exceeds
+    /// [`experiment::STANCE_THRESHOLD_N`]); `None` without one. A stride the force cannot make
+    /// (shorter than 0.2 s) is an error naming the file and column the force came from.
+    pub fn strides(&self) -> AppResult<Option<experiment::Strides>> {
+        let Some(trial) = self.prepared.as_ref().map(|p| &p.trial) else {
             return Ok(None);
         };
         let Some(force) = trial.grf_vertical_n.as_deref() else {
             return Ok(None);
         };
-        match experiment::strides_from_ground_force(
+        experiment::strides_from_ground_force(
             force,
             trial.sample_rate_hz(),
             experiment::STANCE_THRESHOLD_N,
-        ) {
-            Ok(s) => Ok(Some(s.strides.iter().map(|x| x.start).collect())),
-            Err(e) => {
-                // name the force's own file and column, as the map gives them
-                let place = recording::read_map(Path::new(&t.source))
-                    .ok()
-                    .and_then(|m| {
-                        let c = m.channels.get("grf_vertical_n")?;
-                        let file = c.file.clone().or(m.file.clone())?;
-                        Some(format!("{file}: column {}", c.column))
-                    })
-                    .unwrap_or_else(|| t.source.clone());
-                Err(AppError::bad(format!("{}: {place}: {e}", t.source)))
-            }
-        }
+        )
+        .map(Some)
+        .map_err(|e| {
+            // name the force's own file and column, as the map gives them
+            let place = recording::read_map(Path::new(&self.source))
+                .ok()
+                .and_then(|m| {
+                    let c = m.channels.get("grf_vertical_n")?;
+                    let file = c.file.clone().or(m.file.clone())?;
+                    Some(format!("{file}: column {}", c.column))
+                })
+                .unwrap_or_else(|| self.source.clone());
+            AppError::bad(format!("{}: {place}: {e}", self.source))
+        })
+    }
+
+    /// Where the trial's strides start (samples); see [`SessionTrial::strides`].
+    pub fn stride_starts(&self) -> AppResult<Option<Vec<usize>>> {
+        Ok(self
+            .strides()?
+            .map(|s| s.strides.iter().map(|x| x.start).collect()))
     }
 
     /// The trial's dynamometer report (`null` without an unloaded run).

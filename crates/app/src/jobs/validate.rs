@@ -126,6 +126,91 @@ fn schemes_of(names: &[String], trials: &[ValidationTrial<'_>]) -> AppResult<Vec
         .collect()
 }
 
+/// A trial's strides (samples), from its vertical ground force, and which of them the
+/// recording checks flagged: the held-out parts are scored stride by stride and drawn as
+/// ensembles without the flagged ones.
+struct TrialStrides {
+    /// Each stride's foot strike.
+    starts: Vec<usize>,
+    /// Each stride's next foot strike (exclusive end).
+    ends: Vec<usize>,
+    /// Whether `checks.strides.flagged` holds the stride.
+    flagged: Vec<bool>,
+}
+
+/// A trial's strides and the checks' flags ([`super::session::SessionTrial::strides`]).
+fn trial_strides(t: &super::session::SessionTrial) -> AppResult<Option<TrialStrides>> {
+    let (Some(s), Some(trial)) = (t.strides()?, t.prepared.as_ref().map(|p| &p.trial)) else {
+        return Ok(None);
+    };
+    let flags = t
+        .checks
+        .as_ref()
+        .and_then(|c| c.strides.as_ref())
+        .map_or(&[][..], |g| g.flagged.as_slice());
+    Ok(Some(TrialStrides {
+        starts: s.strides.iter().map(|x| x.start).collect(),
+        ends: s.strides.iter().map(|x| x.end).collect(),
+        flagged: s
+            .strides
+            .iter()
+            .map(|x| flagged_by_checks(&trial.time_s, x.start, x.end, flags))
+            .collect(),
+    }))
+}
+
+/// Whether the stride `start..end` (samples of `time_s`) is one the recording checks flagged:
+/// a flagged stride's span holds its middle. The checks find their strides in the trial as
+/// recorded, so they are matched by time, not by index.
+fn flagged_by_checks(
+    time_s: &[f64],
+    start: usize,
+    end: usize,
+    flags: &[recording::checks::StrideFlag],
+) -> bool {
+    let (Some(&a), Some(&last)) = (time_s.get(start), time_s.last()) else {
+        return false;
+    };
+    let b = time_s.get(end).copied().unwrap_or(last);
+    let mid = 0.5 * (a + b);
+    flags.iter().any(|f| f.start_s <= mid && mid < f.end_s)
+}
+
+/// Leaving one condition out needs every trial labelled and two labels at least: checked on
+/// the manifest so the refusal names its key (`trials[k].condition`) before any calibration.
+fn check_conditions(manifest: &Path, entries: &[session::SessionTrialEntry]) -> AppResult {
+    let m = manifest.display();
+    if let Some((k, e)) = entries
+        .iter()
+        .enumerate()
+        .find(|(_, e)| e.condition.is_none())
+    {
+        return Err(AppError::bad(format!(
+            "{m}: trials[{k}].condition: missing (trial {}): leaving one condition out \
+             (--folds condition) needs every trial's condition label",
+            e.name
+        )));
+    }
+    let mut labels: Vec<&str> = entries
+        .iter()
+        .filter_map(|e| e.condition.as_deref())
+        .collect();
+    labels.sort_unstable();
+    labels.dedup();
+    if labels.len() < 2 {
+        let keys: Vec<String> = (0..entries.len())
+            .map(|k| format!("trials[{k}].condition"))
+            .collect();
+        return Err(AppError::bad(format!(
+            "{m}: {}: every trial is labelled {:?}: leaving one condition out \
+             (--folds condition) needs trials of at least two conditions",
+            keys.join(", "),
+            labels.first().copied().unwrap_or_default()
+        )));
+    }
+    Ok(())
+}
+
 /// The peers' parameters, each over the session's (its fixed muscles from the session).
 fn load_peers(job: &ValidateJob, session: &LoadedSession) -> AppResult<Vec<(Peer, String)>> {
     let fixed: Vec<String> = session
@@ -174,24 +259,29 @@ pub fn run(job: ValidateJob, rep: &Reporter) -> AppResult {
         ..ModelSettings::default()
     };
     let session = load_session(&job.session, &model, job.free.as_deref(), rep)?;
-    let starts: Vec<Option<Vec<usize>>> = session
+    let strides: Vec<Option<TrialStrides>> = session
         .trials
         .iter()
-        .map(super::session::SessionTrial::stride_starts)
+        .map(trial_strides)
         .collect::<AppResult<_>>()?;
     let trials: Vec<ValidationTrial<'_>> = session
         .trials
         .iter()
         .zip(&session.manifest.trials)
-        .zip(&starts)
+        .zip(&strides)
         .map(|((t, entry), s)| ValidationTrial {
             name: &t.name,
             condition: entry.condition.as_deref(),
             problem: &t.problem,
-            stride_starts: s.as_deref(),
+            stride_starts: s.as_ref().map(|s| s.starts.as_slice()),
+            stride_ends: s.as_ref().map(|s| s.ends.as_slice()),
+            stride_flagged: s.as_ref().map(|s| s.flagged.as_slice()),
         })
         .collect();
     let schemes = schemes_of(&job.folds, &trials)?;
+    if schemes.contains(&FoldScheme::LeaveOneConditionOut) {
+        check_conditions(&job.session, &session.manifest.trials)?;
+    }
     let peers = load_peers(&job, &session)?;
     let mut inputs_read = session.inputs_read.clone();
     inputs_read.extend(job.peers.iter().cloned());
@@ -300,7 +390,8 @@ fn summary_lines(doc: &ValidationReport) -> Vec<String> {
 }
 
 /// One figure per held-out part: the measured moment, the calibrated model's and the linear
-/// baseline's over the held-out samples.
+/// baseline's over the held-out samples; with its strides, their ensembles beside it
+/// ([`add_ensembles`]).
 fn write_figures(
     out: &OutDir,
     session: &LoadedSession,
@@ -343,7 +434,134 @@ fn write_figures(
                     &[],
                 ),
             )?;
+            add_ensembles(&mut set, &name, f.scheme, h, measured)?;
         }
     }
     set.finish()
+}
+
+/// Fewest strides in a held-out part for its ensembles: a mean ± sd over fewer says little.
+const ENSEMBLE_MIN_STRIDES: usize = 4;
+/// Points of a stride normalised to 0–100 % of the cycle (one per %).
+const ENSEMBLE_POINTS: usize = 101;
+
+/// The held-out part's ensembles over its strides (by % of the gait cycle), when it has at
+/// least [`ENSEMBLE_MIN_STRIDES`]: the measured, model and linear moments' mean ± sd, and the
+/// residuals alone. The strides the recording checks flagged are left out, so one bad stride
+/// does not widen the bands; the caption counts them. `measured` is the measured moment over
+/// the part's samples.
+fn add_ensembles(
+    set: &mut FigureSet<'_>,
+    name: &str,
+    scheme: FoldScheme,
+    h: &validate::HeldOutScore,
+    measured: &[f64],
+) -> AppResult {
+    if h.strides.len() < ENSEMBLE_MIN_STRIDES {
+        return Ok(());
+    }
+    let r0 = h.samples_range.start;
+    let kept: Vec<&validate::StrideScore> = h.strides.iter().filter(|s| !s.flagged).collect();
+    let left_out = h.strides.len() - kept.len();
+    let strides = experiment::Strides {
+        strides: kept
+            .iter()
+            .map(|s| experiment::Stride {
+                start: s.samples_range.start - r0,
+                end: s.samples_range.end - r0,
+                stance_end: None,
+            })
+            .collect(),
+        source: experiment::StrideSource::GroundForce {
+            threshold_n: experiment::STANCE_THRESHOLD_N,
+        },
+    };
+    let cycle =
+        |x: &[f64]| strides.normalised_part(x, ENSEMBLE_POINTS, experiment::StridePart::Cycle);
+    let (m, model, linear) = (cycle(measured), cycle(&h.model_nm), cycle(&h.linear_nm));
+    // a stride with a gap in any series is left out of all three, so they stay paired
+    let whole: Vec<usize> = (0..m.len())
+        .filter(|&k| !m[k].is_empty() && !model[k].is_empty() && !linear[k].is_empty())
+        .collect();
+    let pick = |c: &[Vec<f64>]| -> Vec<Vec<f64>> { whole.iter().map(|&k| c[k].clone()).collect() };
+    let (m, model, linear) = (pick(&m), pick(&model), pick(&linear));
+    if m.is_empty() {
+        return Ok(());
+    }
+    let residual = |p: &[Vec<f64>]| -> Vec<Vec<f64>> {
+        m.iter()
+            .zip(p)
+            .map(|(a, b)| a.iter().zip(b).map(|(x, y)| x - y).collect())
+            .collect()
+    };
+    let (r_model, r_linear) = (residual(&model), residual(&linear));
+    let percent = experiment::stride_percent(ENSEMBLE_POINTS);
+    let left = match left_out {
+        0 => "no stride flagged by the recording checks".to_string(),
+        1 => "1 stride flagged by the recording checks left out".to_string(),
+        n => format!("{n} strides flagged by the recording checks left out"),
+    };
+    let of = format!(
+        "{} of its {} held-out strides; {left}",
+        m.len(),
+        h.strides.len()
+    );
+    set.add(
+        &format!("{name}_strides"),
+        &format!(
+            "{} — {} held out, by % of the gait cycle: measured, model and linear moment, \
+             mean ± sd over {of}",
+            scheme.name(),
+            h.trial
+        ),
+        report::figures::stride_ensemble(
+            &percent,
+            &m,
+            &[("model", &model), ("linear", &linear)],
+            "gait cycle",
+        ),
+    )?;
+    set.add(
+        &format!("{name}_residual"),
+        &format!(
+            "{} — {} held out, by % of the gait cycle: residual (measured − model), mean ± sd \
+             over {of}",
+            scheme.name(),
+            h.trial
+        ),
+        report::figures::residual_ensemble(
+            &percent,
+            &[("model", &r_model), ("linear", &r_linear)],
+            "gait cycle",
+        ),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::flagged_by_checks;
+    use recording::checks::StrideFlag;
+
+    fn flag(start_s: f64, end_s: f64) -> StrideFlag {
+        StrideFlag {
+            stride: 0,
+            start_s,
+            end_s,
+            reasons: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn a_stride_is_flagged_when_a_flagged_span_holds_its_middle() {
+        let time: Vec<f64> = (0..500).map(|i| 10.0 + 0.01 * f64::from(i)).collect();
+        // samples 100..220: 11.00 s to 12.20 s, its middle at 11.60 s
+        assert!(flagged_by_checks(&time, 100, 220, &[flag(11.0, 12.2)]));
+        assert!(flagged_by_checks(&time, 100, 220, &[flag(11.5, 11.7)]));
+        assert!(!flagged_by_checks(&time, 100, 220, &[flag(12.2, 13.4)]));
+        assert!(!flagged_by_checks(&time, 100, 220, &[flag(9.8, 11.0)]));
+        assert!(!flagged_by_checks(&time, 100, 220, &[]));
+        // a stride ending one past the last sample still has a middle
+        assert!(flagged_by_checks(&time, 400, 500, &[flag(14.0, 15.0)]));
+        assert!(!flagged_by_checks(&time, 600, 700, &[flag(0.0, 100.0)]));
+    }
 }

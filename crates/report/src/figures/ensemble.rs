@@ -265,6 +265,90 @@ pub fn stride_ensemble(
     })
 }
 
+/// The residual alone over strides, by % of the cycle or of the stance: each model's residual
+/// (measured − model, stride by stride) as mean ± sd around a zero line, in one panel, so a
+/// systematic miss at one phase of the stride reads at full height rather than below the
+/// moments of [`stride_ensemble`].
+///
+/// * `percent` — the points' positions, % (increasing);
+/// * `residuals` — `(label, curves)` per model, one curve per stride (N·m), each
+///   `percent.len()` long, every model with as many strides as the first;
+/// * `of` — what 0–100 % spans: `"stance"` or `"gait cycle"`.
+///
+/// # Errors
+/// No model or an empty one, curves of another length than `percent`, models with different
+/// numbers of strides, a non-finite value, or an empty `of`.
+pub fn residual_ensemble(
+    percent: &[f64],
+    residuals: &[(&str, &[Vec<f64>])],
+    of: &str,
+) -> Result<String> {
+    const FIG: &str = "residual_ensemble";
+    check_finite(FIG, "percent", percent)?;
+    if percent.windows(2).any(|w| w[1] <= w[0]) {
+        return Err(ReportError::Invalid {
+            figure: FIG,
+            reason: "`percent` must increase".into(),
+        });
+    }
+    if of.trim().is_empty() {
+        return Err(ReportError::Invalid {
+            figure: FIG,
+            reason: "`of` must name what 0–100 % spans (\"stance\" or \"gait cycle\")".into(),
+        });
+    }
+    let Some((_, first)) = residuals.first() else {
+        return Err(ReportError::Empty {
+            figure: FIG,
+            series: "residuals".into(),
+        });
+    };
+    let n = first.len();
+    let points = percent.len();
+    let mut bands = Vec::with_capacity(residuals.len());
+    let mut entries = Vec::with_capacity(residuals.len() + 1);
+    for (i, (name, r)) in residuals.iter().enumerate() {
+        check_curves(FIG, name, r, points, Some(n))?;
+        let st = style(i);
+        let (mean, sd) = mean_sd(r, points);
+        bands.push(Band {
+            mean,
+            sd,
+            style: st,
+        });
+        let all: Vec<f64> = r.iter().flatten().copied().collect();
+        entries.push((
+            format!(
+                "{name} (RMS residual {:.2} N·m over {n} stride{})",
+                rms(&all),
+                if n == 1 { "" } else { "s" }
+            ),
+            Mark::Line(st, 2),
+        ));
+    }
+    entries.push((
+        "shaded: mean ± 1 sd across strides".to_string(),
+        Mark::Swatch(GREY, 0.3),
+    ));
+    let x_desc = format!("% of {of}");
+    render(FIG, (1000, 640), |root| {
+        let body = titled(
+            FIG,
+            root,
+            &format!("Residual of the ankle moment over strides, by % of {of}"),
+        )?;
+        let body = legend_strip(FIG, &body, &entries)?;
+        band_panel(
+            FIG,
+            &body,
+            percent,
+            &bands,
+            (&x_desc, "residual: measured − model (N·m)"),
+            true,
+        )
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -18,7 +18,7 @@ pub use diagnosis::{
     candidate_ranking, flexible_terms, sensitivity_curves, Candidate, FlexibleTermView,
     SensitivityPoint,
 };
-pub use ensemble::stride_ensemble;
+pub use ensemble::{residual_ensemble, stride_ensemble};
 pub use mcmc::{corner, histograms, rhat_history, traces};
 pub use time::{fit_comparison, residual_vs_angle, residual_vs_time, torque_fit};
 

@@ -1,0 +1,251 @@
+//! `surae validate` on the bundled gait trial (`fixtures/walk36/`): each held-out part is also
+//! scored stride by stride, with the strides the recording checks flag marked, and drawn as
+//! ensembles over the strides without the flagged ones; bad input in those parts (a ground
+//! force file without the map's vertical force column, a stride shorter than 0.2 s, condition
+//! labels that cannot make the leave-one-condition-out folds) is refused with exit 2, one line
+//! naming the file and the column or key, and nothing written.
+
+mod common;
+
+use common::{json, ok, refusal_problems, snapshot, surae};
+use std::path::{Path, PathBuf};
+
+fn walk36() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/walk36")
+}
+
+fn read(name: &str) -> String {
+    std::fs::read_to_string(walk36().join(name)).unwrap()
+}
+
+/// The fixture's files, `edit` applied to them by name.
+fn walk36_files(edit: impl Fn(&str, String) -> String) -> Vec<(&'static str, String)> {
+    [
+        "session.json",
+        "map.json",
+        "uncalibratedSubject.xml",
+        "emgFilt.sto",
+        "ik.sto",
+        "id.sto",
+        "XLD.mot",
+    ]
+    .into_iter()
+    .map(|n| (n, edit(n, read(n))))
+    .collect()
+}
+
+/// Runs `args` (with `--out fresh`) in a folder holding `files` and checks the refusal: exit 2,
+/// one line naming every needle, nothing created or changed.
+fn refused(files: &[(&str, String)], args: &[&str], needles: &[&str]) {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, text) in files {
+        std::fs::write(dir.path().join(name), text).unwrap();
+    }
+    let before = snapshot(dir.path());
+    let mut all: Vec<&str> = args.to_vec();
+    all.extend(["--out", "fresh"]);
+    let o = surae(&all, dir.path());
+    let needles: Vec<String> = needles.iter().map(|s| (*s).to_string()).collect();
+    let problems = refusal_problems(&o, &needles);
+    assert!(
+        problems.is_empty(),
+        "{args:?}: {problems:?}\nstderr: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(
+        !dir.path().join("fresh").exists(),
+        "{args:?}: out folder made"
+    );
+    assert_eq!(snapshot(dir.path()), before, "{args:?}: files were written");
+}
+
+const VALIDATE: [&str; 3] = ["validate", "--session", "session.json"];
+
+#[test]
+fn held_out_strides_are_scored_and_drawn_without_the_flagged_ones() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("val");
+    let session = walk36().join("session.json");
+    let o = surae(
+        &[
+            "validate",
+            "--session",
+            session.to_str().unwrap(),
+            "--chains",
+            "1",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        tmp.path(),
+    );
+    ok(&o);
+    let v = json(&out.join("validate.json"));
+    let folds = v["folds"].as_array().unwrap();
+    assert_eq!(folds.len(), 1, "one trial: the later strides only");
+    let h = &folds[0]["held_out"][0];
+    let (a, b) = (
+        h["span_s"][0].as_f64().unwrap(),
+        h["span_s"][1].as_f64().unwrap(),
+    );
+    let strides = h["strides"].as_array().unwrap();
+    assert!(strides.len() >= 20, "{}", strides.len());
+    let mut samples = 0;
+    let mut last_end = a;
+    for s in strides {
+        let (s0, s1) = (s["start_s"].as_f64().unwrap(), s["end_s"].as_f64().unwrap());
+        // inside the held-out span, in order, not overlapping
+        assert!(s0 >= last_end - 1e-9 && s1 > s0 && s1 <= b + 0.011, "{s}");
+        last_end = s1;
+        for who in ["model", "linear"] {
+            assert!(s[who]["rms_nm"].as_f64().unwrap() > 0.0, "{s}");
+            assert!(s[who]["r2"].as_f64().unwrap() <= 1.0, "{s}");
+        }
+        assert!(s["peers"].as_object().unwrap().is_empty());
+        samples += s["samples"].as_u64().unwrap();
+    }
+    assert!(samples <= h["samples"].as_u64().unwrap());
+    // the recording checks of the trial (`surae inspect map.json`: checks.strides.flagged)
+    // flag strides 4, 5, 28, 33 and 45; the held-out half holds the last three
+    let flagged: Vec<u64> = strides
+        .iter()
+        .filter(|s| s["flagged"].as_bool().unwrap())
+        .map(|s| s["stride"].as_u64().unwrap())
+        .collect();
+    assert_eq!(flagged, vec![28, 33, 45]);
+    let kept = strides.len() - 3;
+    let stem = "later_strides_later_strides_walk36";
+    for f in ["", "_strides", "_residual"] {
+        let p = out.join(format!("{stem}{f}.svg"));
+        assert!(p.is_file(), "{} missing", p.display());
+    }
+    let svg = std::fs::read_to_string(out.join(format!("{stem}_strides.svg"))).unwrap();
+    assert!(
+        svg.contains(&format!("measured ({kept} strides)")),
+        "kept strides"
+    );
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    let caption = format!(
+        "over {kept} of its {} held-out strides; 3 strides flagged by the recording checks left out",
+        strides.len()
+    );
+    assert_eq!(html.matches(&caption).count(), 2, "{caption}");
+}
+
+#[test]
+fn a_ground_force_file_without_the_maps_vertical_force_column_is_refused() {
+    let files = walk36_files(|name, text| {
+        if name == "XLD.mot" {
+            text.replace("time\tground_force_vy", "time\tground_force_vx")
+        } else {
+            text
+        }
+    });
+    refused(
+        &files,
+        &VALIDATE,
+        &[
+            "XLD.mot",
+            "channels.grf_vertical_n",
+            "no column 'ground_force_vy'",
+        ],
+    );
+}
+
+/// The force of `XLD.mot` with a dip below the stance threshold 0.1 s after the first foot
+/// strike: that stance lasts 0.1 s and its stride 0.12 s.
+fn with_a_short_stride(mot: &str) -> String {
+    let mut lines: Vec<String> = mot.lines().map(str::to_string).collect();
+    let h = lines
+        .iter()
+        .position(|l| l == "time\tground_force_vy")
+        .unwrap();
+    let force = |l: &str| -> f64 { l.split('\t').nth(1).unwrap().parse().unwrap() };
+    let strike = (h + 2..lines.len())
+        .find(|&i| force(&lines[i]) > 20.0 && force(&lines[i - 1]) <= 20.0)
+        .unwrap();
+    for i in [strike + 10, strike + 11] {
+        assert!(force(&lines[i]) > 20.0, "the dip falls in stance");
+        let t = lines[i].split('\t').next().unwrap().to_string();
+        lines[i] = format!("{t}\t0");
+    }
+    lines.join("\n") + "\n"
+}
+
+#[test]
+fn a_stride_shorter_than_0_2_s_is_refused_naming_the_force_file_and_column() {
+    let files = walk36_files(|name, text| {
+        if name == "XLD.mot" {
+            with_a_short_stride(&text)
+        } else {
+            text
+        }
+    });
+    refused(
+        &files,
+        &VALIDATE,
+        &[
+            "XLD.mot: column ground_force_vy",
+            "stride 0 from 0.61 s to 0.73 s",
+            "shorter than the 0.2 s",
+        ],
+    );
+}
+
+#[test]
+fn condition_labels_that_cannot_make_the_folds_are_refused_naming_the_manifest_key() {
+    let session = |trials: &str| -> Vec<(&'static str, String)> {
+        walk36_files(|name, text| {
+            if name == "session.json" {
+                format!(r#"{{"params": "uncalibratedSubject.xml", "trials": [{trials}]}}"#)
+            } else {
+                text
+            }
+        })
+    };
+    let fold = [
+        "validate",
+        "--session",
+        "session.json",
+        "--folds",
+        "condition",
+    ];
+    // no label
+    refused(
+        &session(r#"{"name": "walk36", "recording": "map.json"}"#),
+        &fold,
+        &["session.json: trials[0].condition: missing (trial walk36)"],
+    );
+    // a second trial without one
+    refused(
+        &session(
+            r#"{"name": "a", "recording": "map.json", "condition": "slow"},
+               {"name": "b", "recording": "map.json"}"#,
+        ),
+        &fold,
+        &["session.json: trials[1].condition: missing (trial b)"],
+    );
+    // one label only
+    refused(
+        &session(
+            r#"{"name": "a", "recording": "map.json", "condition": "walk"},
+               {"name": "b", "recording": "map.json", "condition": "walk"}"#,
+        ),
+        &fold,
+        &[
+            "session.json: trials[0].condition, trials[1].condition",
+            "every trial is labelled \"walk\"",
+            "at least two conditions",
+        ],
+    );
+    // a label that is not a string, or empty, is refused whatever the folds
+    refused(
+        &session(r#"{"name": "walk36", "recording": "map.json", "condition": 3.6}"#),
+        &VALIDATE,
+        &["session.json: trials[0].condition: 3.6 is not a text label (trial walk36)"],
+    );
+    refused(
+        &session(r#"{"name": "walk36", "recording": "map.json", "condition": ""}"#),
+        &VALIDATE,
+        &["session.json: trials[0].condition: is empty (trial walk36)"],
+    );
+}
