@@ -130,7 +130,8 @@ def identify(
         ``["electromechanical_delay"]`` (``surae identify --with``; uniform priors on their
         ranges). They appear in ``params`` (``"electromechanical_delay.delay_ms"``) and, for
         MCMC, in ``posterior``.
-    chains: ``"sa"`` only, the number of annealing chains (starts); default 4.
+    chains: ``"sa"`` only, the number of annealing chains (starts); default 4 (a
+        session with the recording defaults adds 4 when the best two disagree by more than 1 %).
     out: folder for ``identify.json``, the figures and ``report.html`` (and the chain files of
         MCMC); by default no file is written.
     progress: None (default) or False shows nothing; True writes one line on ``sys.stderr``,

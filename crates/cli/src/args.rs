@@ -136,7 +136,8 @@ pub struct IdentifyArgs {
     #[arg(long = "with", value_delimiter = ',', value_name = "EFFECTS")]
     pub with_effects: Option<Vec<String>>,
     /// SA only: number of annealing chains (starts); chain 0 starts from the base values, the
-    /// others from random points. Default 4.
+    /// others from random points. Default 4; a session with the recording defaults adds 4
+    /// more when the best two disagree by more than 1 % (a number given here is run as given).
     #[arg(long, value_name = "N")]
     pub chains: Option<u32>,
     /// Unloaded run CSV (`time_s, ankle_angle_deg, torque_nm`): its cycle-locked
@@ -191,7 +192,8 @@ pub struct ValidateArgs {
     /// Share of each trial that calibrates when its later strides are held out.
     #[arg(long, default_value_t = 0.5)]
     pub later_fraction: f64,
-    /// Annealing chains (starts) of each calibration. Default 4.
+    /// Annealing chains (starts) of each calibration. Default 4; with the recording defaults 4
+    /// more when the best two disagree by more than 1 % (a number given here is run as given).
     #[arg(long, value_name = "N")]
     pub chains: Option<u32>,
     /// Seed of every calibration (results do not depend on the thread count).

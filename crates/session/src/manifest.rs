@@ -56,6 +56,10 @@ pub struct SessionManifest {
     pub bounds: BTreeMap<String, (f64, f64)>,
     /// The trials, in the manifest's order.
     pub trials: Vec<SessionTrialEntry>,
+    /// Strides the recording checks flag (an implausible inverse-dynamics moment against the
+    /// other strides and the foot's ground force) are weighted 0 in every fit and score of the
+    /// session (`exclude_flagged_strides`, default false: they are flagged but fitted).
+    pub exclude_flagged_strides: bool,
 }
 
 impl SessionManifest {
@@ -77,6 +81,7 @@ impl SessionManifest {
             effects: None,
             free: None,
             bounds: BTreeMap::new(),
+            exclude_flagged_strides: false,
             trials: vec![SessionTrialEntry {
                 name,
                 source: TrialSource::Recording(path.to_path_buf()),
@@ -151,6 +156,8 @@ struct RawManifest {
     #[serde(default)]
     bounds: BTreeMap<String, (f64, f64)>,
     trials: Vec<RawTrial>,
+    #[serde(default)]
+    exclude_flagged_strides: bool,
 }
 
 #[derive(Deserialize)]
@@ -330,5 +337,6 @@ pub fn parse_session_manifest(text: &str, path: &Path) -> Result<SessionManifest
         free: raw.free,
         bounds: raw.bounds,
         trials,
+        exclude_flagged_strides: raw.exclude_flagged_strides,
     })
 }

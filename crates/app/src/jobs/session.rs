@@ -141,7 +141,7 @@ pub struct LoadedSession {
     /// Every file read (outputs never overwrite them).
     pub inputs_read: Vec<PathBuf>,
     /// The free parameters and bounds are the recording defaults (no trial has a dynamometer
-    /// correction and none were given): calibrations then take 8 starts.
+    /// correction and none were given): calibrations then anneal with [`recording_annealing`].
     pub recording_defaults: bool,
 }
 
@@ -806,6 +806,11 @@ pub fn load_session(
             Loaded::Ceinms(c) => session_ceinms_trial(entry, *c, &shared)?,
         });
     }
+    if manifest.exclude_flagged_strides {
+        for t in &mut trials {
+            exclude_flagged_strides(t)?;
+        }
+    }
     Ok(LoadedSession {
         manifest,
         params,
@@ -816,6 +821,35 @@ pub fn load_session(
         inputs_read: read,
         recording_defaults,
     })
+}
+
+/// `t`'s problem with the samples of every stride its recording checks flag weighted 0, so that
+/// no fit and no score of the session sees them (the manifest's `exclude_flagged_strides`).
+fn exclude_flagged_strides(t: &mut SessionTrial) -> AppResult {
+    let Some(g) = t.checks.as_ref().and_then(|c| c.strides.as_ref()) else {
+        return Ok(());
+    };
+    if g.flagged.is_empty() {
+        return Ok(());
+    }
+    let times = t.problem.inputs().times();
+    let weights: Vec<f64> = times
+        .iter()
+        .enumerate()
+        .map(|(i, &ti)| {
+            if g.flagged.iter().any(|f| f.start_s <= ti && ti < f.end_s) {
+                0.0
+            } else {
+                t.problem.weights().map_or(1.0, |w| w[i])
+            }
+        })
+        .collect();
+    t.problem = t
+        .problem
+        .clone()
+        .with_weights(weights)
+        .map_err(|e| AppError::bad(format!("{}: exclude_flagged_strides: {e}", t.source)))?;
+    Ok(())
 }
 
 /// `inputs` with the musculotendon lengths and ankle moment arms of OpenSim MuscleAnalysis

@@ -55,8 +55,8 @@ pub fn recording_free() -> Vec<ParamId> {
 /// The recording defaults' bounds around the base value `v`, chosen by held-out prediction on
 /// CEINMS's four trials and walk36 split by time (docs/real-data.md):
 ///
-/// * LST ±20 % of `v`: the tendon slack length is the least certain parameter of a scaled
-///   model, and on walk36 ±10 % held every tendon at its upper bound;
+/// * LST ±10 % of `v` (±20 % predicted walk36's later strides better, 9.8 against 10.2 N·m,
+///   and CEINMS's left-out trials much worse, 37.6 against 29.2 N·m);
 /// * F0 from 0.5 to 10 times `reference_fom_n`, the muscle's force before a CEINMS strength
 ///   coefficient (else its own F0). F0 here is the force at an envelope of 1, the product of
 ///   the muscle's strength and its envelope's gain, and a lab's normalisation reference is
