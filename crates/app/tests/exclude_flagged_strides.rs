@@ -6,7 +6,9 @@ use std::path::{Path, PathBuf};
 
 fn manifest(dir: &Path, exclude: Option<bool>) -> PathBuf {
     let map = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/walk36/map.json");
-    let extra = exclude.map_or(String::new(), |e| format!(r#", "exclude_flagged_strides": {e}"#));
+    let extra = exclude.map_or(String::new(), |e| {
+        format!(r#", "exclude_flagged_strides": {e}"#)
+    });
     let text = format!(
         r#"{{"trials": [{{"name": "walk36", "recording": {:?}}}]{extra}}}"#,
         map.display().to_string()
@@ -38,7 +40,10 @@ fn flagged_strides_are_weighted_zero_only_when_asked() {
     }
     // strides of 0.9–2.3 s at 100 Hz (a flagged stride may span a missed foot strike)
     let n = flagged.len();
-    assert!(zeros > n * 85 && zeros < n * 235, "{zeros} samples in {n} strides");
+    assert!(
+        zeros > n * 85 && zeros < n * 235,
+        "{zeros} samples in {n} strides"
+    );
     for keep in [None, Some(false)] {
         let s = load(&manifest(&dir, keep));
         assert!(s.trials[0].problem.weights().is_none(), "{keep:?}");

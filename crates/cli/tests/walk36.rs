@@ -1,7 +1,8 @@
 //! The bundled real gait recording (`fixtures/walk36/`, CEINMS-RT's treadmill walking in
 //! OpenSim files, with its CEINMS-RT subject XML) end to end through the `surae` binary:
 //! `inspect` writes a map that reads it by OpenSim's conventions, `simulate` runs on that map
-//! as it is and with the subject XML as parameters, and bad input in the new parts (a ground
+//! as it is and with the subject XML as parameters, `identify --session` draws the fit as an
+//! ensemble over the strides, and bad input in the new parts (a ground
 //! force file without the leg's vertical force, a subject XML missing a field) is refused with
 //! exit 2, one line naming the file and the column, and nothing written.
 
@@ -26,6 +27,46 @@ fn rows(path: &Path) -> usize {
         .filter(|l| !l.starts_with('#'))
         .count()
         - 1
+}
+
+#[test]
+fn identify_draws_the_fit_over_the_strides_without_the_flagged_ones() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("id");
+    let o = surae(
+        &[
+            "identify",
+            "--method",
+            "sa",
+            "--session",
+            &fixture("session.json"),
+            "--chains",
+            "1",
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        tmp.path(),
+    );
+    ok(&o);
+    let doc = json(&out.join("identify.json"));
+    // eleven parameters (the recording defaults) and one chain, as asked
+    assert_eq!(doc["params"].as_object().unwrap().len(), 11);
+    assert_eq!(doc["sa"]["chains"], 1);
+    assert!(
+        doc["trials"][0]["r2"].as_f64().unwrap() > 0.8,
+        "{}",
+        doc["trials"][0]
+    );
+    assert!(out.join("strides_walk36.svg").is_file());
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    // 49 strides from the ground force; the checks flag 5 (strides 4, 5, 28, 33, 45)
+    assert!(
+        html.contains(
+            "mean ± sd over 44 of its 49 strides (5 flagged by the recording checks left out)"
+        ),
+        "the ensemble's caption"
+    );
 }
 
 #[test]

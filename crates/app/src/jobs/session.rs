@@ -10,24 +10,28 @@
 //! become fixed muscles; `--params` replaces them, or, given an `identify.json`, sets its
 //! identified values over them.
 
-use super::{read_json, read_text, ModelSettings};
+use super::{read_text, ModelSettings};
 use crate::error::{AppError, AppResult};
 use crate::Reporter;
 use experiment::CeinmsModelTrial;
-use muscle_model::{Effects, ModelParams, Muscle, ParamId, Problem, ProblemSet};
-use serde_json::Value;
+use muscle_model::{Effects, ModelParams, ParamId, Problem, ProblemSet};
 use session::{SessionManifest, TrialSource};
 use std::path::{Path, PathBuf};
 
 mod defaults;
 mod emg;
+mod params;
 mod read;
+mod strides;
 
 use defaults::maps_say_envelopes;
 pub use defaults::{recording_annealing, recording_bounds, recording_free};
 use emg::session_emg_references;
 pub use emg::{EmgNormalisationReport, SessionEmgNormalisation};
+pub use params::{load_params_file, params_of_json};
+use params::{session_params, SessionParams};
 pub use read::read_session_trial;
+use strides::exclude_flagged_strides;
 
 /// One trial of a session, ready to fit or to predict.
 pub struct SessionTrial {
@@ -79,43 +83,6 @@ impl SessionTrial {
     /// The trial's dynamometer correction, when it has an unloaded run.
     pub fn correction(&self) -> Option<&experiment::UnloadedCorrection> {
         self.prepared.as_ref().and_then(|p| p.unloaded.as_ref())
-    }
-
-    /// The trial's strides from its vertical ground force (stance while it exceeds
-    /// [`experiment::STANCE_THRESHOLD_N`]); `None` without one. A stride the force cannot make
-    /// (shorter than 0.2 s) is an error naming the file and column the force came from.
-    pub fn strides(&self) -> AppResult<Option<experiment::Strides>> {
-        let Some(trial) = self.prepared.as_ref().map(|p| &p.trial) else {
-            return Ok(None);
-        };
-        let Some(force) = trial.grf_vertical_n.as_deref() else {
-            return Ok(None);
-        };
-        experiment::strides_from_ground_force(
-            force,
-            trial.sample_rate_hz(),
-            experiment::STANCE_THRESHOLD_N,
-        )
-        .map(Some)
-        .map_err(|e| {
-            // name the force's own file and column, as the map gives them
-            let place = recording::read_map(Path::new(&self.source))
-                .ok()
-                .and_then(|m| {
-                    let c = m.channels.get("grf_vertical_n")?;
-                    let file = c.file.clone().or(m.file.clone())?;
-                    Some(format!("{file}: column {}", c.column))
-                })
-                .unwrap_or_else(|| self.source.clone());
-            AppError::bad(format!("{}: {place}: {e}", self.source))
-        })
-    }
-
-    /// Where the trial's strides start (samples); see [`SessionTrial::strides`].
-    pub fn stride_starts(&self) -> AppResult<Option<Vec<usize>>> {
-        Ok(self
-            .strides()?
-            .map(|s| s.strides.iter().map(|x| x.start).collect()))
     }
 
     /// The trial's dynamometer report (`null` without an unloaded run).
@@ -224,116 +191,6 @@ impl LoadedSession {
     }
 }
 
-/// The parameters of a parameters file: a parameters JSON (over the nominal values), an
-/// OpenSim `.osim` model, a CEINMS subject XML (its muscles `fixed`, CEINMS names, become
-/// fixed muscles), or an `identify.json`, whose identified values are set over `base` (with
-/// its effects when it has them).
-pub fn load_params_file(
-    path: &Path,
-    osim: &opensim_files::OsimMuscleNames,
-    fixed: &[String],
-    base: &ModelParams,
-) -> AppResult<(ModelParams, Option<Effects>)> {
-    read_params_file(path, osim, fixed, base).map(|f| (f.params, f.effects))
-}
-
-/// A parameters file read by [`read_params_file`].
-struct ParamsFromFile {
-    params: ModelParams,
-    effects: Option<Effects>,
-    /// The triceps' forces before a CEINMS subject's strength coefficients; `None` for a file
-    /// without them.
-    unscaled_fom_n: Option<[f64; 3]>,
-}
-
-/// [`load_params_file`], with a CEINMS subject's forces before its strength coefficients.
-fn read_params_file(
-    path: &Path,
-    osim: &opensim_files::OsimMuscleNames,
-    fixed: &[String],
-    base: &ModelParams,
-) -> AppResult<ParamsFromFile> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase)
-        .unwrap_or_default();
-    let plain = |(params, effects)| ParamsFromFile {
-        params,
-        effects,
-        unscaled_fom_n: None,
-    };
-    match ext.as_str() {
-        "osim" => {
-            let text = read_text(path)?;
-            let p = opensim_files::osim_params(
-                &text,
-                &path.display().to_string(),
-                osim,
-                &ModelParams::nominal(),
-            )
-            .map_err(AppError::bad)?;
-            Ok(plain((p, None)))
-        }
-        "xml" => {
-            let subject = ceinms_files::read_subject(path).map_err(AppError::bad)?;
-            let p = experiment::ceinms_model_params(&subject, fixed).map_err(AppError::bad)?;
-            Ok(ParamsFromFile {
-                params: p.params,
-                effects: None,
-                unscaled_fom_n: Some(p.unscaled_fom_n),
-            })
-        }
-        _ => params_of_json(&read_json(path)?, base, &path.display().to_string()).map(plain),
-    }
-}
-
-/// The parameters of a JSON object named `name`: a parameters object over the nominal values,
-/// or an `identify.json`, whose identified values are set over `base` (with its effects).
-pub fn params_of_json(
-    value: &Value,
-    base: &ModelParams,
-    name: &str,
-) -> AppResult<(ModelParams, Option<Effects>)> {
-    if value.get("method").is_some() && value.get("params").is_some() {
-        return identified_over(value, base, name).map(|(p, e)| (p, Some(e)));
-    }
-    let p = ModelParams::nominal()
-        .merged_json(value)
-        .map_err(|e| AppError::bad(format!("{name}: {e}")))?;
-    Ok((p, None))
-}
-
-/// The values of an `identify.json`'s `params` set over `base` (and over its `effects`, or
-/// none).
-fn identified_over(
-    doc: &Value,
-    base: &ModelParams,
-    name: &str,
-) -> AppResult<(ModelParams, Effects)> {
-    let mut effects = match doc.get("effects") {
-        Some(v) => {
-            Effects::from_json(v).map_err(|e| AppError::bad(format!("{name}: effects: {e}")))?
-        }
-        None => Effects::none(),
-    };
-    let mut params = *base;
-    let map = doc["params"]
-        .as_object()
-        .ok_or_else(|| AppError::bad(format!("{name}: params: expected an object")))?;
-    for (k, v) in map {
-        let id = ParamId::parse(k).map_err(|e| AppError::bad(format!("{name}: params: {e}")))?;
-        let x = v
-            .as_f64()
-            .ok_or_else(|| AppError::bad(format!("{name}: params.{k}: expected a number")))?;
-        id.set(&mut params, &mut effects, x);
-    }
-    params
-        .validate()
-        .map_err(|e| AppError::bad(format!("{name}: {e}")))?;
-    Ok((params, effects))
-}
-
 /// The model every trial of a session shares: its parameters and effects, the free parameters
 /// with their bounds, and the OpenSim names of its muscles.
 struct SessionModel<'a> {
@@ -342,72 +199,6 @@ struct SessionModel<'a> {
     free: &'a [ParamId],
     bounds: &'a [(f64, f64)],
     osim: &'a opensim_files::OsimMuscleNames,
-}
-
-/// The session's parameters and effects: the manifest's, with `--params` (a parameters file,
-/// an `.osim` or CEINMS subject, or an `identify.json`) over them and `--effects` replacing
-/// theirs; with the OpenSim names its model files use.
-fn session_params(
-    manifest: &SessionManifest,
-    model: &ModelSettings,
-    ceinms_muscles: &[String],
-    read: &mut Vec<PathBuf>,
-) -> AppResult<SessionParams> {
-    let osim = opensim_files::OsimMuscleNames::renamed(
-        manifest
-            .osim_muscles
-            .iter()
-            .map(|(k, v)| (k.as_str(), v.as_str())),
-    )
-    .map_err(|e| AppError::bad(format!("{}: {e}", manifest.path.display())))?;
-    let mut params = ModelParams::nominal();
-    let mut effects_from_params = None;
-    let mut unscaled = None;
-    if let Some(p) = &manifest.params {
-        read.push(p.clone());
-        let f = read_params_file(p, &osim, ceinms_muscles, &params)?;
-        params = f.params;
-        effects_from_params = f.effects;
-        unscaled = f.unscaled_fom_n;
-    }
-    if let Some(d) = &model.params_data {
-        let (pp, e) = params_of_json(&d.value, &params, &d.label)?;
-        params = pp;
-        effects_from_params = e.or(effects_from_params);
-        unscaled = None;
-    } else if let Some(p) = &model.params {
-        read.push(p.clone());
-        let f = read_params_file(p, &osim, ceinms_muscles, &params)?;
-        params = f.params;
-        effects_from_params = f.effects.or(effects_from_params);
-        unscaled = f.unscaled_fom_n;
-    }
-    let reference_fom_n = unscaled.unwrap_or_else(|| Muscle::ALL.map(|m| params.muscle(m).fom_n));
-    let effects_path = model.effects.as_ref().or(manifest.effects.as_ref());
-    let effects = match (&model.effects_data, effects_path) {
-        (Some(d), _) => super::effects_of_json(&d.value, &d.label)?,
-        (None, Some(p)) => {
-            read.push(p.clone());
-            super::read_effects(p)?
-        }
-        (None, None) => effects_from_params.unwrap_or_else(Effects::none),
-    };
-    Ok(SessionParams {
-        osim,
-        params,
-        effects,
-        reference_fom_n,
-    })
-}
-
-/// The parameters a session shares, as [`session_params`] reads them.
-struct SessionParams {
-    osim: opensim_files::OsimMuscleNames,
-    params: ModelParams,
-    effects: Effects,
-    /// The triceps' forces the recording defaults' F0 bounds scale: a CEINMS subject's maximum
-    /// isometric forces before its strength coefficients, else the parameters' own F0.
-    reference_fom_n: [f64; 3],
 }
 
 /// A free parameter's lower and upper bound.
@@ -821,35 +612,6 @@ pub fn load_session(
         inputs_read: read,
         recording_defaults,
     })
-}
-
-/// `t`'s problem with the samples of every stride its recording checks flag weighted 0, so that
-/// no fit and no score of the session sees them (the manifest's `exclude_flagged_strides`).
-fn exclude_flagged_strides(t: &mut SessionTrial) -> AppResult {
-    let Some(g) = t.checks.as_ref().and_then(|c| c.strides.as_ref()) else {
-        return Ok(());
-    };
-    if g.flagged.is_empty() {
-        return Ok(());
-    }
-    let times = t.problem.inputs().times();
-    let weights: Vec<f64> = times
-        .iter()
-        .enumerate()
-        .map(|(i, &ti)| {
-            if g.flagged.iter().any(|f| f.start_s <= ti && ti < f.end_s) {
-                0.0
-            } else {
-                t.problem.weights().map_or(1.0, |w| w[i])
-            }
-        })
-        .collect();
-    t.problem = t
-        .problem
-        .clone()
-        .with_weights(weights)
-        .map_err(|e| AppError::bad(format!("{}: exclude_flagged_strides: {e}", t.source)))?;
-    Ok(())
 }
 
 /// `inputs` with the musculotendon lengths and ankle moment arms of OpenSim MuscleAnalysis

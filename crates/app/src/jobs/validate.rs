@@ -140,40 +140,14 @@ struct TrialStrides {
 
 /// A trial's strides and the checks' flags ([`super::session::SessionTrial::strides`]).
 fn trial_strides(t: &super::session::SessionTrial) -> AppResult<Option<TrialStrides>> {
-    let (Some(s), Some(trial)) = (t.strides()?, t.prepared.as_ref().map(|p| &p.trial)) else {
+    let Some(s) = t.strides()? else {
         return Ok(None);
     };
-    let flags = t
-        .checks
-        .as_ref()
-        .and_then(|c| c.strides.as_ref())
-        .map_or(&[][..], |g| g.flagged.as_slice());
     Ok(Some(TrialStrides {
         starts: s.strides.iter().map(|x| x.start).collect(),
         ends: s.strides.iter().map(|x| x.end).collect(),
-        flagged: s
-            .strides
-            .iter()
-            .map(|x| flagged_by_checks(&trial.time_s, x.start, x.end, flags))
-            .collect(),
+        flagged: t.stride_flags(&s),
     }))
-}
-
-/// Whether the stride `start..end` (samples of `time_s`) is one the recording checks flagged:
-/// a flagged stride's span holds its middle. The checks find their strides in the trial as
-/// recorded, so they are matched by time, not by index.
-fn flagged_by_checks(
-    time_s: &[f64],
-    start: usize,
-    end: usize,
-    flags: &[recording::checks::StrideFlag],
-) -> bool {
-    let (Some(&a), Some(&last)) = (time_s.get(start), time_s.last()) else {
-        return false;
-    };
-    let b = time_s.get(end).copied().unwrap_or(last);
-    let mid = 0.5 * (a + b);
-    flags.iter().any(|f| f.start_s <= mid && mid < f.end_s)
 }
 
 /// Leaving one condition out needs every trial labelled and two labels at least: checked on
@@ -441,9 +415,9 @@ fn write_figures(
 }
 
 /// Fewest strides in a held-out part for its ensembles: a mean ± sd over fewer says little.
-const ENSEMBLE_MIN_STRIDES: usize = 4;
+pub(crate) const ENSEMBLE_MIN_STRIDES: usize = 4;
 /// Points of a stride normalised to 0–100 % of the cycle (one per %).
-const ENSEMBLE_POINTS: usize = 101;
+pub(crate) const ENSEMBLE_POINTS: usize = 101;
 
 /// The held-out part's ensembles over its strides (by % of the gait cycle), when it has at
 /// least [`ENSEMBLE_MIN_STRIDES`]: the measured, model and linear moments' mean ± sd, and the
@@ -535,33 +509,4 @@ fn add_ensembles(
             "gait cycle",
         ),
     )
-}
-
-#[cfg(test)]
-mod tests {
-    use super::flagged_by_checks;
-    use recording::checks::StrideFlag;
-
-    fn flag(start_s: f64, end_s: f64) -> StrideFlag {
-        StrideFlag {
-            stride: 0,
-            start_s,
-            end_s,
-            reasons: Vec::new(),
-        }
-    }
-
-    #[test]
-    fn a_stride_is_flagged_when_a_flagged_span_holds_its_middle() {
-        let time: Vec<f64> = (0..500).map(|i| 10.0 + 0.01 * f64::from(i)).collect();
-        // samples 100..220: 11.00 s to 12.20 s, its middle at 11.60 s
-        assert!(flagged_by_checks(&time, 100, 220, &[flag(11.0, 12.2)]));
-        assert!(flagged_by_checks(&time, 100, 220, &[flag(11.5, 11.7)]));
-        assert!(!flagged_by_checks(&time, 100, 220, &[flag(12.2, 13.4)]));
-        assert!(!flagged_by_checks(&time, 100, 220, &[flag(9.8, 11.0)]));
-        assert!(!flagged_by_checks(&time, 100, 220, &[]));
-        // a stride ending one past the last sample still has a middle
-        assert!(flagged_by_checks(&time, 400, 500, &[flag(14.0, 15.0)]));
-        assert!(!flagged_by_checks(&time, 600, 700, &[flag(0.0, 100.0)]));
-    }
 }

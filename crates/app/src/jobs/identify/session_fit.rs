@@ -6,7 +6,8 @@
 //! trials), and every trial's residual is tested for structure the model leaves
 //! (`"adequacy"`).
 
-use super::super::session::{file_stem, load_session, LoadedSession};
+use super::super::session::{file_stem, load_session, LoadedSession, SessionTrial};
+use super::super::validate::{ENSEMBLE_MIN_STRIDES, ENSEMBLE_POINTS};
 use super::{
     AdequacyReport, IdentifyJob, McmcTrialReport, SaChainsReport, SessionAdequacyReport,
     SessionContextReport, SessionIdentifyReport, SessionSaChainsReport, SessionTrialReport,
@@ -342,6 +343,12 @@ fn write_figures(
     );
     session_tables(&mut set, session, doc, mcmc.is_none())?;
     for (t, (pred, base)) in session.trials.iter().zip(predictions) {
+        let label = if mcmc.is_some() {
+            "posterior mean"
+        } else {
+            "fit"
+        };
+        stride_ensemble_figure(&mut set, t, pred, label)?;
         let inputs = t.problem.inputs();
         let angle = figures::angle_deg(inputs);
         let env = figures::envelopes(inputs);
@@ -389,6 +396,59 @@ fn write_figures(
         super::mcmc::posterior_figures(&mut set, truth_values, m)?;
     }
     set.finish()
+}
+
+/// A gait trial's measured and fitted moment over its strides, by % of the gait cycle (mean ±
+/// sd), the strides its recording checks flag left out: a long walk drawn end to end is
+/// dozens of strides no one can read. Nothing for a trial without strides or with fewer than
+/// [`ENSEMBLE_MIN_STRIDES`] kept.
+fn stride_ensemble_figure(
+    set: &mut FigureSet<'_>,
+    t: &SessionTrial,
+    pred: &[f64],
+    label: &str,
+) -> AppResult {
+    let Some(strides) = t.strides()? else {
+        return Ok(());
+    };
+    let flags = t.stride_flags(&strides);
+    let left_out = flags.iter().filter(|f| **f).count();
+    let kept = experiment::Strides {
+        strides: strides
+            .strides
+            .iter()
+            .zip(&flags)
+            .filter(|(_, f)| !**f)
+            .map(|(s, _)| s.clone())
+            .collect(),
+        source: strides.source.clone(),
+    };
+    if kept.len() < ENSEMBLE_MIN_STRIDES {
+        return Ok(());
+    }
+    let cycle = |x: &[f64]| kept.normalised_part(x, ENSEMBLE_POINTS, experiment::StridePart::Cycle);
+    let (m, p) = (cycle(t.problem.measured()), cycle(pred));
+    let whole: Vec<usize> = (0..m.len())
+        .filter(|&k| !m[k].is_empty() && !p[k].is_empty())
+        .collect();
+    let pick = |c: &[Vec<f64>]| -> Vec<Vec<f64>> { whole.iter().map(|&k| c[k].clone()).collect() };
+    let (m, p) = (pick(&m), pick(&p));
+    set.add(
+        &format!("strides_{}", file_stem(&t.name)),
+        &format!(
+            "{}: measured and {label} moment by % of the gait cycle, mean ± sd over {} of its {} \
+             strides ({left_out} flagged by the recording checks left out), and the residual",
+            t.name,
+            m.len(),
+            strides.len()
+        ),
+        report::figures::stride_ensemble(
+            &experiment::stride_percent(ENSEMBLE_POINTS),
+            &m,
+            &[(label, &p)],
+            "gait cycle",
+        ),
+    )
 }
 
 /// The report's tables: each trial's fit, and (for SA) the shared parameters with their bounds
