@@ -441,7 +441,7 @@ impl Problem {
             weights: None,
             weight_sum: 0.0,
             base_params: self.base_params,
-            base_effects: self.base_effects.clone(),
+            base_effects: self.base_effects,
             free: self.free.clone(),
             names: self.names.clone(),
             bounds: self.bounds.clone(),

@@ -7,7 +7,11 @@ use muscle_model::{simulate, synthetic, Effects, ModelParams, Problem, SimSettin
 fn a_window_after_its_lead_in_simulates_what_the_whole_trial_does() {
     let fs = 100.0;
     let inputs = synthetic::gait_like_trial(fs, 12.0).unwrap();
-    let (p, e, s) = (ModelParams::nominal(), Effects::none(), SimSettings::default());
+    let (p, e, s) = (
+        ModelParams::nominal(),
+        Effects::none(),
+        SimSettings::default(),
+    );
     let whole = simulate(&inputs, &p, &e, &s).unwrap().torque;
     let problem = Problem::standard(inputs.clone(), whole.clone()).unwrap();
     let (range, lead_in) = (400..700, 50);
@@ -45,5 +49,8 @@ fn a_window_outside_the_trial_or_of_one_sample_is_refused() {
     let problem = Problem::standard(inputs, vec![0.0; n]).unwrap();
     assert!(problem.window(n - 1..n + 5, 0).is_err());
     assert!(problem.window(10..11, 0).is_err());
-    assert!(problem.window(10..20, 30).is_ok(), "a lead-in is cut at the start");
+    assert!(
+        problem.window(10..20, 30).is_ok(),
+        "a lead-in is cut at the start"
+    );
 }

@@ -143,7 +143,7 @@ mod tests {
     fn a_new_activation_shape_reuses_the_activation_and_changes_nothing_else() {
         use crate::activation::ManalBuchanan;
         let reshape = |u: &MuscleUnit| {
-            let mut v = u.clone();
+            let mut v = *u;
             v.activation.nonlinearity = ManalBuchanan::new(0.05);
             v
         };

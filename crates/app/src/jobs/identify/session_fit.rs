@@ -419,9 +419,9 @@ fn stride_ensemble_figure(
             .iter()
             .zip(&flags)
             .filter(|(_, f)| !**f)
-            .map(|(s, _)| s.clone())
+            .map(|(s, _)| *s)
             .collect(),
-        source: strides.source.clone(),
+        source: strides.source,
     };
     if kept.len() < ENSEMBLE_MIN_STRIDES {
         return Ok(());
