@@ -222,7 +222,7 @@ impl TrialInputs {
     /// a long recording because the simulation's cost grows with the length it integrates.
     ///
     /// # Errors
-    /// [`ModelError::Input`] for a range of fewer than 2 samples or beyond the trial.
+    /// [`ModelError::InvalidInput`] for a range of fewer than 2 samples or beyond the trial.
     pub fn window(&self, range: std::ops::Range<usize>) -> Result<Self, ModelError> {
         if range.end > self.len() || range.end < range.start + 2 {
             return Err(ModelError::input(

@@ -418,7 +418,7 @@ impl Problem {
     /// base values and settings are kept; weights inside the range are kept.
     ///
     /// # Errors
-    /// As [`TrialInputs::window`]; [`ModelError::Input`] when every weight of `range` is 0.
+    /// As [`TrialInputs::window`]; [`ModelError::InvalidInput`] when every weight of `range` is 0.
     pub fn window(
         &self,
         range: std::ops::Range<usize>,

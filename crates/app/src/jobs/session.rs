@@ -108,7 +108,8 @@ pub struct LoadedSession {
     /// Every file read (outputs never overwrite them).
     pub inputs_read: Vec<PathBuf>,
     /// The free parameters and bounds are the recording defaults (no trial has a dynamometer
-    /// correction and none were given): calibrations then anneal with [`recording_annealing`].
+    /// correction and none were given): calibrations then take the recording annealing (4 chains, 4 more when
+    /// the best two disagree, 3 000 evaluations each; docs/validation.md).
     pub recording_defaults: bool,
 }
 
