@@ -498,14 +498,13 @@ fn identify_searched<B: IdentifyObserver + ?Sized>(
     if search.is_some() {
         let c = &mut chains[best];
         let k = best as u32;
-        let lm = levenberg_marquardt_polish(set, &c.x, c.cost, &settings.polish, |it, cost, ev| {
-            let _ = observer.observe(&IdentifyEvent::Polish {
-                chain: k,
-                iteration: it,
-                cost,
-                evaluations: ev,
-            });
-        });
+        let lm = levenberg_marquardt_polish(
+            set,
+            &c.x,
+            c.cost,
+            &settings.polish,
+            polish_events(observer, k),
+        );
         evaluations += lm.evaluations;
         c.x = lm.x;
         c.cost = lm.cost;
@@ -585,6 +584,21 @@ pub fn best_two_agree(chains: &[ChainSummary], rel: f64) -> bool {
     }
 }
 
+/// What chain `k`'s polish reports to `observer`: one [`IdentifyEvent::Polish`] per iteration.
+fn polish_events<B: IdentifyObserver + ?Sized>(
+    observer: &B,
+    k: u32,
+) -> impl FnMut(u32, f64, u64) + '_ {
+    move |it, cost, ev| {
+        let _ = observer.observe(&IdentifyEvent::Polish {
+            chain: k,
+            iteration: it,
+            cost,
+            evaluations: ev,
+        });
+    }
+}
+
 fn run_chain<B: IdentifyObserver + ?Sized>(
     set: &ProblemSet,
     settings: &SaIdentifySettings,
@@ -602,14 +616,13 @@ fn run_chain<B: IdentifyObserver + ?Sized>(
             progress: *p,
         })
     })?;
-    let lm = levenberg_marquardt_polish(set, &out.x, out.cost, &settings.polish, |it, cost, ev| {
-        let _ = observer.observe(&IdentifyEvent::Polish {
-            chain: k,
-            iteration: it,
-            cost,
-            evaluations: ev,
-        });
-    });
+    let lm = levenberg_marquardt_polish(
+        set,
+        &out.x,
+        out.cost,
+        &settings.polish,
+        polish_events(observer, k),
+    );
     Ok(ChainSummary {
         seed,
         annealing_cost: out.annealing_cost,

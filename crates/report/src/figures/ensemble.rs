@@ -40,6 +40,24 @@ fn mean_sd(curves: &[Vec<f64>], points: usize) -> (Vec<f64>, Vec<f64>) {
     (mean, sd)
 }
 
+/// The ensembles' x axis: `percent` finite and increasing, `of` naming what it spans.
+fn check_axis(figure: &'static str, percent: &[f64], of: &str) -> Result<()> {
+    check_finite(figure, "percent", percent)?;
+    if percent.windows(2).any(|w| w[1] <= w[0]) {
+        return Err(ReportError::Invalid {
+            figure,
+            reason: "`percent` must increase".into(),
+        });
+    }
+    if of.trim().is_empty() {
+        return Err(ReportError::Invalid {
+            figure,
+            reason: "`of` must name what 0–100 % spans (\"stance\" or \"gait cycle\")".into(),
+        });
+    }
+    Ok(())
+}
+
 /// Checks one set of per-stride curves: as many strides as `strides` (when given), each with
 /// `points` finite values.
 fn check_curves(
@@ -179,19 +197,7 @@ pub fn stride_ensemble(
     of: &str,
 ) -> Result<String> {
     const FIG: &str = "stride_ensemble";
-    check_finite(FIG, "percent", percent)?;
-    if percent.windows(2).any(|w| w[1] <= w[0]) {
-        return Err(ReportError::Invalid {
-            figure: FIG,
-            reason: "`percent` must increase".into(),
-        });
-    }
-    if of.trim().is_empty() {
-        return Err(ReportError::Invalid {
-            figure: FIG,
-            reason: "`of` must name what 0–100 % spans (\"stance\" or \"gait cycle\")".into(),
-        });
-    }
+    check_axis(FIG, percent, of)?;
     let points = percent.len();
     check_curves(FIG, "measured", measured, points, None)?;
     let n = measured.len();
@@ -284,19 +290,7 @@ pub fn residual_ensemble(
     of: &str,
 ) -> Result<String> {
     const FIG: &str = "residual_ensemble";
-    check_finite(FIG, "percent", percent)?;
-    if percent.windows(2).any(|w| w[1] <= w[0]) {
-        return Err(ReportError::Invalid {
-            figure: FIG,
-            reason: "`percent` must increase".into(),
-        });
-    }
-    if of.trim().is_empty() {
-        return Err(ReportError::Invalid {
-            figure: FIG,
-            reason: "`of` must name what 0–100 % spans (\"stance\" or \"gait cycle\")".into(),
-        });
-    }
+    check_axis(FIG, percent, of)?;
     let Some((_, first)) = residuals.first() else {
         return Err(ReportError::Empty {
             figure: FIG,
