@@ -44,6 +44,15 @@ fn flagged_strides_are_weighted_zero_only_when_asked() {
         zeros > n * 85 && zeros < n * 235,
         "{zeros} samples in {n} strides"
     );
+    // the trial's fit is judged without them: a prediction wrong only inside them is perfect
+    let mut wrong = t.problem.measured().to_vec();
+    for (x, wi) in wrong.iter_mut().zip(w) {
+        if *wi == 0.0 {
+            *x += 50.0;
+        }
+    }
+    let (rms, _) = t.fit_of(&wrong).unwrap();
+    assert_eq!(rms, 0.0);
     for keep in [None, Some(false)] {
         let s = load(&manifest(&dir, keep));
         assert!(s.trials[0].problem.weights().is_none(), "{keep:?}");

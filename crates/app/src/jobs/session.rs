@@ -60,17 +60,28 @@ pub struct SessionTrial {
 
 impl SessionTrial {
     /// The measured torque and a prediction on the inputs' grid, brought to the samples where
-    /// the fit is judged: the moment file's own samples for a CEINMS trial, every sample
-    /// (corrected torque) otherwise.
+    /// the fit is judged: the moment file's own samples for a CEINMS trial, otherwise every
+    /// sample of positive weight (corrected torque; all of them unless the manifest excludes
+    /// the flagged strides).
     pub fn judged(&self, prediction: &[f64]) -> AppResult<(Vec<f64>, Vec<f64>)> {
-        match &self.ceinms {
-            Some(c) => {
+        match (&self.ceinms, self.problem.weights()) {
+            (Some(c), _) => {
                 let p = c
                     .at_torque_samples(prediction)
                     .map_err(|e| AppError::internal(e.to_string()))?;
                 Ok((c.torque_at_samples.clone(), p))
             }
-            None => Ok((self.problem.measured().to_vec(), prediction.to_vec())),
+            (None, None) => Ok((self.problem.measured().to_vec(), prediction.to_vec())),
+            (None, Some(w)) => {
+                let kept = |v: &[f64]| -> Vec<f64> {
+                    v.iter()
+                        .zip(w)
+                        .filter(|(_, w)| **w > 0.0)
+                        .map(|(x, _)| *x)
+                        .collect()
+                };
+                Ok((kept(self.problem.measured()), kept(prediction)))
+            }
         }
     }
 

@@ -665,8 +665,9 @@ fn trials_adequacy(
             let mut rec =
                 diagnose::DiagnosisRecording::new(t.problem.inputs().clone(), t.raw_torque.clone())
                     .with_model(*params, *effects);
-            if let Some(c) = &t.ceinms {
-                rec = rec.with_weights(c.weights.clone());
+            // a CEINMS trial's moment-file span, or the strides the manifest excludes
+            if let Some(w) = t.problem.weights() {
+                rec = rec.with_weights(w.to_vec());
             }
             diagnose::adequacy_of_recording(
                 &rec,
