@@ -403,13 +403,7 @@ impl TrialInputs {
     #[inline]
     pub(crate) fn hermite_at(&self, v: &[f64], dv: &[f64], t: f64) -> f64 {
         let (i, s) = self.locate(t);
-        let dt = 1.0 / self.fs;
-        let s2 = s * s;
-        let s3 = s2 * s;
-        (2.0 * s3 - 3.0 * s2 + 1.0) * v[i]
-            + (s3 - 2.0 * s2 + s) * dt * dv[i]
-            + (-2.0 * s3 + 3.0 * s2) * v[i + 1]
-            + (s3 - s2) * dt * dv[i + 1]
+        crate::interp::hermite_dt(v[i], dv[i], v[i + 1], dv[i + 1], s, 1.0 / self.fs)
     }
 
     /// Envelope of muscle index `j` (0..3) at time `t` (linear interpolation; a monotone cubic

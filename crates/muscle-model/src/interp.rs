@@ -35,6 +35,19 @@ pub(crate) fn hermite(v0: f64, v1: f64, d0: f64, d1: f64, s: f64) -> (f64, f64) 
     (v, dv)
 }
 
+/// Cubic Hermite value at `s ∈ [0, 1]` of an interval of length `dt` from the end values `v0`,
+/// `v1` and time derivatives `d0`, `d1`: what the delayed activation tables and the inputs
+/// read between their points (one expression, so both give the same numbers).
+#[inline]
+pub(crate) fn hermite_dt(v0: f64, d0: f64, v1: f64, d1: f64, s: f64, dt: f64) -> f64 {
+    let s2 = s * s;
+    let s3 = s2 * s;
+    (2.0 * s3 - 3.0 * s2 + 1.0) * v0
+        + (s3 - 2.0 * s2 + s) * dt * d0
+        + (-2.0 * s3 + 3.0 * s2) * v1
+        + (s3 - s2) * dt * d1
+}
+
 /// The monotone-cubic node slope of `v` at sample `i` (per sample interval).
 #[inline]
 pub(crate) fn pchip_slope(v: &[f64], i: usize) -> f64 {

@@ -62,13 +62,7 @@ impl TableGrid {
         let x = ((t - self.t0) * self.rate).clamp(0.0, (n - 1) as f64);
         let i = (x as usize).min(n - 2);
         let s = x - i as f64;
-        let dt = 1.0 / self.rate;
-        let s2 = s * s;
-        let s3 = s2 * s;
-        (2.0 * s3 - 3.0 * s2 + 1.0) * v[i]
-            + (s3 - 2.0 * s2 + s) * dt * dv[i]
-            + (-2.0 * s3 + 3.0 * s2) * v[i + 1]
-            + (s3 - s2) * dt * dv[i + 1]
+        crate::interp::hermite_dt(v[i], dv[i], v[i + 1], dv[i + 1], s, 1.0 / self.rate)
     }
 }
 
