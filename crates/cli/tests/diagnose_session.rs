@@ -3,7 +3,8 @@
 //! delay named; the same folder without the delay is adequate, with the effects that need a
 //! joint angle reported as not testable; a session of one trial CSV gives what `--trial` and
 //! `--unloaded` give; a synthetic 3-trial session (knee0@30, knee90@30, knee0@60 with their
-//! unloaded runs) with a delay hidden in every trial names it once, for the subject.
+//! unloaded runs) with a delay hidden in every trial names it once, for the subject; a session
+//! of two CEINMS folders is judged by the residual each trial's held-out prediction leaves.
 
 use muscle_model::Effects;
 use serde_json::Value;
@@ -223,6 +224,80 @@ fn a_three_trial_session_names_a_shared_delay_once() {
         assert_eq!(row["causes"][0], "electromechanical_delay", "{row}");
         let folder = row["folder"].as_str().unwrap();
         assert!(d.join("o").join(folder).join("diagnosis.json").exists());
+    }
+}
+
+/// Writes a session of two CEINMS folders (seeds 31 and 32) with `effects` hidden in both,
+/// diagnoses it into `out` and returns `diagnosis_session.json`.
+fn diagnose_two_folders(d: &Path, tag: &str, effects: &Effects) -> Value {
+    let truth = truth_with_tibialis();
+    std::fs::write(d.join("subject.xml"), subject_xml(&truth)).unwrap();
+    for seed in [31, 32] {
+        let spec = CeinmsFolder {
+            seed,
+            seconds: 6.0,
+            truth: &truth,
+            effects,
+            noise: true,
+            lead_in_s: 0.13,
+        };
+        ceinms_folder(&d.join(format!("{tag}_{seed}")), &spec);
+    }
+    let manifest = format!(
+        r#"{{"params": "subject.xml", "trials": [{{"name": "a", "recording": "{tag}_31"}},
+            {{"name": "b", "recording": "{tag}_32"}}]}}"#
+    );
+    std::fs::write(d.join(format!("{tag}.json")), manifest).unwrap();
+    let out = format!("out_{tag}");
+    ok(&surae(
+        &[
+            "diagnose",
+            "--session",
+            &format!("{tag}.json"),
+            "--out",
+            &out,
+            "--quiet",
+        ],
+        d,
+    ));
+    json(&d.join(&out).join("diagnosis_session.json"))
+}
+
+#[test]
+fn a_session_without_unloaded_runs_is_judged_by_its_held_out_residual() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // the model's own moment: each trial predicted by the calibration on the other leaves
+    // noise, with no shape that comes back
+    let clean = diagnose_two_folders(d, "clean", &Effects::none());
+    let h = &clean["held_out_shape"];
+    let per_trial = h["per_trial"].as_array().unwrap();
+    assert_eq!(per_trial.len(), 2, "{h}");
+    for (t, name) in per_trial.iter().zip(["a", "b"]) {
+        assert_eq!(t["name"], name);
+        let parts = t["parts"].as_array().unwrap();
+        assert_eq!(parts.len(), 1, "{t}");
+        assert!(parts[0]["fold"]
+            .as_str()
+            .unwrap()
+            .starts_with("leave_one_trial_out"));
+        assert_eq!(t["reproducible"], false, "{t}");
+    }
+    assert_eq!(h["reproducible"], false, "{h}");
+    assert_eq!(clean["verdict"], "adequate", "{h}");
+    let one = json(&d.join("out_clean/a/diagnosis.json"));
+    assert_eq!(one["held_out_shape"]["parts"].as_array().unwrap().len(), 1);
+
+    // fatigue, which no parameter of the calibration can take up (a force that falls with the
+    // activation integrated since the start), comes back in the trial left out
+    let fatigue = Effects::from_json_str(r#"{"fatigue": {"rate_per_s": 0.5}}"#).unwrap();
+    let shifted = diagnose_two_folders(d, "fatigue", &fatigue);
+    let h = &shifted["held_out_shape"];
+    assert_eq!(h["reproducible"], true, "{h}");
+    assert!(h["p_value"].as_f64().unwrap() < 1e-3, "{h}");
+    assert_eq!(shifted["verdict"], "deficient", "{h}");
+    for row in shifted["trials"].as_array().unwrap() {
+        assert_eq!(row["verdict"], "deficient", "{row}");
     }
 }
 

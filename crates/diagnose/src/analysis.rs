@@ -350,6 +350,11 @@ pub(crate) fn structure_lm(ctx: &Context, fit: &Fit) -> (f64, usize) {
 /// `LM` of a fit against a basis (projected on the complement of the whitened Jacobian) and the
 /// rank of the projected basis.
 fn basis_lm(ctx: &Context, fit: &Fit, cols: &[Vec<f64>]) -> (f64, usize) {
+    // a recording whose motion has no step of the basis (a window of walking whose segments
+    // are all shorter than a step) has nothing to test
+    if cols.is_empty() {
+        return (0.0, 0);
+    }
     // whitened vectors have every sample (0 where unobserved); the scale counts observed ones
     let n = fit.white.len();
     let n_obs = ctx.plan.n_obs();

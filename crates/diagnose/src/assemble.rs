@@ -96,6 +96,7 @@ pub(crate) fn diagnosis(
         not_testable: Vec::new(),
         emg_crosstalk: Vec::new(),
         emg_correction: None,
+        held_out_shape: None,
     }
 }
 

@@ -99,6 +99,7 @@ mod error;
 mod estimates;
 mod fit;
 pub mod flexible;
+mod held_out_shape;
 pub mod lm;
 pub mod noise;
 pub mod power;
@@ -128,6 +129,10 @@ pub use error::DiagnoseError;
 pub use flexible::{
     FlexibleExtension, FlexibleTerm, Replacement, SearchedValue, StateVariable, Unexplained,
     VariableGain,
+};
+pub use held_out_shape::{
+    HeldOutShapeCheck, HeldOutShapePart, SessionHeldOutShape, TrialHeldOutShape,
+    HELD_OUT_SHAPE_EVIDENCE,
 };
 pub use noise::{NoiseModelSource, Transient, TrialNoiseModel};
 pub use profile::ProfileSettings;

@@ -254,6 +254,11 @@ pub struct Diagnosis {
     /// channel was corrected; every fit above used the corrected envelopes).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub emg_correction: Option<crate::EmgCorrection>,
+    /// The residual a calibration that did not see the trial leaves on it, tested for a
+    /// reproducible shape ([`Diagnosis::judge_held_out_shape`]; only for a recording without
+    /// an unloaded run, diagnosed in a session).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub held_out_shape: Option<crate::HeldOutShapeCheck>,
 }
 
 /// Why a candidate effect is not tested on a recording.
@@ -421,9 +426,9 @@ impl Diagnosis {
                 self.extended.rms_nm, self.extended.heldout_rms_nm
             ));
             l.push(format!(
-                "gain         held-out RMS −{:.1} %, deviance −{:.1}, ΔBIC {:.1}, Δlog L {:.1}",
-                self.gain.heldout_rms_reduction_pct,
-                self.gain.heldout_deviance_reduction,
+                "gain         held-out RMS {}, deviance {}, ΔBIC {:.1}, Δlog L {:.1}",
+                signed_change(-self.gain.heldout_rms_reduction_pct, " %"),
+                signed_change(-self.gain.heldout_deviance_reduction, ""),
                 self.gain.delta_bic,
                 self.gain.delta_log_likelihood
             ));
@@ -460,6 +465,9 @@ impl Diagnosis {
         ));
         if let Some(u) = &self.unexplained {
             l.extend(u.summary_lines());
+        }
+        if let Some(h) = &self.held_out_shape {
+            l.push(h.summary_line());
         }
         if !self.not_testable.is_empty() {
             let names: Vec<&str> = self
@@ -503,5 +511,14 @@ impl Diagnosis {
         ));
         l.truncate(20);
         l
+    }
+}
+
+/// A change with its sign, a fall with the minus sign (`−14.8 %`, `+2.2 %`).
+fn signed_change(v: f64, unit: &str) -> String {
+    if v < 0.0 {
+        format!("−{:.1}{unit}", -v)
+    } else {
+        format!("+{v:.1}{unit}")
     }
 }

@@ -77,7 +77,7 @@ pub(crate) fn select(
         let mut rechecked = false;
         let best = loop {
             let judged: Vec<Refit> = fits.iter().map(|f| judge(f, &current, nobs)).collect();
-            let passing = passing(&judged, &mut reports, settings, nobs);
+            let passing = passing(&judged, &mut reports, settings, nobs, rms_decides(ctx));
             let Some(lead) = passing.first() else {
                 break None;
             };
@@ -205,6 +205,12 @@ fn record_scores(
     }
 }
 
+/// Whether the held-out RMS must fall too (`rules::generalises`): the noise model was fitted
+/// to the trial's own residual.
+fn rms_decides(ctx: &Context) -> bool {
+    ctx.noise.source == crate::noise::NoiseModelSource::TrialResidual
+}
+
 /// The refits that pass the held-out, ΔBIC and null rules against the current model, best
 /// first (their judgements also enter the candidates' reports).
 fn passing<'a>(
@@ -212,6 +218,7 @@ fn passing<'a>(
     reports: &mut BTreeMap<EffectKind, CandidateReport>,
     settings: &DiagnoseSettings,
     nobs: usize,
+    rms_decides: bool,
 ) -> Vec<&'a Refit<'a>> {
     let mut passing: Vec<&Refit> = Vec::new();
     for r in judged {
@@ -223,7 +230,7 @@ fn passing<'a>(
             rep.fitted = Some(effect_values(r.fit, r.kind));
         }
         let clear = clear_of_null(r.fit, r.kind, reports, settings, nobs);
-        if generalises(r, settings) && r.delta_bic < settings.max_delta_bic && clear {
+        if generalises(r, settings, rms_decides) && r.delta_bic < settings.max_delta_bic && clear {
             passing.push(r);
         }
     }
@@ -307,8 +314,10 @@ fn joint_pair(
     let clear = [ka, kb]
         .iter()
         .all(|k| clear_of_null(&pair, *k, reports, settings, nobs));
-    let passes =
-        generalises(&r, settings) && r.delta_bic < settings.max_delta_bic && halves && clear;
+    let passes = generalises(&r, settings, rms_decides(ctx))
+        && r.delta_bic < settings.max_delta_bic
+        && halves
+        && clear;
     Ok((passes.then_some(pair), ev))
 }
 

@@ -3,6 +3,8 @@
 //! * [`lm`]: a bounded Levenberg–Marquardt for nonlinear least squares with a parallel
 //!   finite-difference Jacobian (the polish of the annealing fits, the diagnosis's fits);
 //! * [`mod@nelder_mead`]: a bounded Nelder–Mead with restarts, on any [`Objective`];
+//! * [`cycle_shape`]: whether a residual keeps a shape locked to the motion's cycle, tested
+//!   against the cycle-to-cycle scatter (sign flips) or a template shape (Student's t);
 //! * [`cholesky`]: the dense Cholesky factorisation and its triangular solves;
 //! * [`interpolate`]: linear resampling of a time series onto other times;
 //! * [`latin_hypercube`]: Latin-hypercube designs from a caller's random stream;
@@ -28,6 +30,7 @@
 //! ```
 
 pub mod cholesky;
+pub mod cycle_shape;
 mod error;
 pub mod fft;
 pub mod interpolate;

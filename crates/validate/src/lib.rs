@@ -14,13 +14,17 @@
 //! A trial's samples are judged with its problem's weights (a CEINMS trial's moment samples);
 //! a fold's parts are weights of 0 outside the part. When a trial's strides are known, each
 //! stride inside a held-out part is also scored alone ([`StrideScore`]), flagged where the
-//! recording checks flagged it.
+//! recording checks flagged it, and the part's residual is tested for a reproducible shape
+//! ([`HeldOutShape`]: the same miss in every held-out stride, or the miss the calibration left
+//! in its training data coming back), against the scatter of the data rather than a fitted
+//! noise model.
 
 mod baseline;
 mod error;
 mod folds;
 mod run;
 mod score;
+mod shape;
 mod strides;
 
 pub use baseline::LinearBaseline;
@@ -31,4 +35,5 @@ pub use run::{
     ValidationTrial,
 };
 pub use score::FitScore;
+pub use shape::{HeldOutShape, MIN_STRIDES, SHAPE_BINS, SHAPE_EVIDENCE};
 pub use strides::StrideScore;

@@ -15,7 +15,8 @@ use serde::Serialize;
 use crate::baseline::LinearBaseline;
 use crate::folds::{folds, Fold, FoldScheme, TrialPart};
 use crate::score::FitScore;
-use crate::strides::{stride_scores, StrideScore};
+use crate::shape::{held_out_shape, HeldOutShape, PartResidual};
+use crate::strides::{stride_scores, stride_spans, StrideScore};
 use crate::ValidateError;
 
 /// One trial of the session: its problem (the session's model, free parameters, bounds and
@@ -103,6 +104,8 @@ pub struct HeldOutScore {
     /// Every stride of the trial that lies inside the held-out samples, scored alone (empty
     /// when the trial's strides are not known).
     pub strides: Vec<StrideScore>,
+    /// Whether the held-out residual keeps a reproducible shape ([`HeldOutShape`]).
+    pub shape: HeldOutShape,
     /// The held-out samples (indices into the trial).
     #[serde(skip)]
     pub samples_range: std::ops::Range<usize>,
@@ -241,6 +244,27 @@ fn restricted(problem: &Problem, part: &TrialPart) -> Result<Problem, muscle_mod
         .window(0..part.samples.end, 0)
 }
 
+/// The segments of `part` its shape is tested by: the trial's strides wholly inside it that the
+/// recording checks did not flag, or the part itself when it holds none.
+fn part_segments(
+    trial: &ValidationTrial<'_>,
+    part: &std::ops::Range<usize>,
+) -> Vec<std::ops::Range<usize>> {
+    let n = trial.problem.inputs().len();
+    let inside: Vec<std::ops::Range<usize>> = stride_spans(trial)
+        .into_iter()
+        .filter(|(a, b, flagged)| {
+            !flagged && a < b && *a >= part.start && *b <= part.end && *b <= n
+        })
+        .map(|(a, b, _)| a..b)
+        .collect();
+    if inside.is_empty() {
+        vec![part.clone()]
+    } else {
+        inside
+    }
+}
+
 /// The weights that judge `part` of `problem`: its own weights inside the part, 0 outside.
 fn judged_weights(problem: &Problem, part: &TrialPart) -> Vec<f64> {
     (0..problem.inputs().len())
@@ -304,10 +328,34 @@ fn run_fold(
         settings.max_delay_ms,
         settings.delay_step_ms,
     )?;
+    // every trial a part of the fold reads, predicted once at the calibrated point
+    let mut predictions: BTreeMap<usize, Vec<f64>> = BTreeMap::new();
+    for part in fold.train.iter().chain(&fold.test) {
+        if let std::collections::btree_map::Entry::Vacant(e) = predictions.entry(part.trial) {
+            let p = trials[part.trial].problem;
+            e.insert(p.predict(&fit.x).map_err(model_error(part.trial))?);
+        }
+    }
+    let train_weights: Vec<Vec<f64>> = fold
+        .train
+        .iter()
+        .map(|part| judged_weights(trials[part.trial].problem, part))
+        .collect();
+    let training: Vec<PartResidual<'_>> = fold
+        .train
+        .iter()
+        .zip(&train_weights)
+        .map(|(part, w)| PartResidual {
+            measured: trials[part.trial].problem.measured(),
+            predicted: &predictions[&part.trial],
+            weights: w,
+            segments: part_segments(&trials[part.trial], &part.samples),
+        })
+        .collect();
     let mut held_out = Vec::with_capacity(fold.test.len());
     for part in &fold.test {
         let p = trials[part.trial].problem;
-        let predicted = p.predict(&fit.x).map_err(model_error(part.trial))?;
+        let predicted = &predictions[&part.trial];
         let w = judged_weights(p, part);
         let y = p.measured();
         let times = p.inputs().times();
@@ -324,9 +372,18 @@ fn run_fold(
             &trials[part.trial],
             &part.samples,
             &w,
-            &predicted,
+            predicted,
             &linear_nm,
             &peer_nm,
+        );
+        let shape = held_out_shape(
+            &PartResidual {
+                measured: y,
+                predicted,
+                weights: &w,
+                segments: part_segments(&trials[part.trial], &part.samples),
+            },
+            &training,
         );
         held_out.push(HeldOutScore {
             trial: trials[part.trial].name.to_string(),
@@ -335,10 +392,11 @@ fn run_fold(
                 times[part.samples.end.saturating_sub(1)],
             ),
             samples: w.iter().filter(|v| **v > 0.0).count(),
-            model: FitScore::of(y, &predicted, &w),
+            model: FitScore::of(y, predicted, &w),
             linear: FitScore::of(y, &linear_nm, &w),
             peers,
             strides,
+            shape,
             samples_range: part.samples.clone(),
             model_nm: predicted[part.samples.clone()].to_vec(),
             linear_nm: linear_nm[part.samples.clone()].to_vec(),

@@ -13,6 +13,7 @@ use std::path::{Path, PathBuf};
 
 mod pages;
 mod session_run;
+mod window;
 
 use pages::write_figures;
 

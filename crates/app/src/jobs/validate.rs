@@ -214,6 +214,69 @@ fn load_peers(job: &ValidateJob, session: &LoadedSession) -> AppResult<Vec<(Peer
         .collect()
 }
 
+/// The seed of `surae validate`'s calibrations when none is given.
+pub const DEFAULT_VALIDATE_SEED: u64 = 42;
+
+/// Every trial's strides and flags (`None` for a trial without a vertical ground force).
+fn session_strides(session: &LoadedSession) -> AppResult<Vec<Option<TrialStrides>>> {
+    session.trials.iter().map(trial_strides).collect()
+}
+
+/// The session's trials as `validate` takes them, with their `strides`.
+fn validation_trials<'a>(
+    session: &'a LoadedSession,
+    strides: &'a [Option<TrialStrides>],
+) -> Vec<ValidationTrial<'a>> {
+    session
+        .trials
+        .iter()
+        .zip(&session.manifest.trials)
+        .zip(strides)
+        .map(|((t, entry), s)| ValidationTrial {
+            name: &t.name,
+            condition: entry.condition.as_deref(),
+            problem: &t.problem,
+            stride_starts: s.as_ref().map(|s| s.starts.as_slice()),
+            stride_ends: s.as_ref().map(|s| s.ends.as_slice()),
+            stride_flagged: s.as_ref().map(|s| s.flagged.as_slice()),
+        })
+        .collect()
+}
+
+/// The calibration settings of every fold: `validate`'s defaults with `seed`, and the
+/// recording defaults' annealing for a session that has them.
+fn fold_settings(session: &LoadedSession, seed: u64) -> ValidateSettings {
+    let mut settings = ValidateSettings::default();
+    settings.sa = settings.sa.with_seed(seed);
+    if session.recording_defaults {
+        settings.sa = super::session::recording_annealing(settings.sa);
+    }
+    settings
+}
+
+/// The session validated with the default folds, seed and calibration and no peer: what
+/// `surae validate --session` computes for it, for a job that judges a model by its held-out
+/// residual (`diagnose --session`). `None` when the session can form no fold (one trial
+/// without strides).
+pub(crate) fn validate_with_defaults(
+    session: &LoadedSession,
+) -> AppResult<Option<validate::Validation>> {
+    let strides = session_strides(session)?;
+    let trials = validation_trials(session, &strides);
+    let schemes = schemes_of(&[], &trials)?;
+    if schemes.is_empty() {
+        return Ok(None);
+    }
+    validate::validate(
+        &trials,
+        &schemes,
+        &[],
+        &fold_settings(session, DEFAULT_VALIDATE_SEED),
+    )
+    .map(Some)
+    .map_err(|e| AppError::bad(format!("{}: {e}", session.manifest.path.display())))
+}
+
 /// Runs the command.
 pub fn run(job: ValidateJob, rep: &Reporter) -> AppResult {
     let t0 = Instant::now();
@@ -233,25 +296,8 @@ pub fn run(job: ValidateJob, rep: &Reporter) -> AppResult {
         ..ModelSettings::default()
     };
     let session = load_session(&job.session, &model, job.free.as_deref(), rep)?;
-    let strides: Vec<Option<TrialStrides>> = session
-        .trials
-        .iter()
-        .map(trial_strides)
-        .collect::<AppResult<_>>()?;
-    let trials: Vec<ValidationTrial<'_>> = session
-        .trials
-        .iter()
-        .zip(&session.manifest.trials)
-        .zip(&strides)
-        .map(|((t, entry), s)| ValidationTrial {
-            name: &t.name,
-            condition: entry.condition.as_deref(),
-            problem: &t.problem,
-            stride_starts: s.as_ref().map(|s| s.starts.as_slice()),
-            stride_ends: s.as_ref().map(|s| s.ends.as_slice()),
-            stride_flagged: s.as_ref().map(|s| s.flagged.as_slice()),
-        })
-        .collect();
+    let strides = session_strides(&session)?;
+    let trials = validation_trials(&session, &strides);
     let schemes = schemes_of(&job.folds, &trials)?;
     if schemes.contains(&FoldScheme::LeaveOneConditionOut) {
         check_conditions(&job.session, &session.manifest.trials)?;
@@ -271,12 +317,8 @@ pub fn run(job: ValidateJob, rep: &Reporter) -> AppResult {
         job.discard_files,
     )?;
 
-    let mut settings = ValidateSettings::default();
+    let mut settings = fold_settings(&session, job.seed);
     settings.later_fraction = job.later_fraction;
-    settings.sa = settings.sa.with_seed(job.seed);
-    if session.recording_defaults {
-        settings.sa = super::session::recording_annealing(settings.sa);
-    }
     // chains asked for are run as asked, none added
     if let Some(c) = job.chains {
         settings.sa = settings
@@ -359,6 +401,28 @@ fn summary_lines(doc: &ValidationReport) -> Vec<String> {
             l.push_str(&format!("; {name} {:.2} / {:.3}", p.rms_nm, p.r2));
         }
         lines.push(l);
+    }
+    for f in &doc.folds {
+        for h in &f.held_out {
+            let s = &h.shape;
+            let test = |t: &Option<numerics::cycle_shape::ShapeTestOutcome>| {
+                t.map_or_else(|| "-".to_string(), |t| format!("{:.1e}", t.p_value))
+            };
+            lines.push(format!(
+                "  {:24} {}: residual shape p = {:.1e} (across {} strides {}, against training {}): {}",
+                f.name,
+                h.trial,
+                s.p_value,
+                s.segments,
+                test(&s.across_strides),
+                test(&s.against_training),
+                if s.reproducible {
+                    "reproducible, the model is not adequate here"
+                } else {
+                    "no reproducible shape"
+                }
+            ));
+        }
     }
     lines
 }

@@ -278,5 +278,6 @@ fn assemble(
         candidates,
         evaluations: 0,
         wall_s: 0.0,
+        held_out_shape: None,
     }
 }

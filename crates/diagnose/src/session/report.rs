@@ -136,6 +136,11 @@ pub struct SessionDiagnosis {
     pub evaluations: usize,
     /// Wall time of the joint diagnosis (s).
     pub wall_s: f64,
+    /// Every trial's held-out residual tested for a reproducible shape
+    /// ([`SessionDiagnosis::judge_held_out_shape`]; a session with a trial without an unloaded
+    /// run).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub held_out_shape: Option<crate::SessionHeldOutShape>,
 }
 
 /// `100·(1 − after/before)`.
@@ -221,6 +226,7 @@ impl SessionDiagnosis {
             candidates,
             evaluations: 0,
             wall_s: 0.0,
+            held_out_shape: None,
         }
     }
 
@@ -260,6 +266,26 @@ impl SessionDiagnosis {
                 "structure        unexplained structure left (p = {:.1e})",
                 self.structure_p_value
             ));
+        }
+        if let Some(h) = &self.held_out_shape {
+            let list = |keeps: bool| -> String {
+                h.per_trial
+                    .iter()
+                    .filter(|t| t.check.reproducible == keeps)
+                    .map(|t| format!("{} (p {:.1e})", t.name, t.check.p_value))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            };
+            let (kept, not_kept) = (list(true), list(false));
+            l.push(match (kept.is_empty(), not_kept.is_empty()) {
+                (true, _) => format!("held-out shape   no trial keeps a reproducible shape: {not_kept}"),
+                (false, true) => {
+                    format!("held-out shape   reproducible in {kept}: the model is not adequate")
+                }
+                (false, false) => format!(
+                    "held-out shape   reproducible in {kept}: the model is not adequate; not in {not_kept}"
+                ),
+            });
         }
         let scheme = match self.heldout.scheme {
             HeldoutScheme::LeaveOneTrialOut => "leaving one trial out",

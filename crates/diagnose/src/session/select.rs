@@ -157,9 +157,16 @@ pub(crate) fn select(
                     r.heldout_rms = f.heldout.as_ref().map(|h| h.rms);
                     r.heldout_dev_gain = dev_gain;
                 }
-                // as for one trial (`rules::generalises`): the held-out deviance decides, the
-                // RMS, which the noise's slow part sets, is reported without a veto
-                let generalises = dev_gain.is_none_or(|dg| dg >= settings.min_heldout_dev_gain);
+                // the held-out deviance, under a noise model fitted to the session's own
+                // residuals, is not enough: a cause must also lower the error a user measures
+                // on the trial left out, the pooled leave-one-trial-out RMS (on CEINMS's four
+                // trials eccentric enhancement raised it while its deviance fell)
+                let rms_falls = match (&f.heldout, &current.heldout) {
+                    (Some(a), Some(b)) => a.rms < b.rms,
+                    _ => true,
+                };
+                let generalises =
+                    rms_falls && dev_gain.is_none_or(|dg| dg >= settings.min_heldout_dev_gain);
                 let clear = s.cos <= settings.confound_cos || significance(f, n) >= 3.0;
                 if d < settings.max_delta_bic && generalises && clear {
                     passing.push((i, d));

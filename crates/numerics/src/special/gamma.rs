@@ -201,9 +201,41 @@ pub fn f_survival(x: f64, d1: usize, d2: f64) -> f64 {
     beta_regularized(d2 / 2.0, d1f / 2.0, d2 / (d2 + d1f * x))
 }
 
+/// Upper tail `P(T_ν > t)` of Student's t distribution with `ν > 0` degrees of freedom:
+/// `½·I_{ν/(ν+t²)}(ν/2, ½)` for `t ≥ 0` and `1 −` that for `t < 0`.
+pub fn t_survival(t: f64, df: f64) -> f64 {
+    if t.is_nan() || df.is_nan() || df <= 0.0 {
+        return f64::NAN;
+    }
+    let half = 0.5 * beta_regularized(0.5 * df, 0.5, df / (df + t * t));
+    if t >= 0.0 {
+        half
+    } else {
+        1.0 - half
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn t_survival_known_values() {
+        // ν = 1 is Cauchy: P(T > t) = ½ − atan(t)/π; ν = 2: ½ − t/(2√(2 + t²))
+        for t in [-3.0, -0.5, 0.0, 0.7, 2.0, 12.0] {
+            let cauchy = 0.5 - f64::atan(t) / std::f64::consts::PI;
+            assert!((t_survival(t, 1.0) - cauchy).abs() < 1e-13, "{t}");
+            let two = 0.5 - t / (2.0 * (2.0 + t * t).sqrt());
+            assert!((t_survival(t, 2.0) - two).abs() < 1e-13, "{t}");
+        }
+        // ν = 4: F(t) = ½ + (3/8)·u·(1 − u²/12), u = t/√(1 + t²/4)
+        for t in [-2.5, 0.3, 1.7, 6.0] {
+            let u = t / (1.0 + t * t / 4.0_f64).sqrt();
+            let four = 0.5 - 0.375 * u * (1.0 - u * u / 12.0);
+            assert!((t_survival(t, 4.0) - four).abs() < 1e-13, "{t}");
+        }
+        assert!(t_survival(1.0, 0.0).is_nan());
+    }
 
     #[test]
     fn ln_gamma_known_values() {

@@ -1,7 +1,7 @@
 //! Special functions: the normal distribution ([`normal_cdf`], [`normal_quantile`],
 //! [`erfc`]) and the gamma family ([`ln_gamma`], [`gamma_q`], [`chi2_survival`],
 //! [`chi2_upper_quantile`], [`noncentral_chi2_survival`], [`beta_regularized`],
-//! [`f_survival`]). The equations are in the two submodules' documentation.
+//! [`f_survival`], [`t_survival`]). The equations are in the two submodules' documentation.
 //!
 //! ```
 //! use numerics::special::{chi2_survival, normal_cdf, normal_quantile};
@@ -15,6 +15,6 @@ mod normal;
 
 pub use gamma::{
     beta_regularized, chi2_survival, chi2_upper_quantile, f_survival, gamma_q, ln_gamma,
-    noncentral_chi2_survival,
+    noncentral_chi2_survival, t_survival,
 };
 pub use normal::{erfc, normal_cdf, normal_quantile};

@@ -16,11 +16,15 @@
 
 use super::super::session::{file_stem, load_session, LoadedSession, SessionTrial};
 use super::super::ModelSettings;
+use super::window::{diagnosis_window, DiagnosisWindow};
 use super::{diagnosis_json, trial_args, write_figures, Closing, DiagnoseJob, PLANNED};
 use crate::error::{AppError, AppResult};
 use crate::output::OutDir;
 use crate::Reporter;
-use diagnose::{DiagnoseSettings, Diagnosis, DiagnosisRecording, SessionDiagnosis, SessionMember};
+use diagnose::{
+    DiagnoseSettings, Diagnosis, DiagnosisRecording, HeldOutShapeCheck, HeldOutShapePart,
+    SessionDiagnosis, SessionMember,
+};
 use muscle_model::TrialInputs;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -43,6 +47,8 @@ struct Diagnosed {
     fitted_on_hz: f64,
     /// The samples compared with the model (figures are drawn over them).
     span: Range<usize>,
+    /// The part of a long trial diagnosed (`None`: all of it).
+    window: Option<DiagnosisWindow>,
 }
 
 /// Runs `diagnose --session`.
@@ -73,7 +79,8 @@ pub(super) fn run(args: &DiagnoseJob, session_path: &Path, rep: &Reporter) -> Ap
         let label = format!("diag {}/{}", k + 1, session.trials.len());
         done.push(diagnose_trial(&session, k, t, stem, &label, rep)?);
     }
-    let joint = diagnose_jointly(&session, &done, rep)?;
+    let mut joint = diagnose_jointly(&session, &done, rep)?;
+    judge_held_out_shape(&session, &mut done, &mut joint, rep)?;
 
     // every trial's report ends with the command that identifies the session with the causes
     // of its joint diagnosis
@@ -129,6 +136,9 @@ pub(super) fn run(args: &DiagnoseJob, session_path: &Path, rep: &Reporter) -> Ap
                 say("  (inverse-dynamics moment: no noise reference, the noise model is fitted to the baseline's residual)");
             } else if r.unloaded.is_none() {
                 say("  (no unloaded run: the dynamometer's own error cannot be told from a torque offset)");
+            }
+            if let Some(w) = &r.window {
+                say(&format!("  ({})", w.describe(r.fitted_on_hz)));
             }
             for l in r.d.summary_lines() {
                 say(&l);
@@ -187,6 +197,7 @@ fn diagnose_trial(
     rep: &Reporter,
 ) -> AppResult<Diagnosed> {
     let entry = &session.manifest.trials[k];
+    let window = diagnosis_window(t)?;
     let progress = rep.progress(0, label);
     let mut observer = |p: &diagnose::DiagnosisProgress| {
         progress.message(format!(
@@ -218,6 +229,25 @@ fn diagnose_trial(
                 correction: None,
                 fitted_on_hz: c.inputs.fs(),
                 span: weighted_span(&c.weights),
+                window: None,
+            }
+        }
+        None if window.is_some() => {
+            let w = window.expect("checked");
+            let rec = windowed_recording(session, t, &w)?;
+            let d = diagnose::run_prepared(&rec, &DiagnoseSettings::default(), &mut observer)
+                .map_err(|e| fail(e, &progress))?;
+            let weights = rec.weights.clone().unwrap_or_default();
+            Diagnosed {
+                stem: stem.to_string(),
+                d,
+                measured: rec.torque_nm.clone(),
+                inputs: rec.inputs.clone(),
+                unloaded: None,
+                correction: None,
+                fitted_on_hz: rec.inputs.fs(),
+                span: weighted_span(&weights),
+                window: Some(w),
             }
         }
         None => {
@@ -253,6 +283,7 @@ fn diagnose_trial(
                 correction: prepared.unloaded,
                 fitted_on_hz,
                 span: 0..n,
+                window: None,
             }
         }
     };
@@ -276,18 +307,25 @@ fn diagnose_jointly(
         .iter()
         .zip(done)
         .map(|(t, r)| {
-            let mut rec = DiagnosisRecording::new(t.problem.inputs().clone(), t.raw_torque.clone())
-                .with_model(session.params, session.effects);
-            if let Some(c) = &t.ceinms {
-                rec = rec.with_weights(c.weights.clone());
-            }
-            SessionMember {
+            let rec = match (&t.ceinms, &r.window) {
+                (Some(c), _) => {
+                    DiagnosisRecording::new(t.problem.inputs().clone(), t.raw_torque.clone())
+                        .with_model(session.params, session.effects)
+                        .with_weights(c.weights.clone())
+                }
+                (None, Some(w)) => windowed_recording(session, t, w)?,
+                (None, None) => {
+                    DiagnosisRecording::new(t.problem.inputs().clone(), t.raw_torque.clone())
+                        .with_model(session.params, session.effects)
+                }
+            };
+            Ok(SessionMember {
                 name: t.name.clone(),
                 recording: rec,
                 unloaded: r.correction.as_ref(),
-            }
+            })
         })
-        .collect();
+        .collect::<AppResult<_>>()?;
     let progress = rep.progress(0, "diag session");
     let mut observer = |p: &diagnose::DiagnosisProgress| {
         progress.message(format!("{} ({} simulations)", p.message, p.evaluations));
@@ -303,6 +341,77 @@ fn diagnose_jointly(
         })?;
     progress.finish();
     Ok(d)
+}
+
+/// Judges every trial, and the session, by the residual `validate`'s folds leave on the data
+/// they did not calibrate on (`diagnose`'s `held_out_shape` module), when a trial has no
+/// unloaded run: its noise model is then fitted to its own residual and cannot grade the model.
+fn judge_held_out_shape(
+    session: &LoadedSession,
+    done: &mut [Diagnosed],
+    joint: &mut SessionDiagnosis,
+    rep: &Reporter,
+) -> AppResult {
+    if done.iter().all(|r| r.correction.is_some()) {
+        return Ok(());
+    }
+    let progress = rep.progress(0, "held out");
+    progress.message(
+        "validate's folds: calibrating on part of the session, predicting the rest".into(),
+    );
+    let validation = super::super::validate::validate_with_defaults(session)?;
+    progress.finish();
+    let Some(v) = validation else {
+        return Ok(());
+    };
+    let mut per_trial = Vec::new();
+    for (t, r) in session.trials.iter().zip(done.iter_mut()) {
+        let parts: Vec<HeldOutShapePart> = v
+            .folds
+            .iter()
+            .flat_map(|f| {
+                f.held_out
+                    .iter()
+                    .filter(|h| h.trial == t.name)
+                    .map(move |h| {
+                        HeldOutShapePart::new(
+                            format!("{} {}", f.scheme.name(), f.name),
+                            h.shape.segments,
+                            h.model.rms_nm,
+                            h.model.r2,
+                            h.shape.p_value,
+                        )
+                    })
+            })
+            .collect();
+        if parts.is_empty() {
+            continue;
+        }
+        let check = HeldOutShapeCheck::of_parts(parts);
+        r.d.judge_held_out_shape(check.clone());
+        per_trial.push((t.name.clone(), check));
+    }
+    joint.judge_held_out_shape(per_trial);
+    Ok(())
+}
+
+/// The window `w` of trial `t` as the diagnosis fits it: its inputs, measured moment and the
+/// trial's weights over it, the lead-in weighted 0.
+fn windowed_recording(
+    session: &LoadedSession,
+    t: &SessionTrial,
+    w: &DiagnosisWindow,
+) -> AppResult<DiagnosisRecording> {
+    let inputs = t
+        .problem
+        .inputs()
+        .window(w.range.clone())
+        .map_err(|e| AppError::internal(format!("{}: diagnosis window: {e}", t.source)))?;
+    Ok(
+        DiagnosisRecording::new(inputs, t.raw_torque[w.range.clone()].to_vec())
+            .with_weights(w.weights(t.problem.weights()))
+            .with_model(session.params, session.effects),
+    )
 }
 
 /// From the first to the last sample of positive weight.
