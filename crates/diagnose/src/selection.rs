@@ -100,7 +100,16 @@ pub(crate) fn select(
                     i.map_or(0.0, |i| lead.fit.x[i])
                 })
                 .collect();
-            let alt = ctx.fit_from(&current.kinds, &[x0], true)?;
+            // a start the model cannot be differentiated at (a finite difference that leaves
+            // the region it simulates in) is no better optimum: the leader stands
+            let alt = match ctx.fit_from(&current.kinds, &[x0], true) {
+                Ok(a) => a,
+                Err(DiagnoseError::Fit { .. }) | Err(DiagnoseError::Model(_)) => {
+                    ties.insert(lead.kind, lead_ties(lead));
+                    break Some(lead.kind);
+                }
+                Err(e) => return Err(e),
+            };
             *evaluations += alt.evaluations;
             if alt.white_ss < current.white_ss {
                 if current.kinds.is_empty() {

@@ -182,7 +182,14 @@ pub(crate) fn select(
             rechecked = true;
             // the current model refitted from the leader's values of its own parameters
             let x0 = fits[lead].0.x[..current.layout.dim].to_vec();
-            let alt = joint.fit(&current.layout, &[x0], true)?;
+            // a start the model cannot be differentiated at is no better optimum
+            let alt = match joint.fit(&current.layout, &[x0], true) {
+                Ok(a) => a,
+                Err(DiagnoseError::Fit { .. }) | Err(DiagnoseError::Model(_)) => {
+                    break Some(lead);
+                }
+                Err(e) => return Err(e),
+            };
             *evaluations += alt.evaluations;
             if alt.white_ss < current.white_ss {
                 if current.layout.terms.is_empty() {

@@ -375,7 +375,11 @@ fn judge_held_out_shape(
                     .filter(|h| h.trial == t.name)
                     .map(move |h| {
                         HeldOutShapePart::new(
-                            format!("{} {}", f.scheme.name(), f.name),
+                            if f.name == f.scheme.name() {
+                                f.name.clone()
+                            } else {
+                                format!("{} {}", f.scheme.name(), f.name)
+                            },
                             h.shape.segments,
                             h.model.rms_nm,
                             h.model.r2,
