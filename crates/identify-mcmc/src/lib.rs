@@ -120,12 +120,14 @@ pub mod identify;
 pub mod mixture;
 mod modes;
 pub mod noise;
+mod nuts;
 mod sampler;
 mod sampling_coordinates;
 mod session_identify;
 mod settings;
 mod summary;
 mod target;
+mod transform;
 mod trial_term;
 
 pub use cmdstan::write_cmdstan_chain;
@@ -136,7 +138,10 @@ pub use sampler::{
 };
 pub use settings::{McmcSettings, Proposal};
 pub use summary::{correlation_matrix, strongest_correlations, CorrelationPair, Summary};
-pub use target::{FnLogDensity, LogDensity};
+pub use target::{FnGradLogDensity, FnLogDensity, GradLogDensity, LogDensity};
+
+pub use nuts::{run_nuts, NutsDraw, NutsRun, NutsSettings};
+pub use transform::LogisticBox;
 
 pub use identify::{
     McmcIdentification, McmcIdentifySettings, McmcNoiseSource, ModeInfo, NamedCorrelation,
@@ -271,6 +276,15 @@ pub enum McmcError {
         trial: usize,
         /// `free parameters` or `bounds`.
         what: &'static str,
+    },
+    /// The step-size heuristic of [`run_nuts`] doubled past `10⁷` or halved to zero (the
+    /// density is flat or its gradient fails around the chain's state).
+    #[error("chain {chain}: the step-size heuristic ran away (step size {step_size})")]
+    StepSize {
+        /// Chain index.
+        chain: usize,
+        /// The step size when it stopped.
+        step_size: f64,
     },
     /// A kept draw could not be mapped back to the model's parameters (its simulation failed
     /// on re-evaluation; cannot happen for a deterministic model).
