@@ -161,6 +161,12 @@ pub struct NutsRun {
     pub stats: Vec<Vec<NutsDraw>>,
     /// The adapted step size of every chain.
     pub step_size: Vec<f64>,
+    /// Mean `accept_stat__` of every chain over its last stretch of step-size adaptation (the
+    /// warm-up iterations since the last restart of the dual averaging: the terminal buffer
+    /// for the default schedule), the quantity the dual averaging drives to `target_accept`;
+    /// NaN without warm-up. The kept draws' mean ([`NutsRun::mean_accept_stat`]) is usually
+    /// higher: they use `exp(x̄)`, smaller than the typical adapted step (as in Stan).
+    pub adaptation_accept_stat: Vec<f64>,
     /// The adapted inverse metric (diagonal, unconstrained coordinates) of every chain.
     pub inv_metric: Vec<Vec<f64>>,
     /// Gradient evaluations over all chains (start search, step-size heuristic, warm-up and
@@ -226,6 +232,7 @@ struct ChainOutput {
     log_density: Vec<f64>,
     stats: Vec<NutsDraw>,
     step_size: f64,
+    adaptation_accept_stat: f64,
     inv_metric: Vec<f64>,
     evaluations: u64,
     failed: u64,
@@ -324,6 +331,7 @@ pub fn run_nuts<T: GradLogDensity + ?Sized>(
             .collect(),
         stats,
         step_size: outputs.iter().map(|o| o.step_size).collect(),
+        adaptation_accept_stat: outputs.iter().map(|o| o.adaptation_accept_stat).collect(),
         inv_metric: outputs
             .iter_mut()
             .map(|o| std::mem::take(&mut o.inv_metric))
@@ -452,6 +460,8 @@ fn run_chain<T: GradLogDensity + ?Sized>(
     );
     let mut welford = Welford::new(d);
     let mut warmup_divergences = 0u64;
+    // Sum and count of accept_stat since the dual averaging's last restart.
+    let mut since_restart = (0.0, 0usize);
     for _ in 0..settings.warmup {
         let t = transition(
             &mut z,
@@ -464,6 +474,7 @@ fn run_chain<T: GradLogDensity + ?Sized>(
         );
         warmup_divergences += u64::from(t.divergent);
         eps = dual.learn(t.accept_stat);
+        since_restart = (since_restart.0 + t.accept_stat, since_restart.1 + 1);
         if windows.in_window() {
             welford.add(&z.q);
         }
@@ -471,6 +482,7 @@ fn run_chain<T: GradLogDensity + ?Sized>(
             welford.regularised_variance(&mut inv_metric);
             eps = initial_step_size(&z, eps, &inv_metric, &mut model, &mut rng, chain)?;
             dual.restart(eps);
+            since_restart = (0.0, 0);
         }
     }
     if settings.warmup > 0 {
@@ -511,6 +523,7 @@ fn run_chain<T: GradLogDensity + ?Sized>(
         log_density,
         stats,
         step_size: eps,
+        adaptation_accept_stat: since_restart.0 / since_restart.1 as f64,
         inv_metric,
         evaluations: model.evaluations,
         failed: model.failed,
