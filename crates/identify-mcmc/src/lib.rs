@@ -130,7 +130,7 @@ mod target;
 mod transform;
 mod trial_term;
 
-pub use cmdstan::write_cmdstan_chain;
+pub use cmdstan::{write_cmdstan_chain, write_cmdstan_nuts_chain};
 pub use mixture::{ComponentSpec, MixtureProposal};
 pub use sampler::{
     run, run_with_observer, run_with_proposal, ChainPhase, ChainProgress, ChainStopReason,

@@ -310,3 +310,61 @@ fn invalid_settings_and_starts_are_errors() {
     let run = run_nuts(&target, &settings, Some(&good)).unwrap();
     assert_eq!(run.draws[0][0].len(), 10);
 }
+
+/// The NUTS CmdStan CSV: CmdStan's column order, the adaptation block, every value read back
+/// bit for bit.
+#[test]
+fn cmdstan_nuts_columns_and_values() {
+    use identify_mcmc::write_cmdstan_nuts_chain;
+    let target = normal_target(2, 10.0);
+    let settings = NutsSettings {
+        seed: 21,
+        chains: 2,
+        warmup: 200,
+        draws: 50,
+        ..NutsSettings::default()
+    };
+    let run = run_nuts(&target, &settings, None).unwrap();
+    let mut buf = Vec::new();
+    write_cmdstan_nuts_chain(&run, &["a.b", "c"], 1, &["nuts test"], &mut buf).unwrap();
+    let text = String::from_utf8(buf).unwrap();
+    let mut lines = text.lines().filter(|l| !l.starts_with('#'));
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert_eq!(
+        header,
+        [
+            "lp__",
+            "accept_stat__",
+            "stepsize__",
+            "treedepth__",
+            "n_leapfrog__",
+            "divergent__",
+            "energy__",
+            "a_b",
+            "c"
+        ]
+    );
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 50);
+    for (k, row) in rows.iter().enumerate() {
+        let s = &run.stats[1][k];
+        assert_eq!(row[0].to_bits(), s.lp.to_bits());
+        assert_eq!(row[1].to_bits(), s.accept_stat.to_bits());
+        assert_eq!(row[2].to_bits(), s.step_size.to_bits());
+        assert_eq!(row[3], f64::from(s.tree_depth));
+        assert_eq!(row[4], f64::from(s.n_leapfrog));
+        assert_eq!(row[5], f64::from(u8::from(s.divergent)));
+        assert_eq!(row[6].to_bits(), s.energy.to_bits());
+        assert_eq!(row[7].to_bits(), run.draws[0][1][k].to_bits());
+        assert_eq!(row[8].to_bits(), run.draws[1][1][k].to_bits());
+    }
+    assert!(text.contains("# nuts test\n"));
+    assert!(text.contains("#     algorithm = hmc\n"));
+    assert!(text.contains("#         engine = nuts\n"));
+    assert!(text.contains("# id = 2\n"));
+    assert!(text.contains(&format!("# Step size = {}\n", run.step_size[1])));
+    assert!(write_cmdstan_nuts_chain(&run, &["a"], 0, &[], Vec::new()).is_err());
+    assert!(write_cmdstan_nuts_chain(&run, &["a", "b"], 2, &[], Vec::new()).is_err());
+}
