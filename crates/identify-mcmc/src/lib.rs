@@ -36,6 +36,48 @@
 //! (100 000 by default), in which case [`RunResult::stop`] is
 //! [`ChainStopReason::CapReached`] and `converged` is false.
 //!
+//! # Gradient-based sampler ([`run_nuts`])
+//!
+//! A target that also gives its gradient ([`GradLogDensity`]; closures via
+//! [`FnGradLogDensity`]) can be sampled by the No-U-Turn Sampler as in Stan (multinomial NUTS,
+//! Betancourt 2017; Hoffman & Gelman 2014), configured by [`NutsSettings`] and returning a
+//! [`NutsRun`] (draws in the box coordinates, [`NutsDraw`] statistics per draw, the summaries
+//! above).
+//!
+//! * **Transform** ([`LogisticBox`]): every coordinate runs on `u ∈ ℝ` with
+//!   `x = lo + (hi − lo)·σ(u)`, `σ(u) = 1/(1 + e^{−u})`; the density on `u` is
+//!   `log p(u) = log π(x(u)) + Σᵢ [log(hiᵢ − loᵢ) + log σ(uᵢ) + log(1 − σ(uᵢ))]`, with gradient
+//!   `∂ log p/∂uᵢ = ∂ log π/∂xᵢ·(hiᵢ − loᵢ)σ(uᵢ)(1 − σ(uᵢ)) + 1 − 2σ(uᵢ)`.
+//! * **Hamiltonian**: `H(u, p) = −log p(u) + ½ pᵀM⁻¹p` with a diagonal metric `M`, momenta
+//!   `p ~ N(0, M)` drawn afresh at every transition.
+//! * **Leapfrog** with step `ε`: `p ← p + (ε/2)∇log p(u)`, `u ← u + ε M⁻¹p`,
+//!   `p ← p + (ε/2)∇log p(u)`.
+//! * **Trajectory**: doubled forward or backward in time at random (up to `max_depth`
+//!   doublings, `2^max_depth − 1` steps). Every point carries the weight `e^{−H}`; within a new
+//!   subtree a point is drawn in proportion to the weights, and the subtree's draw replaces
+//!   the current one with probability `min(1, W_new/W_old)` (biased progressive sampling). A
+//!   step with `H − H₀ > max_energy_error` (1000) or a failed evaluation is a divergence: the
+//!   subtree is discarded and the trajectory stops.
+//! * **U-turn** (generalised criterion): with `ρ` the sum of the momenta of a (sub)trajectory
+//!   and `p♯ = M⁻¹p` at its two ends, it continues while `p♯₋·ρ > 0` and `p♯₊·ρ > 0`; as in
+//!   Stan's `base_nuts`, the check is also applied to each half extended by the nearest point
+//!   of the other half, at every merge.
+//! * **Step size**: starting from `initial_step_size`, a heuristic doubles (halves) `ε` while one
+//!   leapfrog step keeps `H₀ − H` above (below) `log 0.8`. During warm-up, dual averaging
+//!   (Nesterov; `δ = target_accept`, `γ = 0.05`, `t₀ = 10`, `κ = 0.75`, `μ = log(10ε)`)
+//!   updates, with the transition's acceptance statistic `a_t` (the mean of
+//!   `min(1, e^{H₀−H})` over the trajectory),
+//!   `s̄_t = (1 − 1/(t + t₀))·s̄_{t−1} + (δ − a_t)/(t + t₀)`, `log ε_t = μ − √t·s̄_t/γ`,
+//!   `x̄_t = t^{−κ}·log ε_t + (1 − t^{−κ})·x̄_{t−1}`; sampling uses `ε = e^{x̄}`.
+//! * **Metric**: Stan's windows (initial buffer 75, slow windows from 25 doubling, terminal
+//!   buffer 50); at the end of each window `M⁻¹ = n/(n+5)·var + 10⁻³·5/(n+5)`, `var` the
+//!   window's sample variance of `u`, after which the step-size heuristic runs again and the
+//!   dual averaging restarts.
+//!
+//! Chains are independent and run in parallel on rayon with the same RNG streams as the random
+//! walk, so results are bit-identical for any number of threads. [`write_cmdstan_nuts_chain`]
+//! writes a chain with CmdStan's NUTS columns.
+//!
 //! # Diagnostics ([`diagnostics`])
 //!
 //! For `M` chains of `N` draws, chain means `θ̄_m`, chain variances `s_m²`:

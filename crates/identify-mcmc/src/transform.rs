@@ -125,7 +125,11 @@ mod tests {
             let dxdu = (xp[i] - xd[i]) / (2.0 * h);
             let one = LogisticBox::new(&bounds()[i..=i]);
             let lj = one.log_jacobian(&u[i..=i]);
-            assert!((lj.exp() / dxdu - 1.0).abs() < 1e-7, "{i}: {} {dxdu}", lj.exp());
+            assert!(
+                (lj.exp() / dxdu - 1.0).abs() < 1e-7,
+                "{i}: {} {dxdu}",
+                lj.exp()
+            );
         }
     }
 
@@ -151,11 +155,7 @@ mod tests {
         let u = [0.4, -1.2, 2.2];
         let mut x = [0.0; 3];
         t.to_box(&u, &mut x);
-        let mut g = [
-            -c[0] * x[0] + x[1],
-            -c[1] * x[1] + x[0],
-            -c[2] * x[2],
-        ];
+        let mut g = [-c[0] * x[0] + x[1], -c[1] * x[1] + x[0], -c[2] * x[2]];
         t.chain_rule(&u, &mut g);
         let h = 1e-5;
         for i in 0..3 {
@@ -163,7 +163,11 @@ mod tests {
             up[i] += h;
             dn[i] -= h;
             let fd = (logp(&up) - logp(&dn)) / (2.0 * h);
-            assert!((fd - g[i]).abs() < 1e-6 * (1.0 + g[i].abs()), "{i}: {fd} {}", g[i]);
+            assert!(
+                (fd - g[i]).abs() < 1e-6 * (1.0 + g[i].abs()),
+                "{i}: {fd} {}",
+                g[i]
+            );
         }
     }
 }

@@ -131,10 +131,19 @@ fn step_size_adapts_to_target_acceptance() {
         report(&format!("adaptation δ = {delta}"), &run, 0.0);
         let n = run.adaptation_accept_stat.len() as f64;
         let adapt = run.adaptation_accept_stat.iter().sum::<f64>() / n;
-        eprintln!("  adaptation-stretch accept_stat {adapt:.3} {:.3?}", run.adaptation_accept_stat);
-        assert!((adapt - delta).abs() < 0.05, "adaptation accept_stat {adapt} for δ = {delta}");
+        eprintln!(
+            "  adaptation-stretch accept_stat {adapt:.3} {:.3?}",
+            run.adaptation_accept_stat
+        );
+        assert!(
+            (adapt - delta).abs() < 0.05,
+            "adaptation accept_stat {adapt} for δ = {delta}"
+        );
         let kept = run.mean_accept_stat();
-        assert!(kept > delta - 0.05, "kept accept_stat {kept} for δ = {delta}");
+        assert!(
+            kept > delta - 0.05,
+            "kept accept_stat {kept} for δ = {delta}"
+        );
     }
 }
 
@@ -159,7 +168,11 @@ fn correlated_gaussian_2d() {
         check(&run, &format!("E[x{i}²]"), 1.0, |x| x[i] * x[i]);
         // ESS here is ~800 of 4000 draws, at which R̂ itself scatters by ~0.005: the bound
         // checks that the chains agree, not the 1.01 convergence target.
-        assert!(run.summary[i].rhat < 1.05, "R̂ x{i} = {}", run.summary[i].rhat);
+        assert!(
+            run.summary[i].rhat < 1.05,
+            "R̂ x{i} = {}",
+            run.summary[i].rhat
+        );
         assert!(run.summary[i].ess_bulk >= 400.0);
     }
     check(&run, "E[x0·x1]", rho, |x| x[0] * x[1]);
@@ -223,7 +236,13 @@ fn bit_identical_for_any_thread_count() {
     let one = on(1);
     let two = on(2);
     let bits = |r: &NutsRun| -> Vec<u64> {
-        let mut v: Vec<u64> = r.draws.iter().flatten().flatten().map(|x| x.to_bits()).collect();
+        let mut v: Vec<u64> = r
+            .draws
+            .iter()
+            .flatten()
+            .flatten()
+            .map(|x| x.to_bits())
+            .collect();
         for s in r.stats.iter().flatten() {
             v.extend([
                 s.lp.to_bits(),
@@ -299,7 +318,11 @@ fn invalid_settings_and_starts_are_errors() {
     let on_bound = vec![vec![0.0, 5.0], vec![0.0, 0.0]];
     assert!(matches!(
         run_nuts(&target, &settings, Some(&on_bound)),
-        Err(McmcError::InitOutOfBounds { chain: 0, index: 1, .. })
+        Err(McmcError::InitOutOfBounds {
+            chain: 0,
+            index: 1,
+            ..
+        })
     ));
     let one = vec![vec![0.0, 0.0]];
     assert!(matches!(

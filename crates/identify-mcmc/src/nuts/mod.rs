@@ -425,12 +425,17 @@ fn initial_step_size<T: GradLogDensity + ?Sized>(
     let up = step(eps, &mut trial, rng) > log_08;
     loop {
         let delta = step(eps, &mut trial, rng);
-        if (up && !(delta > log_08)) || (!up && !(delta < log_08)) {
+        // `delta` is never NaN (`H` maps NaN to +∞): `−∞` after a failed step.
+        let keep_going = if up { delta > log_08 } else { delta < log_08 };
+        if !keep_going {
             return Ok(eps);
         }
         eps = if up { 2.0 * eps } else { 0.5 * eps };
         if !(eps <= 1e7 && eps > 0.0) {
-            return Err(McmcError::StepSize { chain, step_size: eps });
+            return Err(McmcError::StepSize {
+                chain,
+                step_size: eps,
+            });
         }
     }
 }

@@ -79,12 +79,11 @@ pub(super) fn log_add_exp(a: f64, b: f64) -> f64 {
 
 /// `H = −log p(q) + ½ pᵀ M⁻¹ p`; NaN becomes `+∞`.
 pub(super) fn hamiltonian(z: &Point, inv_metric: &[f64]) -> f64 {
-    let k: f64 = z
-        .p
-        .iter()
-        .zip(inv_metric)
-        .map(|(p, m)| p * p * m)
-        .sum::<f64>();
+    let k: f64 =
+        z.p.iter()
+            .zip(inv_metric)
+            .map(|(p, m)| p * p * m)
+            .sum::<f64>();
     let h = -z.logp + 0.5 * k;
     if h.is_nan() {
         f64::INFINITY
