@@ -3,7 +3,9 @@
 //!
 //! The crate is generic: anything implementing [`LogDensity`] (dimension,
 //! bounds, `log π(x)` or `None` for a failed evaluation) can be sampled. The
-//! prior is uniform on the bounds box.
+//! prior is uniform on the bounds box. A target that also gives its gradient
+//! ([`GradLogDensity`]) can be sampled by the No-U-Turn Sampler instead
+//! ([`run_nuts`], section "Gradient-based sampler").
 //!
 //! # Sampler
 //!
