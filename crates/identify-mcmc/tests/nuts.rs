@@ -218,6 +218,36 @@ fn beta_densities_against_the_bounds() {
     }
 }
 
+/// A flat density on a box is the uniform prior: on the unconstrained coordinates only the
+/// transform's Jacobian (a logistic density) is left, and the draws must be uniform on
+/// `(lo, hi)`: mean `(lo + hi)/2`, variance `(hi − lo)²/12`.
+#[test]
+fn flat_density_gives_the_uniform_prior() {
+    let bounds = vec![(2.0, 5.0), (-1e-3, 1e-3)];
+    let target = FnGradLogDensity::new(bounds.clone(), |_: &[f64], g: &mut [f64]| {
+        g.iter_mut().for_each(|g| *g = 0.0);
+        Some(0.0)
+    });
+    let settings = NutsSettings {
+        seed: 15,
+        ..NutsSettings::default()
+    };
+    let run = run_nuts(&target, &settings, None).unwrap();
+    report("flat", &run, 0.0);
+    for (i, &(lo, hi)) in bounds.iter().enumerate() {
+        let mean = 0.5 * (lo + hi);
+        check(&run, &format!("uniform mean x{i}"), mean, |x| x[i]);
+        check(
+            &run,
+            &format!("uniform variance x{i}"),
+            (hi - lo).powi(2) / 12.0,
+            |x| (x[i] - mean).powi(2),
+        );
+        assert!(run.summary[i].rhat < 1.01);
+    }
+    assert_eq!(run.divergences, 0);
+}
+
 #[test]
 fn bit_identical_for_any_thread_count() {
     let target = normal_target(3, 10.0);
