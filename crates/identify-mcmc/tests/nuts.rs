@@ -99,6 +99,7 @@ fn standard_normal_10d() {
     }
     assert!(run.mean_leapfrog() <= 20.0, "{}", run.mean_leapfrog());
     assert_eq!(run.divergences, 0);
+    assert_eq!(run.max_depth_hits, 0);
     assert_eq!(run.failed_evaluations, 0);
     // Every draw's statistics are consistent with each other.
     for s in run.stats.iter().flatten() {
@@ -442,4 +443,38 @@ fn cmdstan_nuts_columns_and_values() {
     assert!(text.contains(&format!("# Step size = {}\n", run.step_size[1])));
     assert!(write_cmdstan_nuts_chain(&run, &["a"], 0, &[], Vec::new()).is_err());
     assert!(write_cmdstan_nuts_chain(&run, &["a", "b"], 2, &[], Vec::new()).is_err());
+}
+
+/// `max_depth` caps every trajectory at `2^max_depth − 1` steps, and the caps are counted.
+#[test]
+fn max_depth_caps_the_trajectory() {
+    let rho: f64 = 0.99;
+    let target = FnGradLogDensity::new(vec![(-10.0, 10.0); 2], move |x: &[f64], g: &mut [f64]| {
+        let c = 1.0 / (1.0 - rho * rho);
+        g[0] = -c * (x[0] - rho * x[1]);
+        g[1] = -c * (x[1] - rho * x[0]);
+        Some(-0.5 * c * (x[0] * x[0] - 2.0 * rho * x[0] * x[1] + x[1] * x[1]))
+    });
+    let settings = NutsSettings {
+        seed: 16,
+        warmup: 300,
+        draws: 300,
+        max_depth: 2,
+        ..NutsSettings::default()
+    };
+    let run = run_nuts(&target, &settings, None).unwrap();
+    report("max depth 2", &run, 0.0);
+    assert!(run
+        .stats
+        .iter()
+        .flatten()
+        .all(|s| s.tree_depth <= 2 && s.n_leapfrog <= 3));
+    let hits = run
+        .stats
+        .iter()
+        .flatten()
+        .filter(|s| s.tree_depth == 2)
+        .count() as u64;
+    assert_eq!(hits, run.max_depth_hits);
+    assert!(hits > 0);
 }
