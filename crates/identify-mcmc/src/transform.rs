@@ -21,23 +21,19 @@ pub struct LogisticBox {
     width: Vec<f64>,
 }
 
-/// `log(1 + e^x)` without overflow or loss of precision.
-fn softplus(x: f64) -> f64 {
-    if x > 0.0 {
-        x + (-x).exp().ln_1p()
-    } else {
-        x.exp().ln_1p()
-    }
+/// `log(1 + eᵗ)` without overflow or loss of precision.
+pub(crate) fn softplus(t: f64) -> f64 {
+    t.max(0.0) + (-t.abs()).exp().ln_1p()
 }
 
-/// `σ(u)` for any `u`, without overflow.
-fn sigmoid(u: f64) -> f64 {
-    if u >= 0.0 {
-        1.0 / (1.0 + (-u).exp())
-    } else {
-        let e = u.exp();
-        e / (1.0 + e)
-    }
+/// `lo + w·σ(u)`, computed as `lo + w/(1 + e^{−u})` (no overflow: `e^{−u} = ∞` gives `lo`).
+pub(crate) fn logistic_map(lo: f64, w: f64, u: f64) -> f64 {
+    lo + w / (1.0 + (-u).exp())
+}
+
+/// `log(dx/du) = log w + log σ(u) + log(1 − σ(u)) = log w − softplus(−u) − softplus(u)`.
+pub(crate) fn logistic_log_jacobian(w: f64, u: f64) -> f64 {
+    w.ln() - softplus(-u) - softplus(u)
 }
 
 impl LogisticBox {
@@ -58,7 +54,7 @@ impl LogisticBox {
     /// never leaves it.
     pub fn to_box(&self, u: &[f64], x: &mut [f64]) {
         for i in 0..self.dim() {
-            let v = self.lower[i] + self.width[i] * sigmoid(u[i]);
+            let v = logistic_map(self.lower[i], self.width[i], u[i]);
             x[i] = v.clamp(self.lower[i], self.lower[i] + self.width[i]);
         }
     }
@@ -75,15 +71,16 @@ impl LogisticBox {
     pub fn log_jacobian(&self, u: &[f64]) -> f64 {
         u.iter()
             .zip(&self.width)
-            .map(|(&ui, &w)| w.ln() - softplus(-ui) - softplus(ui))
+            .map(|(&ui, &w)| logistic_log_jacobian(w, ui))
             .sum()
     }
 
     /// Turns `grad`, on entry `∂ log π/∂x` at `x(u)`, into `∂/∂u [log π(x(u)) + log J(u)]`.
     pub fn chain_rule(&self, u: &[f64], grad: &mut [f64]) {
         for i in 0..self.dim() {
-            let s = sigmoid(u[i]);
-            let c = 1.0 - s;
+            // σ(u) and 1 − σ(u) = σ(−u), each to full relative precision.
+            let s = 1.0 / (1.0 + (-u[i]).exp());
+            let c = 1.0 / (1.0 + u[i].exp());
             grad[i] = grad[i] * self.width[i] * s * c + (c - s);
         }
     }
