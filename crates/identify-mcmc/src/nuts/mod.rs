@@ -16,7 +16,7 @@ mod adaptation;
 mod trajectory;
 
 use adaptation::{DualAveraging, Welford, Windows};
-use trajectory::{hamiltonian, leapfrog, sample_momentum, transition, Model, Point};
+use trajectory::{hamiltonian, leapfrog, sample_momentum, transition, Model, Point, Scratch};
 
 /// Settings of [`run_nuts`], Stan's defaults. Counts are iterations **per chain**.
 ///
@@ -454,6 +454,7 @@ fn run_chain<T: GradLogDensity + ?Sized>(
     let mut model = Model::new(target, transform);
     let mut z = start_point(&mut model, transform, bounds, chain, init, &mut rng)?;
     let mut inv_metric = vec![1.0; d];
+    let mut scratch = Scratch::new(d, settings.max_depth);
     let mut eps = settings.initial_step_size;
     let mut dual = DualAveraging::new(settings.target_accept, eps);
     eps = initial_step_size(&z, eps, &inv_metric, &mut model, &mut rng, chain)?;
@@ -472,10 +473,10 @@ fn run_chain<T: GradLogDensity + ?Sized>(
             &mut z,
             eps,
             &inv_metric,
-            settings.max_depth,
-            settings.max_energy_error,
+            settings,
             &mut model,
             &mut rng,
+            &mut scratch,
         );
         warmup_divergences += u64::from(t.divergent);
         eps = dual.learn(t.accept_stat);
@@ -502,10 +503,10 @@ fn run_chain<T: GradLogDensity + ?Sized>(
             &mut z,
             eps,
             &inv_metric,
-            settings.max_depth,
-            settings.max_energy_error,
+            settings,
             &mut model,
             &mut rng,
+            &mut scratch,
         );
         model.to_box(&z.q, &mut x);
         for (col, &v) in draws.iter_mut().zip(&x) {

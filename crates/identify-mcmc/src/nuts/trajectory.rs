@@ -6,11 +6,11 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 
-use crate::{GradLogDensity, LogisticBox};
+use crate::{GradLogDensity, LogisticBox, NutsSettings};
 
 /// A point of phase space: position `q` (unconstrained), momentum `p`, `log p(q)` (Jacobian
 /// included; `−∞` when the evaluation failed) and its gradient.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub(super) struct Point {
     pub(super) q: Vec<f64>,
     pub(super) p: Vec<f64>,
@@ -151,8 +151,56 @@ pub(super) struct Transition {
     pub(super) energy: f64,
 }
 
+/// Working vectors of one level of the recursion: the two halves' summed momenta, the momenta
+/// where they meet, the second half's sample.
+#[derive(Clone, Debug, Default)]
+struct Level {
+    rho_init: Vec<f64>,
+    p_init_end: Vec<f64>,
+    p_sharp_init_end: Vec<f64>,
+    rho_final: Vec<f64>,
+    p_final_beg: Vec<f64>,
+    p_sharp_final_beg: Vec<f64>,
+    rho_subtree: Vec<f64>,
+    rho_ext: Vec<f64>,
+    z_final: Point,
+}
+
+/// The recursion's working memory, sized once per chain (one [`Level`] per tree depth) so that
+/// building a trajectory allocates nothing.
+#[derive(Clone, Debug)]
+pub(super) struct Scratch {
+    levels: Vec<Level>,
+}
+
+impl Scratch {
+    pub(super) fn new(d: usize, max_depth: u32) -> Self {
+        let v = vec![0.0; d];
+        let level = Level {
+            rho_init: v.clone(),
+            p_init_end: v.clone(),
+            p_sharp_init_end: v.clone(),
+            rho_final: v.clone(),
+            p_final_beg: v.clone(),
+            p_sharp_final_beg: v.clone(),
+            rho_subtree: v.clone(),
+            rho_ext: v.clone(),
+            z_final: Point {
+                q: v.clone(),
+                p: v.clone(),
+                grad: v,
+                logp: f64::NEG_INFINITY,
+            },
+        };
+        Self {
+            levels: vec![level; max_depth as usize + 1],
+        }
+    }
+}
+
 /// The state of the trajectory being built.
 struct Tree<'b, 'a, T: ?Sized> {
+    scratch: &'b mut Scratch,
     model: &'b mut Model<'a, T>,
     rng: &'b mut ChaCha8Rng,
     inv_metric: &'b [f64],
@@ -204,39 +252,67 @@ impl<T: GradLogDensity + ?Sized> Tree<'_, '_, T> {
             p_end.copy_from_slice(&self.z.p);
             return !self.divergent;
         }
-        let d = rho.len();
+        // This level's vectors, moved out while the halves use the levels below.
+        let mut lv = std::mem::take(&mut self.scratch.levels[depth as usize]);
+        let persist = self.merge_halves(
+            depth,
+            eps,
+            &mut lv,
+            z_propose,
+            p_sharp_beg,
+            p_sharp_end,
+            rho,
+            p_beg,
+            p_end,
+            log_sum_weight,
+        );
+        self.scratch.levels[depth as usize] = lv;
+        persist
+    }
+
+    /// [`Tree::build`] for `depth ≥ 1`: two subtrees of `depth − 1`, a multinomial choice
+    /// between their samples and the U-turn checks of the merged subtree.
+    #[allow(clippy::too_many_arguments)]
+    fn merge_halves(
+        &mut self,
+        depth: u32,
+        eps: f64,
+        lv: &mut Level,
+        z_propose: &mut Point,
+        p_sharp_beg: &mut [f64],
+        p_sharp_end: &mut [f64],
+        rho: &mut [f64],
+        p_beg: &mut [f64],
+        p_end: &mut [f64],
+        log_sum_weight: &mut f64,
+    ) -> bool {
         // The first half.
-        let mut rho_init = vec![0.0; d];
-        let mut p_init_end = vec![0.0; d];
-        let mut p_sharp_init_end = vec![0.0; d];
+        lv.rho_init.fill(0.0);
         let mut lsw_init = f64::NEG_INFINITY;
         if !self.build(
             depth - 1,
             eps,
             z_propose,
             p_sharp_beg,
-            &mut p_sharp_init_end,
-            &mut rho_init,
+            &mut lv.p_sharp_init_end,
+            &mut lv.rho_init,
             p_beg,
-            &mut p_init_end,
+            &mut lv.p_init_end,
             &mut lsw_init,
         ) {
             return false;
         }
         // The second half.
-        let mut z_propose_final = self.z.clone();
-        let mut rho_final = vec![0.0; d];
-        let mut p_final_beg = vec![0.0; d];
-        let mut p_sharp_final_beg = vec![0.0; d];
+        lv.rho_final.fill(0.0);
         let mut lsw_final = f64::NEG_INFINITY;
         if !self.build(
             depth - 1,
             eps,
-            &mut z_propose_final,
-            &mut p_sharp_final_beg,
+            &mut lv.z_final,
+            &mut lv.p_sharp_final_beg,
             p_sharp_end,
-            &mut rho_final,
-            &mut p_final_beg,
+            &mut lv.rho_final,
+            &mut lv.p_final_beg,
             p_end,
             &mut lsw_final,
         ) {
@@ -246,26 +322,24 @@ impl<T: GradLogDensity + ?Sized> Tree<'_, '_, T> {
         let lsw_subtree = log_add_exp(lsw_init, lsw_final);
         *log_sum_weight = log_add_exp(*log_sum_weight, lsw_subtree);
         if lsw_final > lsw_subtree {
-            std::mem::swap(z_propose, &mut z_propose_final);
+            std::mem::swap(z_propose, &mut lv.z_final);
         } else {
             let accept = (lsw_final - lsw_subtree).exp();
             if self.rng.random::<f64>() < accept {
-                std::mem::swap(z_propose, &mut z_propose_final);
+                std::mem::swap(z_propose, &mut lv.z_final);
             }
         }
         // U-turn across the subtree, and across each half extended by the other's nearest
         // point.
-        let mut rho_subtree = vec![0.0; d];
-        add(&rho_init, &rho_final, &mut rho_subtree);
-        for (r, s) in rho.iter_mut().zip(&rho_subtree) {
+        add(&lv.rho_init, &lv.rho_final, &mut lv.rho_subtree);
+        for (r, s) in rho.iter_mut().zip(&lv.rho_subtree) {
             *r += s;
         }
-        let mut persist = no_u_turn(p_sharp_beg, p_sharp_end, &rho_subtree);
-        let mut rho_ext = vec![0.0; d];
-        add(&rho_init, &p_final_beg, &mut rho_ext);
-        persist &= no_u_turn(p_sharp_beg, &p_sharp_final_beg, &rho_ext);
-        add(&rho_final, &p_init_end, &mut rho_ext);
-        persist &= no_u_turn(&p_sharp_init_end, p_sharp_end, &rho_ext);
+        let mut persist = no_u_turn(p_sharp_beg, p_sharp_end, &lv.rho_subtree);
+        add(&lv.rho_init, &lv.p_final_beg, &mut lv.rho_ext);
+        persist &= no_u_turn(p_sharp_beg, &lv.p_sharp_final_beg, &lv.rho_ext);
+        add(&lv.rho_final, &lv.p_init_end, &mut lv.rho_ext);
+        persist &= no_u_turn(&lv.p_sharp_init_end, p_sharp_end, &lv.rho_ext);
         persist
     }
 }
@@ -276,11 +350,12 @@ pub(super) fn transition<T: GradLogDensity + ?Sized>(
     z: &mut Point,
     eps: f64,
     inv_metric: &[f64],
-    max_depth: u32,
-    max_energy_error: f64,
+    settings: &NutsSettings,
     model: &mut Model<'_, T>,
     rng: &mut ChaCha8Rng,
+    scratch: &mut Scratch,
 ) -> Transition {
+    let (max_depth, max_energy_error) = (settings.max_depth, settings.max_energy_error);
     let d = z.q.len();
     sample_momentum(z, inv_metric, rng);
     let h0 = hamiltonian(z, inv_metric);
@@ -297,6 +372,7 @@ pub(super) fn transition<T: GradLogDensity + ?Sized>(
     let mut rho = z.p.clone();
     let mut log_sum_weight = 0.0;
     let mut tree = Tree {
+        scratch,
         model,
         rng,
         inv_metric,
@@ -449,6 +525,7 @@ mod tests {
         let mut model = Model::new(&target, &tr);
         let mut rng = ChaCha8Rng::seed_from_u64(3);
         let mut divergent = 0;
+        let mut scratch = Scratch::new(1, 10);
         for _ in 0..50 {
             let mut z = Point {
                 q: vec![0.0],
@@ -457,7 +534,15 @@ mod tests {
                 logp: 0.0,
             };
             z.logp = model.eval(&[0.0], &mut z.grad);
-            let t = transition(&mut z, 0.5, &[1.0], 10, 1000.0, &mut model, &mut rng);
+            let t = transition(
+                &mut z,
+                0.5,
+                &[1.0],
+                &NutsSettings::default(),
+                &mut model,
+                &mut rng,
+                &mut scratch,
+            );
             assert!(z.logp.is_finite());
             divergent += usize::from(t.divergent);
         }
