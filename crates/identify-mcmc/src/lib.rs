@@ -110,7 +110,10 @@
 //! # Chains for other tools ([`cmdstan`])
 //!
 //! [`write_cmdstan_chain`] writes one chain's kept draws in CmdStan's CSV layout (`lp__`, the
-//! parameters with `_` for `.`, `log_lik.1`), which `arviz.from_cmdstan` reads.
+//! parameters with `_` for `.`, `log_lik.1`), which `arviz.from_cmdstan` reads;
+//! [`write_cmdstan_nuts_chain`] writes a [`NutsRun`]'s chain with CmdStan's NUTS columns
+//! (`lp__,accept_stat__,stepsize__,treedepth__,n_leapfrog__,divergent__,energy__`, then the
+//! parameters).
 //!
 //! # Identification of the muscle model ([`identify()`])
 //!
