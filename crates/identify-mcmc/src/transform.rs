@@ -14,10 +14,26 @@
 //! A density `π(x)` on the box becomes `p(u) = π(x(u))·Π J_i(u_i)` on `ℝᵈ`, and
 //! `∂ log p/∂u_i = ∂ log π/∂x_i · dx_i/du_i + 1 − 2σ(u_i)`.
 
-/// The logistic transform of every coordinate of a box onto `ℝᵈ` (module documentation).
+/// The logistic transform of every coordinate of a box onto `ℝᵈ`: `x = lo + (hi − lo)·σ(u)`,
+/// `log J(u) = Σ log(hiᵢ − loᵢ) + log σ(uᵢ) + log(1 − σ(uᵢ))`, and the chain rule that turns
+/// `∂ log π/∂x` into `∂/∂u [log π(x(u)) + log J(u)]`.
+///
+/// ```
+/// use identify_mcmc::LogisticBox;
+/// let t = LogisticBox::new(&[(0.0, 4.0)]);
+/// let mut x = [0.0];
+/// t.to_box(&[0.0], &mut x);
+/// assert_eq!(x, [2.0]);
+/// // dx/du = 4·σ(0)·(1 − σ(0)) = 1 at u = 0.
+/// assert!(t.log_jacobian(&[0.0]).abs() < 1e-15);
+/// let mut g = [0.5]; // ∂ log π/∂x
+/// t.chain_rule(&[0.0], &mut g);
+/// assert!((g[0] - 0.5).abs() < 1e-15); // 0.5·1 + (1 − 2σ(0))
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct LogisticBox {
     lower: Vec<f64>,
+    upper: Vec<f64>,
     width: Vec<f64>,
 }
 
@@ -41,6 +57,7 @@ impl LogisticBox {
     pub fn new(bounds: &[(f64, f64)]) -> Self {
         Self {
             lower: bounds.iter().map(|b| b.0).collect(),
+            upper: bounds.iter().map(|b| b.1).collect(),
             width: bounds.iter().map(|b| b.1 - b.0).collect(),
         }
     }
@@ -55,7 +72,7 @@ impl LogisticBox {
     pub fn to_box(&self, u: &[f64], x: &mut [f64]) {
         for i in 0..self.dim() {
             let v = logistic_map(self.lower[i], self.width[i], u[i]);
-            x[i] = v.clamp(self.lower[i], self.lower[i] + self.width[i]);
+            x[i] = v.clamp(self.lower[i], self.upper[i]);
         }
     }
 
