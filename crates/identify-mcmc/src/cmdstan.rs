@@ -1,6 +1,10 @@
-//! The kept draws of one chain as a CmdStan-format CSV, the layout `arviz.from_cmdstan` reads.
+//! The kept draws of one chain as a CmdStan-format CSV, the layout `arviz.from_cmdstan` reads:
+//! [`write_cmdstan_chain`] for an identification (random-walk Metropolis–Hastings),
+//! [`write_cmdstan_nuts_chain`] for a [`NutsRun`], whose rows carry CmdStan's NUTS statistics
+//! (`lp__,accept_stat__,stepsize__,treedepth__,n_leapfrog__,divergent__,energy__`, then the
+//! parameters; see that function).
 //!
-//! # Format
+//! # Format (identification)
 //!
 //! ```text
 //! # <free text lines>
@@ -31,16 +35,16 @@
 //! * `log_lik.<t>`: the log-likelihood of trial `t` (from 1) at the draw, so that ArviZ puts it
 //!   in its `log_likelihood` group (leave-one-trial-out comparison). An identification of one
 //!   trial has the single column `log_lik.1 = ℓ(x)`.
-//! * The sampler is random-walk Metropolis–Hastings with mode jumps, not NUTS: none of NUTS's
-//!   per-draw statistics (`stepsize__`, `treedepth__`, `n_leapfrog__`, `divergent__`,
-//!   `energy__`) exist for it, and its per-step acceptance probability is not recorded, so
-//!   `lp__` is the only `__` column.
+//! * The identification's sampler is random-walk Metropolis–Hastings with mode jumps, not NUTS:
+//!   none of NUTS's per-draw statistics (`stepsize__`, `treedepth__`, `n_leapfrog__`,
+//!   `divergent__`, `energy__`) exist for it, and its per-step acceptance probability is not
+//!   recorded, so `lp__` is the only `__` column.
 //! * Numbers are Rust's shortest representation that reads back to the same `f64`, so a reader
 //!   recovers every draw bit for bit and the means agree with `identify.json` to rounding.
 
 use std::io::Write;
 
-use crate::McmcIdentification;
+use crate::{McmcIdentification, NutsRun};
 
 /// The CmdStan column name of a model parameter (`sol.lst_m` → `sol_lst_m`).
 pub fn cmdstan_column(name: &str) -> String {
@@ -73,19 +77,16 @@ pub fn write_cmdstan_chain<W: Write>(
             ),
         )
     })?;
-    for line in description {
-        writeln!(w, "# {line}")?;
-    }
-    writeln!(w, "# method = sample")?;
-    writeln!(w, "#   sample")?;
-    writeln!(w, "#     num_samples = {}", m.sampling_iterations)?;
-    writeln!(w, "#     num_warmup = {}", m.warmup_iterations)?;
-    writeln!(w, "#     save_warmup = 0")?;
-    writeln!(w, "#     thin = {}", m.run.settings.thin.max(1))?;
-    writeln!(w, "#     algorithm = metropolis_hastings")?;
-    writeln!(w, "# id = {}", chain + 1)?;
-    writeln!(w, "# random")?;
-    writeln!(w, "#   seed = {seed}")?;
+    write_config(
+        &mut w,
+        description,
+        m.sampling_iterations,
+        m.warmup_iterations,
+        m.run.settings.thin.max(1),
+        &["algorithm = metropolis_hastings".to_string()],
+        chain,
+        seed,
+    )?;
     write!(w, "lp__")?;
     for n in &m.names {
         write!(w, ",{}", cmdstan_column(n))?;
@@ -98,6 +99,142 @@ pub fn write_cmdstan_chain<W: Write>(
             write!(w, ",{}", p[chain][k])?;
         }
         writeln!(w, ",{l}")?;
+    }
+    Ok(())
+}
+
+/// The `#` lines before the column names: free text, then CmdStan's configuration block with
+/// `algorithm` followed by the sampler's own lines.
+#[allow(clippy::too_many_arguments)]
+fn write_config<W: Write>(
+    w: &mut W,
+    description: &[&str],
+    num_samples: usize,
+    num_warmup: usize,
+    thin: usize,
+    algorithm: &[String],
+    chain: usize,
+    seed: u64,
+) -> std::io::Result<()> {
+    for line in description {
+        writeln!(w, "# {line}")?;
+    }
+    writeln!(w, "# method = sample")?;
+    writeln!(w, "#   sample")?;
+    writeln!(w, "#     num_samples = {num_samples}")?;
+    writeln!(w, "#     num_warmup = {num_warmup}")?;
+    writeln!(w, "#     save_warmup = 0")?;
+    writeln!(w, "#     thin = {thin}")?;
+    for line in algorithm {
+        writeln!(w, "#     {line}")?;
+    }
+    writeln!(w, "# id = {}", chain + 1)?;
+    writeln!(w, "# random")?;
+    writeln!(w, "#   seed = {seed}")
+}
+
+/// CmdStan's sampler-statistics columns of NUTS, in CmdStan's order, between `lp__` and the
+/// parameters.
+pub const NUTS_COLUMNS: [&str; 7] = [
+    "lp__",
+    "accept_stat__",
+    "stepsize__",
+    "treedepth__",
+    "n_leapfrog__",
+    "divergent__",
+    "energy__",
+];
+
+/// Writes chain `chain` (from 0) of a [`NutsRun`] in CmdStan's CSV layout, as CmdStan's NUTS
+/// writes it: the configuration `#` lines (`algorithm = hmc`, `engine = nuts`, the adaptation
+/// settings), the columns [`NUTS_COLUMNS`] then the parameters (`names`, `_` for `.`), CmdStan's
+/// adaptation block (`# Step size = …`, `# Diagonal elements of inverse mass matrix:`) and one
+/// row per kept draw.
+///
+/// * `lp__` is CmdStan's: `log π(x(u)) + log J(u)` on the unconstrained coordinates `u`
+///   (the transform's Jacobian included), so that `energy__ = −lp__ + ½pᵀM⁻¹p` as in CmdStan;
+///   `log π(x)` on the box is [`NutsRun::log_density`].
+/// * `divergent__` is `0` or `1`; the parameters are the draws in the box coordinates.
+///
+/// # Errors
+/// I/O errors of `w`; `InvalidInput` when `chain` is not one of the run's chains or `names`
+/// does not have one name per parameter.
+pub fn write_cmdstan_nuts_chain<W: Write>(
+    run: &NutsRun,
+    names: &[&str],
+    chain: usize,
+    description: &[&str],
+    mut w: W,
+) -> std::io::Result<()> {
+    let invalid = |msg: String| std::io::Error::new(std::io::ErrorKind::InvalidInput, msg);
+    let stats = run.stats.get(chain).ok_or_else(|| {
+        invalid(format!(
+            "chain {chain} requested but the run has {} chains",
+            run.stats.len()
+        ))
+    })?;
+    if names.len() != run.dim {
+        return Err(invalid(format!(
+            "{} names given for {} parameters",
+            names.len(),
+            run.dim
+        )));
+    }
+    let s = &run.settings;
+    let algorithm = [
+        "adapt".to_string(),
+        format!("  engaged = {}", u8::from(s.warmup > 0)),
+        "  gamma = 0.05".to_string(),
+        format!("  delta = {}", s.target_accept),
+        "  kappa = 0.75".to_string(),
+        "  t0 = 10".to_string(),
+        format!("  init_buffer = {}", s.init_buffer),
+        format!("  term_buffer = {}", s.term_buffer),
+        format!("  window = {}", s.base_window),
+        "algorithm = hmc".to_string(),
+        "  hmc".to_string(),
+        "    engine = nuts".to_string(),
+        "      nuts".to_string(),
+        format!("        max_depth = {}", s.max_depth),
+        "    metric = diag_e".to_string(),
+        format!("    stepsize = {}", s.initial_step_size),
+    ];
+    write_config(
+        &mut w,
+        description,
+        s.draws,
+        s.warmup,
+        1,
+        &algorithm,
+        chain,
+        s.seed,
+    )?;
+    write!(w, "{}", NUTS_COLUMNS.join(","))?;
+    for n in names {
+        write!(w, ",{}", cmdstan_column(n))?;
+    }
+    writeln!(w)?;
+    writeln!(w, "# Adaptation terminated")?;
+    writeln!(w, "# Step size = {}", run.step_size[chain])?;
+    writeln!(w, "# Diagonal elements of inverse mass matrix:")?;
+    let inv: Vec<String> = run.inv_metric[chain].iter().map(f64::to_string).collect();
+    writeln!(w, "# {}", inv.join(", "))?;
+    for (k, st) in stats.iter().enumerate() {
+        write!(
+            w,
+            "{},{},{},{},{},{},{}",
+            st.lp,
+            st.accept_stat,
+            st.step_size,
+            st.tree_depth,
+            st.n_leapfrog,
+            u8::from(st.divergent),
+            st.energy
+        )?;
+        for p in &run.draws {
+            write!(w, ",{}", p[chain][k])?;
+        }
+        writeln!(w)?;
     }
     Ok(())
 }

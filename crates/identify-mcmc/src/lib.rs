@@ -3,7 +3,9 @@
 //!
 //! The crate is generic: anything implementing [`LogDensity`] (dimension,
 //! bounds, `log π(x)` or `None` for a failed evaluation) can be sampled. The
-//! prior is uniform on the bounds box.
+//! prior is uniform on the bounds box. A target that also gives its gradient
+//! ([`GradLogDensity`]) can be sampled by the No-U-Turn Sampler instead
+//! ([`run_nuts`], section "Gradient-based sampler").
 //!
 //! # Sampler
 //!
@@ -36,6 +38,48 @@
 //! (100 000 by default), in which case [`RunResult::stop`] is
 //! [`ChainStopReason::CapReached`] and `converged` is false.
 //!
+//! # Gradient-based sampler ([`run_nuts`])
+//!
+//! A target that also gives its gradient ([`GradLogDensity`]; closures via
+//! [`FnGradLogDensity`]) can be sampled by the No-U-Turn Sampler as in Stan (multinomial NUTS,
+//! Betancourt 2017; Hoffman & Gelman 2014), configured by [`NutsSettings`] and returning a
+//! [`NutsRun`] (draws in the box coordinates, [`NutsDraw`] statistics per draw, the summaries
+//! above).
+//!
+//! * **Transform** ([`LogisticBox`]): every coordinate runs on `u ∈ ℝ` with
+//!   `x = lo + (hi − lo)·σ(u)`, `σ(u) = 1/(1 + e^{−u})`; the density on `u` is
+//!   `log p(u) = log π(x(u)) + Σᵢ [log(hiᵢ − loᵢ) + log σ(uᵢ) + log(1 − σ(uᵢ))]`, with gradient
+//!   `∂ log p/∂uᵢ = ∂ log π/∂xᵢ·(hiᵢ − loᵢ)σ(uᵢ)(1 − σ(uᵢ)) + 1 − 2σ(uᵢ)`.
+//! * **Hamiltonian**: `H(u, p) = −log p(u) + ½ pᵀM⁻¹p` with a diagonal metric `M`, momenta
+//!   `p ~ N(0, M)` drawn afresh at every transition.
+//! * **Leapfrog** with step `ε`: `p ← p + (ε/2)∇log p(u)`, `u ← u + ε M⁻¹p`,
+//!   `p ← p + (ε/2)∇log p(u)`.
+//! * **Trajectory**: doubled forward or backward in time at random (up to `max_depth`
+//!   doublings, `2^max_depth − 1` steps). Every point carries the weight `e^{−H}`; within a new
+//!   subtree a point is drawn in proportion to the weights, and the subtree's draw replaces
+//!   the current one with probability `min(1, W_new/W_old)` (biased progressive sampling). A
+//!   step with `H − H₀ > max_energy_error` (1000) or a failed evaluation is a divergence: the
+//!   subtree is discarded and the trajectory stops.
+//! * **U-turn** (generalised criterion): with `ρ` the sum of the momenta of a (sub)trajectory
+//!   and `p♯ = M⁻¹p` at its two ends, it continues while `p♯₋·ρ > 0` and `p♯₊·ρ > 0`; as in
+//!   Stan's `base_nuts`, the check is also applied to each half extended by the nearest point
+//!   of the other half, at every merge.
+//! * **Step size**: starting from `initial_step_size`, a heuristic doubles (halves) `ε` while one
+//!   leapfrog step keeps `H₀ − H` above (below) `log 0.8`. During warm-up, dual averaging
+//!   (Nesterov; `δ = target_accept`, `γ = 0.05`, `t₀ = 10`, `κ = 0.75`, `μ = log(10ε)`)
+//!   updates, with the transition's acceptance statistic `a_t` (the mean of
+//!   `min(1, e^{H₀−H})` over the trajectory),
+//!   `s̄_t = (1 − 1/(t + t₀))·s̄_{t−1} + (δ − a_t)/(t + t₀)`, `log ε_t = μ − √t·s̄_t/γ`,
+//!   `x̄_t = t^{−κ}·log ε_t + (1 − t^{−κ})·x̄_{t−1}`; sampling uses `ε = e^{x̄}`.
+//! * **Metric**: Stan's windows (initial buffer 75, slow windows from 25 doubling, terminal
+//!   buffer 50); at the end of each window `M⁻¹ = n/(n+5)·var + 10⁻³·5/(n+5)`, `var` the
+//!   window's sample variance of `u`, after which the step-size heuristic runs again and the
+//!   dual averaging restarts.
+//!
+//! Chains are independent and run in parallel on rayon with the same RNG streams as the random
+//! walk, so results are bit-identical for any number of threads. [`write_cmdstan_nuts_chain`]
+//! writes a chain with CmdStan's NUTS columns.
+//!
 //! # Diagnostics ([`diagnostics`])
 //!
 //! For `M` chains of `N` draws, chain means `θ̄_m`, chain variances `s_m²`:
@@ -66,7 +110,10 @@
 //! # Chains for other tools ([`cmdstan`])
 //!
 //! [`write_cmdstan_chain`] writes one chain's kept draws in CmdStan's CSV layout (`lp__`, the
-//! parameters with `_` for `.`, `log_lik.1`), which `arviz.from_cmdstan` reads.
+//! parameters with `_` for `.`, `log_lik.1`), which `arviz.from_cmdstan` reads;
+//! [`write_cmdstan_nuts_chain`] writes a [`NutsRun`]'s chain with CmdStan's NUTS columns
+//! (`lp__,accept_stat__,stepsize__,treedepth__,n_leapfrog__,divergent__,energy__`, then the
+//! parameters).
 //!
 //! # Identification of the muscle model ([`identify()`])
 //!
@@ -120,15 +167,17 @@ pub mod identify;
 pub mod mixture;
 mod modes;
 pub mod noise;
+mod nuts;
 mod sampler;
 mod sampling_coordinates;
 mod session_identify;
 mod settings;
 mod summary;
 mod target;
+mod transform;
 mod trial_term;
 
-pub use cmdstan::write_cmdstan_chain;
+pub use cmdstan::{write_cmdstan_chain, write_cmdstan_nuts_chain};
 pub use mixture::{ComponentSpec, MixtureProposal};
 pub use sampler::{
     run, run_with_observer, run_with_proposal, ChainPhase, ChainProgress, ChainStopReason,
@@ -136,7 +185,10 @@ pub use sampler::{
 };
 pub use settings::{McmcSettings, Proposal};
 pub use summary::{correlation_matrix, strongest_correlations, CorrelationPair, Summary};
-pub use target::{FnLogDensity, LogDensity};
+pub use target::{FnGradLogDensity, FnLogDensity, GradLogDensity, LogDensity};
+
+pub use nuts::{run_nuts, NutsDraw, NutsRun, NutsSettings};
+pub use transform::LogisticBox;
 
 pub use identify::{
     McmcIdentification, McmcIdentifySettings, McmcNoiseSource, ModeInfo, NamedCorrelation,
@@ -271,6 +323,15 @@ pub enum McmcError {
         trial: usize,
         /// `free parameters` or `bounds`.
         what: &'static str,
+    },
+    /// The step-size heuristic of [`run_nuts`] doubled past `10⁷` or halved to zero (the
+    /// density is flat or its gradient fails around the chain's state).
+    #[error("chain {chain}: the step-size heuristic ran away (step size {step_size})")]
+    StepSize {
+        /// Chain index.
+        chain: usize,
+        /// The step size when it stopped.
+        step_size: f64,
     },
     /// A kept draw could not be mapped back to the model's parameters (its simulation failed
     /// on re-evaluation; cannot happen for a deterministic model).

@@ -49,6 +49,7 @@ use numerics::cholesky::{
 };
 use numerics::special::{normal_cdf, normal_quantile};
 
+use crate::transform::{logistic_log_jacobian, logistic_map};
 use crate::trial_term::{TrialModel, TrialTerm};
 use crate::LogDensity;
 
@@ -335,9 +336,8 @@ impl<'a> Conditional<'a> {
             if self.logit {
                 // θ = lo + w·σ(φ); ln σ = −softplus(−φ), ln(1 − σ) = −softplus(φ).
                 let phi = self.phi_center[a] + lz;
-                let softplus = |t: f64| t.max(0.0) + (-t.abs()).exp().ln_1p();
-                x[i] = lo + (hi - lo) / (1.0 + (-phi).exp());
-                log_jac += (hi - lo).ln() - softplus(-phi) - softplus(phi);
+                x[i] = logistic_map(lo, hi - lo, phi);
+                log_jac += logistic_log_jacobian(hi - lo, phi);
                 if !(x[i] > lo && x[i] < hi) {
                     return outside;
                 }

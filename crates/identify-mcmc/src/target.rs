@@ -88,3 +88,69 @@ impl<F: Fn(&[f64]) -> Option<f64> + Sync> LogDensity for FnLogDensity<F> {
         (self.f)(x)
     }
 }
+
+/// A [`LogDensity`] that also gives its gradient, for the gradient-based sampler
+/// ([`run_nuts`](crate::run_nuts)).
+///
+/// [`log_density_grad`](GradLogDensity::log_density_grad) takes `x` inside the box (the
+/// target's own coordinates), writes `∂ log π/∂x` into `grad` (`dim()` long) and returns
+/// `log π(x)`, the same value as [`LogDensity::log_density`]. `None`, a non-finite value or a
+/// non-finite gradient component is a failed evaluation: the sampler treats it as a divergence
+/// of the trajectory that reached `x`, never a crash. The sampler maps the box onto `ℝᵈ` itself
+/// ([`LogisticBox`](crate::LogisticBox)); the target never sees the transform.
+pub trait GradLogDensity: LogDensity {
+    /// `log π(x)` and its gradient in `grad`; `None` on failure.
+    fn log_density_grad(&self, x: &[f64], grad: &mut [f64]) -> Option<f64>;
+}
+
+impl<T: GradLogDensity + ?Sized> GradLogDensity for &T {
+    fn log_density_grad(&self, x: &[f64], grad: &mut [f64]) -> Option<f64> {
+        (**self).log_density_grad(x, grad)
+    }
+}
+
+/// A [`GradLogDensity`] made of bounds and a closure
+/// `Fn(&[f64], &mut [f64]) -> Option<f64>` giving `log π(x)` and writing its gradient.
+///
+/// ```
+/// use identify_mcmc::{FnGradLogDensity, GradLogDensity, LogDensity};
+/// let normal = FnGradLogDensity::new(vec![(-10.0, 10.0)], |x: &[f64], g: &mut [f64]| {
+///     g[0] = -x[0];
+///     Some(-0.5 * x[0] * x[0])
+/// });
+/// let mut g = [0.0];
+/// assert_eq!(normal.log_density_grad(&[2.0], &mut g), Some(-2.0));
+/// assert_eq!(g, [-2.0]);
+/// assert_eq!(normal.log_density(&[2.0]), Some(-2.0));
+/// ```
+#[derive(Debug, Clone)]
+pub struct FnGradLogDensity<F> {
+    bounds: Vec<(f64, f64)>,
+    f: F,
+}
+
+impl<F: Fn(&[f64], &mut [f64]) -> Option<f64> + Sync> FnGradLogDensity<F> {
+    /// Wrap `f` with the box `bounds` (validated when the sampler starts).
+    pub fn new(bounds: Vec<(f64, f64)>, f: F) -> Self {
+        Self { bounds, f }
+    }
+}
+
+impl<F: Fn(&[f64], &mut [f64]) -> Option<f64> + Sync> LogDensity for FnGradLogDensity<F> {
+    fn dim(&self) -> usize {
+        self.bounds.len()
+    }
+    fn bounds(&self) -> &[(f64, f64)] {
+        &self.bounds
+    }
+    fn log_density(&self, x: &[f64]) -> Option<f64> {
+        let mut g = vec![0.0; x.len()];
+        (self.f)(x, &mut g)
+    }
+}
+
+impl<F: Fn(&[f64], &mut [f64]) -> Option<f64> + Sync> GradLogDensity for FnGradLogDensity<F> {
+    fn log_density_grad(&self, x: &[f64], grad: &mut [f64]) -> Option<f64> {
+        (self.f)(x, grad)
+    }
+}

@@ -24,6 +24,15 @@ pub enum ChainPhase {
     Sampling,
 }
 
+/// The RNG of chain `chain` (from 0): `ChaCha8Rng::seed_from_u64(seed)` on stream
+/// `chain + 1` (stream 0 is left for start designs), shared by every sampler of the crate so
+/// that a run is bit-identical for any number of threads.
+pub(crate) fn chain_rng(seed: u64, chain: usize) -> ChaCha8Rng {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    rng.set_stream(chain as u64 + 1);
+    rng
+}
+
 /// Read-only context shared by all chains.
 pub(super) struct Context<'a> {
     pub(super) lower: Vec<f64>,
@@ -90,8 +99,7 @@ impl Chain {
         init: Option<&[f64]>,
     ) -> Result<Self, McmcError> {
         let d = ctx.widths.len();
-        let mut rng = ChaCha8Rng::seed_from_u64(ctx.settings.seed);
-        rng.set_stream(chain as u64 + 1);
+        let mut rng = chain_rng(ctx.settings.seed, chain);
         let mut evaluations = 0u64;
         let mut failed = 0u64;
         let mut rx = vec![0.0; d];

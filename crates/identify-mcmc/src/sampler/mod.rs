@@ -16,6 +16,7 @@ mod adaptation;
 mod chain;
 mod monitor;
 
+pub(crate) use chain::chain_rng;
 use chain::{Chain, Context};
 pub use chain::{ChainPhase, MAX_INIT_TRIES};
 use monitor::{check_interval, mean_rate, monitor, refit_mixture};
@@ -125,7 +126,7 @@ pub fn run<T: LogDensity + ?Sized>(
 }
 
 /// Validate the target's dimension and bounds.
-fn check_target<T: LogDensity + ?Sized>(target: &T) -> Result<(), McmcError> {
+pub(crate) fn check_target<T: LogDensity + ?Sized>(target: &T) -> Result<(), McmcError> {
     let d = target.dim();
     if d == 0 {
         return Err(McmcError::EmptyTarget);
