@@ -2,7 +2,8 @@
 //! OpenSim files, with its CEINMS-RT subject XML) end to end through the `surae` binary:
 //! `inspect` writes a map that reads it by OpenSim's conventions, `simulate` runs on that map
 //! as it is and with the subject XML as parameters, `identify --session` draws the fit as an
-//! ensemble over the strides, and bad input in the new parts (a ground
+//! ensemble over the strides, `diagnose --session` fits a window of strides and judges the trial
+//! by the later strides held out, and bad input in the new parts (a ground
 //! force file without the leg's vertical force, a subject XML missing a field) is refused with
 //! exit 2, one line naming the file and the column, and nothing written.
 
@@ -256,4 +257,47 @@ fn a_ceinms_rt_subject_missing_a_field_is_refused() {
             "missing `tendonSlackLength`",
         ],
     );
+}
+
+#[test]
+fn diagnose_fits_a_window_of_strides_and_judges_the_trial_by_its_held_out_strides() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("diag");
+    let o = surae(
+        &[
+            "diagnose",
+            "--session",
+            &fixture("session.json"),
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        tmp.path(),
+    );
+    ok(&o);
+    let said = format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    // 61 s of walking: 5 of the 49 strides at the middle are fitted
+    assert!(
+        said.contains("diagnosed on 5 of its 49 strides (25.8–31.5 s"),
+        "{said}"
+    );
+    let all = json(&out.join("diagnosis_session.json"));
+    let h = &all["held_out_shape"];
+    let trial = &h["per_trial"][0];
+    assert_eq!(trial["name"], "walk36");
+    let part = &trial["parts"][0];
+    // the later strides predicted by the first half's calibration, without the 3 flagged ones
+    assert_eq!(part["fold"], "later_strides", "{trial}");
+    assert_eq!(part["segments"], 20, "{trial}");
+    assert!(part["r2"].as_f64().unwrap() > 0.8, "{trial}");
+    // the residual the model leaves there has the first half's shape in every stride
+    assert_eq!(trial["reproducible"], true, "{trial}");
+    assert!(trial["p_value"].as_f64().unwrap() < 1e-3, "{trial}");
+    assert_eq!(all["verdict"], "deficient");
+    let one = json(&out.join("walk36/diagnosis.json"));
+    assert_eq!(one["verdict"], "deficient");
+    assert_eq!(one["held_out_shape"]["reproducible"], true);
 }
