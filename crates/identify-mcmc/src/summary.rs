@@ -85,6 +85,19 @@ pub struct CorrelationPair {
 }
 
 /// Pearson correlation matrix of pooled draws indexed `[parameter][chain][draw]`.
+/// Every parameter's [`Summary`] from `draws[i][c]` (parameter `i`, chain `c`) and its
+/// `bounds[i]`, in parallel.
+pub(crate) fn summaries(draws: &[Vec<Vec<f64>>], bounds: &[(f64, f64)]) -> Vec<Summary> {
+    use rayon::prelude::*;
+    (0..draws.len())
+        .into_par_iter()
+        .map(|i| {
+            let slices: Vec<&[f64]> = draws[i].iter().map(|c| c.as_slice()).collect();
+            Summary::from_chains(&slices, bounds[i])
+        })
+        .collect()
+}
+
 /// Entries involving a constant parameter are NaN (the diagonal stays 1).
 pub fn correlation_matrix(draws: &[Vec<Vec<f64>>]) -> Vec<Vec<f64>> {
     let d = draws.len();

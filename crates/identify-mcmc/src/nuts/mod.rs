@@ -9,7 +9,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::sampler::{chain_rng, check_target};
-use crate::summary::{correlation_matrix, Summary};
+use crate::summary::{correlation_matrix, summaries, Summary};
 use crate::{GradLogDensity, LogisticBox, McmcError, MAX_INIT_TRIES};
 
 mod adaptation;
@@ -301,13 +301,7 @@ pub fn run_nuts<T: GradLogDensity + ?Sized>(
                 .collect()
         })
         .collect();
-    let summary: Vec<Summary> = (0..d)
-        .into_par_iter()
-        .map(|i| {
-            let slices: Vec<&[f64]> = draws[i].iter().map(|c| c.as_slice()).collect();
-            Summary::from_chains(&slices, bounds[i])
-        })
-        .collect();
+    let summary: Vec<Summary> = summaries(&draws, &bounds);
     let correlation = correlation_matrix(&draws);
     let stats: Vec<Vec<NutsDraw>> = outputs
         .iter_mut()

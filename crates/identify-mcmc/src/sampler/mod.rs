@@ -9,7 +9,9 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::mixture::MixtureProposal;
-use crate::summary::{correlation_matrix, strongest_correlations, CorrelationPair, Summary};
+use crate::summary::{
+    correlation_matrix, strongest_correlations, summaries, CorrelationPair, Summary,
+};
 use crate::{LogDensity, McmcError, McmcSettings};
 
 mod adaptation;
@@ -409,13 +411,7 @@ fn collect_result(
                 .collect()
         })
         .collect();
-    let summary: Vec<Summary> = (0..d)
-        .into_par_iter()
-        .map(|i| {
-            let slices: Vec<&[f64]> = draws[i].iter().map(|c| c.as_slice()).collect();
-            Summary::from_chains(&slices, report_bounds[i])
-        })
-        .collect();
+    let summary: Vec<Summary> = summaries(&draws, report_bounds);
     let correlation = correlation_matrix(&draws);
     let strongest = strongest_correlations(&correlation);
     RunResult {
