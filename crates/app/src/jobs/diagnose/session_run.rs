@@ -366,6 +366,10 @@ fn judge_held_out_shape(
     };
     let mut per_trial = Vec::new();
     for (t, r) in session.trials.iter().zip(done.iter_mut()) {
+        // a trial with an unloaded run is judged by the noise its unloaded run measured
+        if r.correction.is_some() {
+            continue;
+        }
         let parts: Vec<HeldOutShapePart> = v
             .folds
             .iter()

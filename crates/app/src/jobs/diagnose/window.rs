@@ -10,7 +10,9 @@
 //! (those samples weighted 0, as the calibration's windows are). Steady walking repeats itself
 //! from stride to stride, so the window sees the shapes the whole trial has; what the
 //! calibration leaves on the rest of the trial is judged by `validate`'s folds over every
-//! sample ([`super::session_run`]).
+//! sample ([`super::session_run`]). The window is diagnosed from the session's prepared inputs
+//! (with any crosstalk correction the session applied), so the diagnosis does not report what
+//! that correction was worth, as it does for a trial diagnosed whole.
 
 use std::ops::Range;
 
