@@ -6,7 +6,8 @@
 //! (its sensitivity stacked over the trials that can test it), each effect of a trial's setup
 //! once per trial (its sensitivity in that trial's rows, zero elsewhere). The leaders are
 //! refitted jointly; one is accepted when `ΔBIC = BIC_ext − BIC < ` the margin, its
-//! leave-one-trial-out deviance is not higher and its held-out RMS is not higher, and, when its
+//! leave-one-trial-out deviance is not higher and, when a trial has no unloaded run, its
+//! pooled held-out RMS is lower, and, when its
 //! signature is nearly collinear with the model's parameters, its estimate lies ≥ 3 standard
 //! errors from its null. Before a leader is accepted, the current model is refitted from the
 //! leader's values of the parameters it already has, so that a better optimum of those is not
@@ -144,6 +145,10 @@ pub(crate) fn select(
             }
         }
         let mut rechecked = false;
+        let rms_decides = joint
+            .members
+            .iter()
+            .any(|m| m.ctx.noise.source == crate::noise::NoiseModelSource::TrialResidual);
         let best = loop {
             let mut passing: Vec<(usize, f64)> = Vec::new();
             for (i, (f, s)) in fits.iter().enumerate() {
@@ -157,12 +162,13 @@ pub(crate) fn select(
                     r.heldout_rms = f.heldout.as_ref().map(|h| h.rms);
                     r.heldout_dev_gain = dev_gain;
                 }
-                // the held-out deviance, under a noise model fitted to the session's own
-                // residuals, is not enough: a cause must also lower the error a user measures
-                // on the trial left out, the pooled leave-one-trial-out RMS (on CEINMS's four
-                // trials eccentric enhancement raised it while its deviance fell)
+                // where a trial's noise model is fitted to its own residual (no unloaded run)
+                // the held-out deviance is not enough: a cause must also lower the error a
+                // user measures on the trial left out, the pooled leave-one-trial-out RMS (on
+                // CEINMS's four trials eccentric enhancement raised it while its deviance
+                // fell); with unloaded runs the deviance decides, as for one trial
                 let rms_falls = match (&f.heldout, &current.heldout) {
-                    (Some(a), Some(b)) => a.rms < b.rms,
+                    (Some(a), Some(b)) if rms_decides => a.rms < b.rms,
                     _ => true,
                 };
                 let generalises =
