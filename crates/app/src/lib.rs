@@ -54,11 +54,15 @@ pub use jobs::session::{load_session, EmgNormalisationReport, LoadedSession};
 pub use jobs::simulate::{
     run as simulate, SessionSimulationReport, SimulateJob, SimulatedTrialReport,
 };
-pub use jobs::validate::{run as validate, ValidateJob, ValidatedTrialReport, ValidationReport};
+pub use jobs::validate::{
+    run as validate, ExtensionHeldOut, ExtensionResult, ExtensionScheme, ExtensionStudy,
+    ValidateJob, ValidatedTrialReport, ValidationReport,
+};
 pub use jobs::{read_json, KneeSettings, ModelSettings};
 pub use memory::InMemory;
 pub use output::write_file_checked;
 pub use progress::{JobObserver, ProgressDisplay, Reporter, SilentObserver};
+pub use session::EmgNormalisationScope;
 
 /// Default output folder of a command.
 pub(crate) fn default_out(command: &str) -> PathBuf {

@@ -117,7 +117,9 @@ pub struct IdentifyArgs {
     pub session: Option<PathBuf>,
     /// The parameters to identify, comma-separated (e.g.
     /// `sol.lst_m,sol.fom_n,activation.shape_a,electromechanical_delay.delay_ms`); default LST,
-    /// F0 and α0 of sol, gm and gl. With --session only.
+    /// F0 and α0 of sol, gm and gl (a recording's defaults without an unloaded run). Names
+    /// written `+curves.e0t` are added to the default set, which keeps its bounds. With
+    /// --session only.
     #[arg(
         long,
         value_delimiter = ',',
@@ -177,7 +179,9 @@ pub struct ValidateArgs {
     #[arg(long)]
     pub params: Option<PathBuf>,
     /// The parameters calibrated, comma-separated (default: the manifest's `free`, else LST, F0
-    /// and α0 of sol, gm and gl).
+    /// and α0 of sol, gm and gl, or a recording's defaults). Names written `+curves.e0t` are
+    /// added to the default set, which keeps its bounds: an extension judged against the same
+    /// calibration.
     #[arg(long, value_delimiter = ',')]
     pub free: Option<Vec<String>>,
     /// A parameters file predicted as it is on every held-out part (e.g. CEINMS's calibrated
@@ -202,6 +206,12 @@ pub struct ValidateArgs {
     /// The EMG columns are already normalised envelopes in [0, 1].
     #[arg(long)]
     pub emg_is_envelope: bool,
+    /// Also validate each extension for real recordings on the same folds, seed and chains: a
+    /// compliant tendon, the eccentric plateau, activation time constants, the EMG normalised
+    /// the other way (and the helping ones together); reports each one's held-out gain and the
+    /// best.
+    #[arg(long)]
+    pub extensions: bool,
     /// Output folder (default `out/validate`).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -222,6 +232,7 @@ impl From<ValidateArgs> for surae_app::ValidateJob {
             chains: a.chains,
             seed: a.seed,
             emg_is_envelope: a.emg_is_envelope,
+            extensions: a.extensions,
             out: a.out,
             discard_files: false,
         }
@@ -428,6 +439,7 @@ impl From<ModelArgs> for surae_app::ModelSettings {
             knee: a.knee.into(),
             params_data: None,
             effects_data: None,
+            emg_normalisation: None,
         }
     }
 }

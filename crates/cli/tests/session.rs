@@ -452,6 +452,56 @@ fn a_session_normalises_each_channel_over_all_its_trials() {
 }
 
 #[test]
+fn emg_normalised_per_trial_gives_each_trial_what_it_gets_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let fx = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/session3");
+    let truth = json(&fx.join("truth.json"));
+    std::fs::write(d.join("truth_params.json"), truth["params"].to_string()).unwrap();
+    let sim = |manifest: &Path, out: &str| {
+        ok(&surae(
+            &[
+                "simulate",
+                "--session",
+                manifest.to_str().unwrap(),
+                "--params",
+                "truth_params.json",
+                "--out",
+                out,
+            ],
+            d,
+        ));
+        json(&d.join(out).join("simulate.json"))
+    };
+    let names = ["knee0_30", "knee90_30", "knee0_60"];
+    let per_trial = session3_manifest(d, &names, r#""emg_normalisation": "trial", "#);
+    let s = sim(&per_trial, "per_trial");
+    assert_eq!(s["emg_normalisation"]["source"], "trial_maximum");
+    assert!(s["emg_normalisation"]["references"]
+        .as_object()
+        .unwrap()
+        .is_empty());
+    let session = sim(&session3_manifest(d, &names, ""), "session");
+    let mut lifted = 0;
+    for (i, name) in names.iter().enumerate() {
+        let alone = sim(&session3_manifest(d, &[name], ""), name);
+        let (a, b) = (
+            alone["trials"][0]["rms_nm"].as_f64().unwrap(),
+            s["trials"][i]["rms_nm"].as_f64().unwrap(),
+        );
+        assert!((a - b).abs() < 1e-6 * a, "{name}: alone {a}, per trial {b}");
+        // a trial whose peaks are below the session's now reaches 1 and the truth misses it
+        let c = session["trials"][i]["rms_nm"].as_f64().unwrap();
+        assert!(c < 1.6, "{name}: {c}");
+        if b > 4.0 {
+            lifted += 1;
+        }
+    }
+    assert!(lifted >= 1, "no trial's envelopes were lifted");
+    assert!(s["trials"][1]["rms_nm"].as_f64().unwrap() > 4.0);
+}
+
+#[test]
 fn mvc_trials_set_the_references_and_a_trial_above_them_is_reported() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();

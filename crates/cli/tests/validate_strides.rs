@@ -262,3 +262,85 @@ fn condition_labels_that_cannot_make_the_folds_are_refused_naming_the_manifest_k
         &["session.json: trials[0].condition: is empty (trial walk36)"],
     );
 }
+
+#[test]
+fn extensions_are_judged_against_the_plain_calibration_on_the_same_folds() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("ext");
+    let session = walk36().join("session.json");
+    ok(&surae(
+        &[
+            "validate",
+            "--session",
+            session.to_str().unwrap(),
+            "--extensions",
+            "--chains",
+            "1",
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        tmp.path(),
+    ));
+    let doc = json(&out.join("validate.json"));
+    let plain = &doc["schemes"][0]["model"];
+    let study = &doc["extensions"];
+    let names: Vec<&str> = study["candidates"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        names,
+        [
+            "tendon_compliance",
+            "eccentric_plateau",
+            "activation_dynamics",
+            "emg_normalisation"
+        ]
+    );
+    let mut runs: Vec<&serde_json::Value> =
+        study["candidates"].as_array().unwrap().iter().collect();
+    if !study["combined"].is_null() {
+        runs.push(&study["combined"]);
+    }
+    let mut best: Option<(f64, &str)> = None;
+    for r in &runs {
+        assert!(r["skipped"].is_null(), "{r}");
+        let s = &r["schemes"][0];
+        assert_eq!(s["scheme"], "later_strides");
+        assert_eq!(
+            &s["plain"], plain,
+            "{}: the same plain calibration",
+            r["name"]
+        );
+        let (p, m) = (
+            s["plain"]["rms_nm"].as_f64().unwrap(),
+            s["model"]["rms_nm"].as_f64().unwrap(),
+        );
+        let gain = s["gain_pct"].as_f64().unwrap();
+        assert!((gain - 100.0 * (p - m) / p).abs() < 1e-9, "{r}");
+        assert_eq!(r["helps"].as_bool().unwrap(), gain > 0.0, "{r}");
+        if gain > 0.0 && best.is_none_or(|(b, _)| m < b) {
+            best = Some((m, r["name"].as_str().unwrap()));
+        }
+    }
+    assert_eq!(study["best"].as_str(), best.map(|b| b.1));
+    let emg = &study["candidates"][3];
+    assert_eq!(emg["emg_normalisation"], "trial");
+    // the compliant tendon is calibrated within its recording range, 0.5–3 times the subject's
+    // 0.04 strain at F0
+    let e0t = study["candidates"][0]["fold_values"][0]["curves.e0t"]
+        .as_f64()
+        .unwrap();
+    assert!((0.02..=0.12).contains(&e0t), "{e0t}");
+}
+
+#[test]
+fn free_names_mixing_added_and_plain_ones_are_refused() {
+    let files = walk36_files(|_, t| t);
+    let mut args = VALIDATE.to_vec();
+    args.extend(["--free", "+curves.e0t,sol.lst_m"]);
+    refused(&files, &args, &["--free", "leading +"]);
+}

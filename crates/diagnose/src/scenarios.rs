@@ -384,3 +384,8 @@ pub fn uncatalogued_trial(
         step_at_s,
     })
 }
+
+mod generated;
+pub use generated::{
+    generated_trial, GeneratedEffect, GeneratedShape, GeneratedTrial, GENERATED_VARIABLES,
+};

@@ -266,6 +266,32 @@ impl TrialInputs {
         self
     }
 
+    /// The same inputs with every envelope (sol, gm, gl, ta and the fixed muscles') divided by
+    /// its own peak over the trial, so that each reaches 1: EMG normalised per trial rather
+    /// than by one reference for a session. An envelope that is zero throughout stays zero.
+    /// Returns the peaks divided by, by envelope name.
+    pub fn scaled_to_own_peaks(mut self) -> (Self, Vec<(String, f64)>) {
+        fn scale(e: &mut [f64]) -> f64 {
+            let peak = e.iter().copied().fold(0.0_f64, f64::max);
+            if peak > 0.0 {
+                // clamped: x / peak can round to a hair above 1
+                e.iter_mut().for_each(|x| *x = (*x / peak).min(1.0));
+            }
+            peak
+        }
+        let mut peaks = Vec::with_capacity(4 + self.channels.len());
+        for m in Muscle::ALL {
+            peaks.push((m.name().to_string(), scale(&mut self.env[m.index()])));
+        }
+        if let Some(e) = self.env_ta.as_mut() {
+            peaks.push(("ta".to_string(), scale(e)));
+        }
+        for (name, e) in &mut self.channels {
+            peaks.push((name.clone(), scale(e)));
+        }
+        (self.renewed(), peaks)
+    }
+
     /// Knee flexion at the samples (rad), if given.
     pub fn knee_angle(&self) -> Option<&[f64]> {
         self.knee.as_deref()

@@ -272,3 +272,52 @@ fn missing_or_wrong_inputs_of_a_muscle_are_errors_naming_it() {
     let err = tr.with_knee_angle(vec![0.0; 2]).unwrap_err();
     assert!(matches!(err, ModelError::Length { .. }), "{err:?}");
 }
+
+#[test]
+fn envelopes_scaled_to_their_own_peaks_each_reach_one_and_keep_their_shape() {
+    let half: Vec<f64> = (0..200).map(|i| 0.5 * (i as f64 / 199.0)).collect();
+    let tr = TrialInputs::new(
+        FS,
+        0.0,
+        vec![0.1; 200],
+        [
+            half.clone(),
+            vec![0.0; 200],
+            half.iter().map(|x| 0.4 * x).collect(),
+        ],
+        Some(half.iter().map(|x| 0.2 + x).collect()),
+    )
+    .unwrap()
+    .with_envelope("perlong_r", half.iter().map(|x| 1.6 * x).collect())
+    .unwrap();
+    let (scaled, peaks) = tr.clone().scaled_to_own_peaks();
+    let peak = |n: &str| peaks.iter().find(|(k, _)| k == n).unwrap().1;
+    assert_eq!(peaks.len(), 5);
+    assert!((peak("sol") - 0.5).abs() < 1e-15);
+    assert_eq!(peak("gm"), 0.0);
+    assert!((peak("gl") - 0.2).abs() < 1e-15);
+    assert!((peak("ta") - 0.7).abs() < 1e-15);
+    assert!((peak("perlong_r") - 0.8).abs() < 1e-15);
+    for name in ["sol", "gl", "ta", "perlong_r"] {
+        let (a, b) = (
+            tr.envelope_named(name).unwrap(),
+            scaled.envelope_named(name).unwrap(),
+        );
+        let top = b.iter().copied().fold(0.0, f64::max);
+        assert!((top - 1.0).abs() < 1e-15, "{name}: {top}");
+        for (x, y) in a.iter().zip(b) {
+            assert!((y * peak(name) - x).abs() < 1e-15, "{name}");
+        }
+    }
+    // the all-zero gastrocnemius stays zero, not NaN
+    assert!(scaled.envelope(Muscle::Gm).iter().all(|&x| x == 0.0));
+    // new inputs, so no memo of the old envelopes is reused
+    let p = ModelParams::nominal();
+    let e = Effects::none();
+    let s = SimSettings::default();
+    let (t0, t1) = (
+        simulate(&tr, &p, &e, &s).unwrap().torque,
+        simulate(&scaled, &p, &e, &s).unwrap().torque,
+    );
+    assert!(t1[150] > t0[150] + 1.0, "{} {}", t0[150], t1[150]);
+}

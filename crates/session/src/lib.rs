@@ -22,6 +22,6 @@ pub mod manifest;
 
 pub use error::SessionError;
 pub use manifest::{
-    parse_session_manifest, read_session_manifest, GeometryFiles, SessionManifest,
-    SessionTrialEntry, TrialSource, MAX_KNEE_ANGLE_DEG,
+    parse_session_manifest, read_session_manifest, EmgNormalisationScope, GeometryFiles,
+    SessionManifest, SessionTrialEntry, TrialSource, MAX_KNEE_ANGLE_DEG,
 };

@@ -17,7 +17,8 @@
 //! A trial may carry a `condition` label (`"condition": "walk_3.6kmh"`): `surae validate`
 //! leaves one condition out at a time.
 //!
-//! Optional keys: `osim_muscles` (names of sol, gm, gl in an `.osim`), `mvc`, `effects` (an
+//! Optional keys: `osim_muscles` (names of sol, gm, gl in an `.osim`), `mvc`,
+//! `emg_normalisation` (`"session"`, the default, or `"trial"`), `effects` (an
 //! effects JSON every trial's model carries), `free` (the parameters identified, e.g.
 //! `["sol.lst_m", "activation.shape_a"]`) and `bounds` (`{"sol.fom_n": [2000, 8000]}`).
 //!
@@ -47,6 +48,9 @@ pub struct SessionManifest {
     pub osim_muscles: BTreeMap<String, String>,
     /// Maximal voluntary contraction trials (EMG normalisation).
     pub mvc: Vec<PathBuf>,
+    /// Whether each EMG channel has one reference for the whole session or is divided by its
+    /// own peak in every trial.
+    pub emg_normalisation: EmgNormalisationScope,
     /// The effects JSON whose effects every trial's model carries, if given.
     pub effects: Option<PathBuf>,
     /// The parameters identified (`sol.lst_m`, `activation.shape_a`, …); the 9 of LST, F0 and
@@ -78,6 +82,7 @@ impl SessionManifest {
             params: None,
             osim_muscles: BTreeMap::new(),
             mvc: Vec::new(),
+            emg_normalisation: EmgNormalisationScope::Session,
             effects: None,
             free: None,
             bounds: BTreeMap::new(),
@@ -92,6 +97,21 @@ impl SessionManifest {
             }],
         }
     }
+}
+
+/// How a session's EMG channels are normalised (`emg_normalisation`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EmgNormalisationScope {
+    /// One reference per channel for all the trials (the MVC trials' peak, or the largest
+    /// envelope over the session), so that a weaker trial stays weaker.
+    #[default]
+    Session,
+    /// Every trial's channel divided by its own peak over that trial, so that each reaches 1:
+    /// what a trial alone gets. Chosen when the EMG-to-moment gain differs between trials
+    /// (electrodes re-placed, a trial of another speed); `surae validate` on both manifests
+    /// says which predicts held-out trials better.
+    Trial,
 }
 
 /// One trial of a session.
@@ -151,6 +171,8 @@ struct RawManifest {
     osim_muscles: BTreeMap<String, String>,
     #[serde(default)]
     mvc: Vec<String>,
+    /// Taken as any JSON value so that a wrong one is refused naming its key.
+    emg_normalisation: Option<serde_json::Value>,
     effects: Option<String>,
     free: Option<Vec<String>>,
     #[serde(default)]
@@ -231,6 +253,25 @@ pub fn parse_session_manifest(text: &str, path: &Path) -> Result<SessionManifest
         if v.is_empty() {
             return Err(invalid(format!("osim_muscles.{k}"), "is empty".into()));
         }
+    }
+    let emg_normalisation = match &raw.emg_normalisation {
+        None => EmgNormalisationScope::Session,
+        Some(serde_json::Value::String(v)) if v == "session" => EmgNormalisationScope::Session,
+        Some(serde_json::Value::String(v)) if v == "trial" => EmgNormalisationScope::Trial,
+        Some(v) => {
+            return Err(invalid(
+                "emg_normalisation".into(),
+                format!("{v} is neither \"session\" nor \"trial\""),
+            ))
+        }
+    };
+    if emg_normalisation == EmgNormalisationScope::Trial && !raw.mvc.is_empty() {
+        return Err(invalid(
+            "emg_normalisation".into(),
+            "\"trial\" divides each trial by its own peak, so the mvc trials would go unused: \
+             give one or the other"
+                .into(),
+        ));
     }
     if let Some(free) = &raw.free {
         if free.is_empty() {
@@ -333,6 +374,7 @@ pub fn parse_session_manifest(text: &str, path: &Path) -> Result<SessionManifest
         params: raw.params.as_deref().map(resolve),
         osim_muscles: raw.osim_muscles,
         mvc: raw.mvc.iter().map(|p| resolve(p)).collect(),
+        emg_normalisation,
         effects: raw.effects.as_deref().map(resolve),
         free: raw.free,
         bounds: raw.bounds,

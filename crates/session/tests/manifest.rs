@@ -1,6 +1,8 @@
 //! The session manifest: paths, defaults and every error naming its place.
 
-use session::{parse_session_manifest, read_session_manifest, SessionError, TrialSource};
+use session::{
+    parse_session_manifest, read_session_manifest, EmgNormalisationScope, SessionError, TrialSource,
+};
 use std::path::Path;
 
 fn parse(text: &str) -> Result<session::SessionManifest, SessionError> {
@@ -30,6 +32,7 @@ fn paths_resolve_against_the_manifest_folder() {
     assert_eq!(m.mvc, vec![Path::new("/data/S01/mvc1.csv").to_path_buf()]);
     assert_eq!(m.free.as_ref().unwrap().len(), 2);
     assert_eq!(m.bounds["sol.lst_m"], (0.2, 0.3));
+    assert_eq!(m.emg_normalisation, EmgNormalisationScope::Session);
     assert_eq!(m.trials.len(), 3);
     assert_eq!(
         m.trials[0].source,
@@ -103,6 +106,14 @@ fn bad_manifests_name_the_key_or_position() {
             r#"{"trials": [{"name": "a", "trial": "a.csv", "condition": ["slow"]}]}"#,
             "trials[0].condition: [\"slow\"] is not a text label (trial a)",
         ),
+        (
+            r#"{"emg_normalisation": "per_trial", "trials": [{"name": "a", "trial": "a.csv"}]}"#,
+            "emg_normalisation: \"per_trial\" is neither \"session\" nor \"trial\"",
+        ),
+        (
+            r#"{"emg_normalisation": "trial", "mvc": ["m.csv"], "trials": [{"name": "a", "trial": "a.csv"}]}"#,
+            "emg_normalisation: \"trial\" divides each trial by its own peak",
+        ),
     ];
     for (text, want) in cases {
         let err = parse(text).unwrap_err().to_string();
@@ -117,4 +128,23 @@ fn a_missing_manifest_is_an_io_error_naming_it() {
     let err = read_session_manifest(Path::new("/no/such/session.json")).unwrap_err();
     assert!(matches!(err, SessionError::Io { .. }));
     assert!(err.to_string().starts_with("/no/such/session.json: "));
+}
+
+#[test]
+fn emg_normalisation_is_per_session_unless_the_manifest_says_trial() {
+    let one = r#""trials": [{"name": "a", "trial": "a.csv"}]"#;
+    for (key, want) in [
+        ("", EmgNormalisationScope::Session),
+        (
+            r#""emg_normalisation": "session","#,
+            EmgNormalisationScope::Session,
+        ),
+        (
+            r#""emg_normalisation": "trial","#,
+            EmgNormalisationScope::Trial,
+        ),
+    ] {
+        let m = parse(&format!("{{{key}{one}}}")).unwrap();
+        assert_eq!(m.emg_normalisation, want, "{key}");
+    }
 }

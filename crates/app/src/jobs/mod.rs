@@ -249,6 +249,8 @@ pub struct ModelSettings {
     /// EMG filtering of docs/model.md).
     pub emg_is_envelope: bool,
     pub knee: KneeSettings,
+    /// A session's EMG normalisation in place of its manifest's `emg_normalisation`.
+    pub emg_normalisation: Option<::session::EmgNormalisationScope>,
 }
 
 /// The knee angle of a trial recorded without a `knee_angle_deg` column.

@@ -226,19 +226,39 @@ fn free_and_bounds(
     effects: &Effects,
     reference_fom_n: [f64; 3],
 ) -> AppResult<(Vec<ParamId>, Vec<Bounds>, bool)> {
-    let free_names: Option<Vec<String>> =
-        free.map(|f| f.to_vec()).or_else(|| manifest.free.clone());
+    // `--free +a,+b` adds to the set the session would calibrate without it (and keeps its
+    // bounds), so that an extension is compared against the same calibration
+    let added: Vec<&str> = free
+        .unwrap_or_default()
+        .iter()
+        .filter_map(|n| n.strip_prefix('+'))
+        .collect();
+    if !added.is_empty() && added.len() != free.map_or(0, <[String]>::len) {
+        return Err(AppError::bad(
+            "--free: give every name with a leading + (added to the default set) or none",
+        ));
+    }
+    let free_names: Option<Vec<String>> = if added.is_empty() {
+        free.map(|f| f.to_vec())
+    } else {
+        None
+    }
+    .or_else(|| manifest.free.clone());
     // a session with no dynamometer correction (gait, CEINMS folders) takes the recording
     // defaults, chosen on held-out real recordings (docs/validation.md)
     let recording = free_names.is_none() && manifest.trials.iter().all(|t| t.unloaded.is_none());
-    let free: Vec<ParamId> = match free_names {
-        Some(names) => names
-            .iter()
-            .map(|n| ParamId::parse(n).map_err(|e| AppError::bad(format!("--free {n}: {e}"))))
-            .collect::<AppResult<_>>()?,
+    let parse = |n: &str| ParamId::parse(n).map_err(|e| AppError::bad(format!("--free {n}: {e}")));
+    let mut free: Vec<ParamId> = match free_names {
+        Some(names) => names.iter().map(|n| parse(n)).collect::<AppResult<_>>()?,
         None if recording => recording_free(),
         None => ParamId::identified().to_vec(),
     };
+    for n in added {
+        let id = parse(n)?;
+        if !free.contains(&id) {
+            free.push(id);
+        }
+    }
     let bounds: Vec<(f64, f64)> = free
         .iter()
         .map(|id| {
@@ -285,7 +305,7 @@ fn session_csv_trial(
         knee_angle_deg: entry.knee_angle_deg,
         ..experiment::InputOptions::default()
     };
-    let prepared = experiment::PreparedTrial::referenced(
+    let mut prepared = experiment::PreparedTrial::referenced(
         &trial,
         as_recorded.as_ref(),
         crosstalk,
@@ -298,6 +318,7 @@ fn session_csv_trial(
         Some(_) => AppError::bad(e),
         None => bad(&e),
     })?;
+    prepared.inputs = emg.apply(prepared.inputs);
     let mut inputs = prepared.inputs.clone();
     if let Some(g) = &entry.geometry {
         inputs = with_muscle_analysis(inputs, g, &m.params, m.osim)?;
@@ -338,9 +359,11 @@ fn session_csv_trial(
 /// A CEINMS trial folder as a trial of the session (its moment weighted where it is judged).
 fn session_ceinms_trial(
     entry: &session::SessionTrialEntry,
-    c: CeinmsModelTrial,
+    mut c: CeinmsModelTrial,
+    emg: &SessionEmgNormalisation,
     m: &SessionModel<'_>,
 ) -> AppResult<SessionTrial> {
+    c.inputs = emg.apply(c.inputs);
     let source = entry.source.path().display().to_string();
     let bad = |e: &dyn std::fmt::Display| AppError::bad(format!("{source}: {e}"));
     let problem = Problem::new(
@@ -549,11 +572,20 @@ pub fn load_session(
     rep: &Reporter,
 ) -> AppResult<LoadedSession> {
     // a CEINMS trial folder given as `--trial` is a session of one
-    let manifest = if path.is_dir() {
+    let mut manifest = if path.is_dir() {
         SessionManifest::of_recording(path)
     } else {
         session::read_session_manifest(path).map_err(AppError::bad)?
     };
+    if let Some(scope) = model.emg_normalisation {
+        if scope == session::EmgNormalisationScope::Trial && !manifest.mvc.is_empty() {
+            return Err(AppError::bad(format!(
+                "{}: mvc: EMG normalised per trial leaves the MVC trials unused",
+                manifest.path.display()
+            )));
+        }
+        manifest.emg_normalisation = scope;
+    }
     let mut read = if path.is_dir() {
         Vec::new()
     } else {
@@ -606,7 +638,7 @@ pub fn load_session(
     for (entry, l) in manifest.trials.iter().zip(loaded) {
         trials.push(match l {
             Loaded::Csv(csv) => session_csv_trial(entry, *csv, model, &emg, &shared)?,
-            Loaded::Ceinms(c) => session_ceinms_trial(entry, *c, &shared)?,
+            Loaded::Ceinms(c) => session_ceinms_trial(entry, *c, &emg, &shared)?,
         });
     }
     if manifest.exclude_flagged_strides {

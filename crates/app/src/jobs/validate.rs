@@ -20,6 +20,9 @@ use crate::memory::InMemory;
 use crate::output::OutDir;
 use crate::Reporter;
 
+mod extensions;
+pub use extensions::{ExtensionHeldOut, ExtensionResult, ExtensionScheme, ExtensionStudy};
+
 /// Arguments of `surae validate`.
 #[derive(Debug)]
 pub struct ValidateJob {
@@ -48,6 +51,9 @@ pub struct ValidateJob {
     pub seed: u64,
     /// The EMG columns are already normalised envelopes in [0, 1].
     pub emg_is_envelope: bool,
+    /// Also validate each extension for real recordings on the same folds (a compliant tendon,
+    /// the eccentric plateau, activation dynamics, the EMG normalised the other way).
+    pub extensions: bool,
     /// Output folder (default `out/validate`).
     pub out: Option<PathBuf>,
     /// Write no files: the result reaches the caller as [`crate::JobObserver::result_json`].
@@ -77,6 +83,8 @@ pub struct ValidationReport {
     pub chains: u32,
     /// Share of each trial calibrated when the later strides are held out.
     pub later_fraction: f64,
+    /// With `--extensions`: each extension's held-out scores beside the plain calibration's.
+    pub extensions: Option<ExtensionStudy>,
     /// Wall-clock time of the whole validation (s).
     pub wall_s: f64,
 }
@@ -338,6 +346,20 @@ pub fn run(job: ValidateJob, rep: &Reporter) -> AppResult {
     let v = validate::validate(&trials, &schemes, &peer_list, &settings)
         .map_err(|e| AppError::bad(format!("{}: {e}", job.session.display())))?;
     progress.finish();
+    let extensions = if job.extensions {
+        let inputs = extensions::StudyInputs {
+            session_path: &job.session,
+            model: &model,
+            free: job.free.as_deref(),
+            plain: &session,
+            schemes: &schemes,
+            settings: &settings,
+            plain_schemes: &v.schemes,
+        };
+        Some(extensions::study(&inputs, rep)?)
+    } else {
+        None
+    };
 
     let doc = ValidationReport {
         session: job.session.display().to_string(),
@@ -361,6 +383,7 @@ pub fn run(job: ValidateJob, rep: &Reporter) -> AppResult {
         seed: job.seed,
         chains,
         later_fraction: job.later_fraction,
+        extensions,
         wall_s: t0.elapsed().as_secs_f64(),
     };
     let text = serde_json::to_string_pretty(&doc).map_err(AppError::internal)? + "\n";
@@ -423,6 +446,9 @@ fn summary_lines(doc: &ValidationReport) -> Vec<String> {
                 }
             ));
         }
+    }
+    if let Some(e) = &doc.extensions {
+        lines.extend(extensions::summary_lines(e));
     }
     lines
 }

@@ -618,7 +618,8 @@ fn session_truth(args: &IdentifyJob) -> AppResult<Option<Truth>> {
 }
 
 /// The free parameters' names when `--with` adds effects: `--free`, or the manifest's `free`,
-/// or the 9 muscle parameters, followed by the effects' parameters; `--free` as given (`None`:
+/// followed by the effects' parameters; without either (or with `--free +name`), the effects'
+/// parameters added as `+name` to the set the session calibrates by default; `--free` as given (`None`:
 /// the manifest's) otherwise. A per-trial effect in a session of several trials is refused.
 fn free_names(
     args: &IdentifyJob,
@@ -634,6 +635,19 @@ fn free_names(
         ::session::read_session_manifest(session_path).map_err(AppError::bad)?
     };
     super::extended::check_session_scope(with, manifest.trials.len())?;
+    let adding = args
+        .free
+        .as_ref()
+        .is_some_and(|f| f.iter().any(|n| n.starts_with('+')));
+    if adding || (args.free.is_none() && manifest.free.is_none()) {
+        // added to the set the session calibrates by default (a recording's defaults with
+        // their bounds, else the 9 muscle parameters), as `--free +name` adds
+        let mut names = args.free.clone().unwrap_or_default();
+        for id in super::extended::with_free(Vec::new(), with) {
+            names.push(format!("+{}", id.name()));
+        }
+        return Ok(Some(names));
+    }
     let base: Vec<ParamId> = match args.free.as_ref().or(manifest.free.as_ref()) {
         Some(names) => names
             .iter()

@@ -64,6 +64,11 @@ pub fn recording_free() -> Vec<ParamId> {
 ///   calibrations held F0 at an upper bound of 2.5 and of 5 times;
 /// * α0 ±40 %, the shape `A` over [0, 0.12] (linear to strongly curved) and the delay over
 ///   0–150 ms (a lab's envelopes are filtered with a delay of their own);
+/// * when freed (`--free +curves.e0t`, `validate --extensions`): the tendon strain at F0 from
+///   half to three times its value (0.02–0.12 from 0.04: an Achilles tendon stretches by up to
+///   about a tenth at maximal force; a wider range let it trade with the delay and predict
+///   CEINMS's left-out trials worse, 22.6 against 19.8 N·m), and the eccentric plateau `flen`
+///   from 1 (none) to 1.2 times its value;
 /// * any other parameter its default range.
 pub fn recording_bounds(
     id: ParamId,
@@ -82,6 +87,10 @@ pub fn recording_bounds(
         ParamId::Muscle(_, MuscleField::AlphaDeg) => (0.6 * v, 1.4 * v),
         ParamId::Activation(2) => (0.0, 0.12),
         ParamId::Effect(muscle_model::EffectKind::ElectromechanicalDelay, _) => (0.0, 150.0),
+        // e0t
+        ParamId::Curve(5) => (0.5 * v, 3.0 * v),
+        // flen
+        ParamId::Curve(1) => (1.0, (1.2 * v).max(1.0 + 1e-6)),
         _ => id.default_bounds(params, effects),
     }
 }

@@ -19,6 +19,9 @@ pub enum EmgReferenceSource {
     /// None: the columns are envelopes already (`--emg-is-envelope`), or the session has no
     /// trial CSV (CEINMS envelopes come normalised).
     AsGiven,
+    /// Every trial's channels divided by their own peak over that trial (the manifest's
+    /// `"emg_normalisation": "trial"`).
+    TrialMaximum,
 }
 
 /// The EMG normalisation of a session's trial CSVs: one reference per channel for all trials,
@@ -32,12 +35,33 @@ pub struct SessionEmgNormalisation {
 }
 
 impl SessionEmgNormalisation {
+    /// Each trial's channels are divided by their own peak after preparation.
+    pub fn per_trial(&self) -> bool {
+        self.source == EmgReferenceSource::TrialMaximum
+    }
+
+    /// `inputs` as the session normalises them: unchanged, or (per trial) every envelope
+    /// divided by its own peak.
+    pub(super) fn apply(&self, inputs: muscle_model::TrialInputs) -> muscle_model::TrialInputs {
+        if self.per_trial() {
+            inputs.scaled_to_own_peaks().0
+        } else {
+            inputs
+        }
+    }
+
     /// A summary line per channel: its reference and where it comes from.
     pub fn summary_lines(&self) -> Vec<String> {
         let from = match self.source {
             EmgReferenceSource::Mvc => "largest envelope over the MVC trials",
             EmgReferenceSource::SessionMaximum => "largest envelope over the session's trials",
             EmgReferenceSource::AsGiven => return vec!["  EMG: envelopes as given".into()],
+            EmgReferenceSource::TrialMaximum => {
+                return vec![
+                    "  EMG: every trial's channels divided by their own peak (emg_normalisation \"trial\")"
+                        .into(),
+                ]
+            }
         };
         self.references
             .iter()
@@ -45,19 +69,25 @@ impl SessionEmgNormalisation {
             .collect()
     }
 
-    /// `{"source": "mvc" | "session_maximum" | "as_given", "references": {"sol": …}}`.
+    /// `{"source": "mvc" | "session_maximum" | "as_given" | "trial_maximum", "references":
+    /// {"sol": …}}`.
     pub fn report(&self) -> EmgNormalisationReport {
         EmgNormalisationReport {
             source: match self.source {
                 EmgReferenceSource::Mvc => "mvc",
                 EmgReferenceSource::SessionMaximum => "session_maximum",
                 EmgReferenceSource::AsGiven => "as_given",
+                EmgReferenceSource::TrialMaximum => "trial_maximum",
             },
-            references: self
-                .references
-                .iter()
-                .map(|(k, v)| (k.to_string(), v))
-                .collect(),
+            // per trial, the session's references cancel and each trial's peaks are its own
+            references: if self.per_trial() {
+                std::collections::BTreeMap::new()
+            } else {
+                self.references
+                    .iter()
+                    .map(|(k, v)| (k.to_string(), v))
+                    .collect()
+            },
         }
     }
 }
@@ -66,7 +96,8 @@ impl SessionEmgNormalisation {
 #[derive(Debug, Clone, serde::Serialize)]
 #[non_exhaustive]
 pub struct EmgNormalisationReport {
-    /// `mvc`, `session_maximum` or `as_given`.
+    /// `mvc`, `session_maximum`, `as_given` or `trial_maximum` (each trial by its own peaks;
+    /// `references` is then empty).
     pub source: &'static str,
     /// Each channel's reference, in the unit of its raw envelope.
     pub references: std::collections::BTreeMap<String, f64>,
@@ -80,6 +111,23 @@ const MVC_EXCESS_WARNING: f64 = 0.10;
 /// MVC trials when the manifest lists them (channels the MVC trials lack fall back to the
 /// session's maximum, with a warning), else over all the trials.
 pub(super) fn session_emg_references(
+    manifest: &SessionManifest,
+    trials: &[(&str, &experiment::Trial)],
+    model: &ModelSettings,
+    read: &mut Vec<PathBuf>,
+    rep: &Reporter,
+) -> AppResult<SessionEmgNormalisation> {
+    let mut refs = session_references(manifest, trials, model, read, rep)?;
+    if manifest.emg_normalisation == session::EmgNormalisationScope::Trial {
+        // the session's references still bring raw EMG to [0, 1] before each trial is
+        // divided by its own peak, which then cancels them
+        refs.source = EmgReferenceSource::TrialMaximum;
+    }
+    Ok(refs)
+}
+
+/// The session-wide references (the manifest's MVC trials, else the session's maximum).
+fn session_references(
     manifest: &SessionManifest,
     trials: &[(&str, &experiment::Trial)],
     model: &ModelSettings,

@@ -1,0 +1,370 @@
+//! A seeded generator of effects outside the catalogue, for measuring how the diagnosis
+//! generalises to shapes its rules were not written for.
+//!
+//! Each trial is a `relaxed+2` trial with random true muscle parameters, the synthetic
+//! dynamometer noise and its unloaded run (as [`super::uncatalogued_trial`]), plus one drawn
+//! disturbance of the measured torque or of one EMG channel:
+//!
+//! * **a function of one state variable** `x` (angle, velocity, direction, acceleration, time,
+//!   triceps activation), through its trial quantiles `u = clamp((x − q₀₅)/(q₉₅ − q₀₅), 0, 1)`,
+//!   of one of three shapes, size `s`:
+//!   - *smooth* `s · (2σ((u − c)/w) − 1)`, `σ` the logistic, `c ∈ [0.3, 0.7]`, `w ∈ [0.05, 0.3]`;
+//!   - *stepped* `s · [u > c]`;
+//!   - *periodic* `s · sin(2π k u + φ)`, `k ∈ {1, 2, 3}`; in time, a frequency of 0.2–2 Hz not
+//!     locked to the motion cycle;
+//!
+//!   direction is `s · tanh(ω / ω₀)` with `ω₀` of 0.5–5 °/s whatever the shape;
+//! * **a product of two** such variables' centred quantiles, `s · (2u₁ − 1)(2u₂ − 1)`;
+//! * **an EMG-side disturbance**: one triceps channel's raw EMG multiplied by `1 + g` from a
+//!   drawn time on (an electrode that shifts), `g ∈ ±[0.3, 0.6]`.
+//!
+//! Torque sizes `|s|` are drawn in 3–6 N·m, well above the noise of about 1 N·m, and every
+//! torque disturbance is scaled so that `|s|` is its peak. The truth a
+//! diagnosis should report: not a catalogued cause (none is hidden), `deficient` with
+//! `unexplained`, and `depends_on` led by the variable the effect lives in (either of a
+//! product's two; time or activation for the EMG gain).
+
+use experiment::{random_params, synthesize, SynthConfig};
+use muscle_model::{Effects, Muscle};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use super::HiddenTrial;
+use crate::{DiagnoseError, StateVariable};
+
+/// The variables a generated effect may live in.
+pub const GENERATED_VARIABLES: [StateVariable; 6] = [
+    StateVariable::Angle,
+    StateVariable::Velocity,
+    StateVariable::Direction,
+    StateVariable::Acceleration,
+    StateVariable::Time,
+    StateVariable::Activation,
+];
+
+/// The shape of a generated function of one variable.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GeneratedShape {
+    /// A logistic rise over the variable's range.
+    Smooth,
+    /// A step at a threshold.
+    Stepped,
+    /// A sine over the variable's range (in time: at a frequency of its own).
+    Periodic,
+}
+
+impl GeneratedShape {
+    /// Name.
+    pub fn name(self) -> &'static str {
+        match self {
+            GeneratedShape::Smooth => "smooth",
+            GeneratedShape::Stepped => "stepped",
+            GeneratedShape::Periodic => "periodic",
+        }
+    }
+}
+
+/// What a generated trial hides.
+#[derive(Clone, Debug, PartialEq)]
+pub enum GeneratedEffect {
+    /// A torque that is a function of one variable.
+    Single {
+        /// The variable.
+        variable: StateVariable,
+        /// The shape.
+        shape: GeneratedShape,
+    },
+    /// A torque that is the product of two variables' centred quantiles.
+    Product(StateVariable, StateVariable),
+    /// One triceps channel's raw EMG multiplied by `1 + gain` from `from_s` on.
+    EmgGain {
+        /// The muscle.
+        muscle: Muscle,
+        /// The relative change.
+        gain: f64,
+        /// When it starts (s after the trial's first sample).
+        from_s: f64,
+    },
+}
+
+impl GeneratedEffect {
+    /// The family's name: `angle_smooth`, `velocity×time`, `emg_gain`, ….
+    pub fn family(&self) -> String {
+        match self {
+            GeneratedEffect::Single { variable, shape } => {
+                format!("{}_{}", variable.name(), shape.name())
+            }
+            GeneratedEffect::Product(a, b) => format!("{}×{}", a.name(), b.name()),
+            GeneratedEffect::EmgGain { .. } => "emg_gain".to_string(),
+        }
+    }
+
+    /// Whether `v` is a right leading variable of `depends_on` for this effect.
+    pub fn lives_in(&self, v: StateVariable) -> bool {
+        match self {
+            GeneratedEffect::Single { variable, .. } => *variable == v,
+            GeneratedEffect::Product(a, b) => *a == v || *b == v,
+            GeneratedEffect::EmgGain { .. } => {
+                matches!(v, StateVariable::Time | StateVariable::Activation)
+            }
+        }
+    }
+}
+
+/// A trial hiding one generated effect.
+#[derive(Clone, Debug)]
+pub struct GeneratedTrial {
+    /// The trial (no catalogued effect) with the effect added.
+    pub hidden: HiddenTrial,
+    /// The effect.
+    pub effect: GeneratedEffect,
+    /// Its size: N·m for a torque, the relative gain for the EMG.
+    pub size: f64,
+    /// The effect, its size and parameters in words.
+    pub description: String,
+}
+
+/// The trial quantile `q` (0–1) of `x`, by sorting a copy.
+fn quantile(x: &[f64], q: f64) -> f64 {
+    let mut s: Vec<f64> = x.to_vec();
+    s.sort_by(f64::total_cmp);
+    let i = (q * (s.len() - 1) as f64).round() as usize;
+    s[i.min(s.len() - 1)]
+}
+
+/// `x` mapped to `[0, 1]` through its 5 % and 95 % quantiles (flat at the ends), so that a
+/// few extreme samples (the acceleration at the reversals) do not squeeze the rest.
+fn unit_scaled(x: &[f64]) -> Vec<f64> {
+    let (lo, hi) = (quantile(x, 0.05), quantile(x, 0.95));
+    let span = (hi - lo).max(1e-12);
+    x.iter()
+        .map(|v| ((v - lo) / span).clamp(0.0, 1.0))
+        .collect()
+}
+
+/// Makes a `relaxed+2` trial from `seed` and hides one generated effect in it (module docs;
+/// the effect and its parameters are drawn from a stream of their own).
+///
+/// # Errors
+/// A failed synthesis.
+pub fn generated_trial(seed: u64) -> Result<GeneratedTrial, DiagnoseError> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let params = random_params(&mut rng, &muscle_model::ModelParams::nominal());
+    let cfg = SynthConfig::new("relaxed+2".parse()?, seed).with_params(params);
+    let mut synthetic = synthesize(&cfg)?;
+    let mut draw = ChaCha8Rng::seed_from_u64(seed ^ 0x6e4e_7a7e);
+    let sign = if draw.random::<bool>() { 1.0 } else { -1.0 };
+    let size = sign * (3.0 + 3.0 * draw.random::<f64>());
+    let t0 = synthetic.trial.time_s[0];
+    let span = synthetic.trial.time_s[synthetic.trial.time_s.len() - 1] - t0;
+    let inputs = &synthetic.inputs;
+    let n = synthetic.trial.torque_nm.len().min(inputs.len());
+    let series = |v: StateVariable| -> Vec<f64> {
+        match v {
+            StateVariable::Angle => inputs.angle()[..n].to_vec(),
+            StateVariable::Velocity | StateVariable::Direction => inputs.velocity()[..n].to_vec(),
+            StateVariable::Acceleration => inputs.acceleration()[..n].to_vec(),
+            StateVariable::Time => synthetic.trial.time_s[..n].iter().map(|t| t - t0).collect(),
+            StateVariable::Activation | StateVariable::ActivationTa => (0..n)
+                .map(|i| {
+                    Muscle::ALL
+                        .iter()
+                        .map(|m| inputs.envelope(*m)[i])
+                        .sum::<f64>()
+                        / 3.0
+                })
+                .collect(),
+        }
+    };
+    // 0–5: one variable (smooth, stepped or periodic); 6: a product; 7: the EMG gain
+    let family = draw.random_range(0..8_usize);
+    let (effect, added, description): (GeneratedEffect, Option<Vec<f64>>, String) = if family < 6 {
+        let variable = GENERATED_VARIABLES[draw.random_range(0..GENERATED_VARIABLES.len())];
+        let shape = [
+            GeneratedShape::Smooth,
+            GeneratedShape::Stepped,
+            GeneratedShape::Periodic,
+        ][draw.random_range(0..3_usize)];
+        let x = series(variable);
+        let (c, w) = (
+            0.3 + 0.4 * draw.random::<f64>(),
+            0.05 + 0.25 * draw.random::<f64>(),
+        );
+        let (k, phi) = (
+            draw.random_range(1..=3_u32),
+            std::f64::consts::TAU * draw.random::<f64>(),
+        );
+        let freq_hz = 0.2 + 1.8 * draw.random::<f64>();
+        let omega0 = (0.5 + 4.5 * draw.random::<f64>()).to_radians();
+        let (torque, words): (Vec<f64>, String) = if variable == StateVariable::Direction {
+            (
+                x.iter().map(|w| size * (w / omega0).tanh()).collect(),
+                format!("ω0 {:.1} °/s", omega0.to_degrees()),
+            )
+        } else if variable == StateVariable::Time && shape == GeneratedShape::Periodic {
+            (
+                x.iter()
+                    .map(|t| size * (std::f64::consts::TAU * freq_hz * t + phi).sin())
+                    .collect(),
+                format!("{freq_hz:.2} Hz"),
+            )
+        } else {
+            let u = unit_scaled(&x);
+            match shape {
+                GeneratedShape::Smooth => (
+                    u.iter()
+                        .map(|u| size * (2.0 / (1.0 + (-(u - c) / w).exp()) - 1.0))
+                        .collect(),
+                    format!("c {c:.2} w {w:.2}"),
+                ),
+                GeneratedShape::Stepped => (
+                    u.iter().map(|u| if *u > c { size } else { 0.0 }).collect(),
+                    format!("step at quantile {c:.2}"),
+                ),
+                GeneratedShape::Periodic => (
+                    u.iter()
+                        .map(|u| size * (std::f64::consts::TAU * f64::from(k) * u + phi).sin())
+                        .collect(),
+                    format!("{k} periods"),
+                ),
+            }
+        };
+        (
+            GeneratedEffect::Single { variable, shape },
+            Some(torque),
+            format!(
+                "torque {}_{} {size:+.2} N·m ({words})",
+                variable.name(),
+                shape.name()
+            ),
+        )
+    } else if family == 6 {
+        let a = draw.random_range(0..GENERATED_VARIABLES.len());
+        let b = (a + 1 + draw.random_range(0..GENERATED_VARIABLES.len() - 1))
+            % GENERATED_VARIABLES.len();
+        let (va, vb) = (GENERATED_VARIABLES[a], GENERATED_VARIABLES[b]);
+        let (ua, ub) = (unit_scaled(&series(va)), unit_scaled(&series(vb)));
+        let torque = ua
+            .iter()
+            .zip(&ub)
+            .map(|(x, y)| size * (2.0 * x - 1.0) * (2.0 * y - 1.0))
+            .collect();
+        (
+            GeneratedEffect::Product(va, vb),
+            Some(torque),
+            format!("torque {}×{} {size:+.2} N·m", va.name(), vb.name()),
+        )
+    } else {
+        let muscle = Muscle::ALL[draw.random_range(0..3_usize)];
+        let gain = sign * (0.3 + 0.3 * draw.random::<f64>());
+        let from_s = span * (0.3 + 0.4 * draw.random::<f64>());
+        let trial = &mut synthetic.trial;
+        let channel = match muscle {
+            Muscle::Sol => &mut trial.emg_sol,
+            Muscle::Gm => &mut trial.emg_gm,
+            Muscle::Gl => &mut trial.emg_gl,
+        };
+        for (e, t) in channel.iter_mut().zip(&trial.time_s) {
+            if t - t0 >= from_s {
+                *e *= 1.0 + gain;
+            }
+        }
+        (
+            GeneratedEffect::EmgGain {
+                muscle,
+                gain,
+                from_s,
+            },
+            None,
+            format!(
+                "emg_{} × {:.2} from {from_s:.1} s",
+                muscle.name(),
+                1.0 + gain
+            ),
+        )
+    };
+    let size = match &effect {
+        GeneratedEffect::EmgGain { gain, .. } => *gain,
+        _ => size,
+    };
+    if let Some(torque) = added {
+        // scaled so that `size` is the disturbance's peak, whatever its shape
+        let peak = torque.iter().fold(0.0_f64, |m, a| m.max(a.abs()));
+        let scale = if peak > 0.0 { size.abs() / peak } else { 0.0 };
+        for (y, a) in synthetic.trial.torque_nm.iter_mut().zip(torque) {
+            *y += a * scale;
+        }
+    }
+    Ok(GeneratedTrial {
+        hidden: HiddenTrial {
+            synthetic,
+            effects: Effects::none(),
+            params,
+            seed,
+        },
+        effect,
+        size,
+        description,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_same_seed_gives_the_same_trial_and_seeds_cover_every_family() {
+        let a = generated_trial(11).unwrap();
+        let b = generated_trial(11).unwrap();
+        assert_eq!(a.effect, b.effect);
+        assert_eq!(
+            a.hidden.synthetic.trial.torque_nm,
+            b.hidden.synthetic.trial.torque_nm
+        );
+        let mut kinds = std::collections::BTreeSet::new();
+        for seed in 0..60 {
+            let t = generated_trial(seed).unwrap();
+            kinds.insert(match t.effect {
+                GeneratedEffect::Single { .. } => 0,
+                GeneratedEffect::Product(a, b) => {
+                    assert_ne!(a, b);
+                    1
+                }
+                GeneratedEffect::EmgGain { .. } => 2,
+            });
+        }
+        assert_eq!(kinds.len(), 3);
+    }
+
+    #[test]
+    fn a_torque_effect_adds_its_size_and_an_emg_gain_leaves_the_torque() {
+        for seed in 0..40 {
+            let t = generated_trial(seed).unwrap();
+            let plain = experiment::synthesize(
+                &SynthConfig::new("relaxed+2".parse().unwrap(), seed).with_params(t.hidden.params),
+            )
+            .unwrap();
+            let diff: Vec<f64> = t
+                .hidden
+                .synthetic
+                .trial
+                .torque_nm
+                .iter()
+                .zip(&plain.trial.torque_nm)
+                .map(|(a, b)| a - b)
+                .collect();
+            let peak = diff.iter().fold(0.0_f64, |m, d| m.max(d.abs()));
+            match t.effect {
+                GeneratedEffect::EmgGain { .. } => {
+                    assert_eq!(peak, 0.0, "{}", t.description);
+                    assert_ne!(t.hidden.synthetic.trial.emg_sol.len(), 0);
+                }
+                _ => assert!(
+                    (peak - t.size.abs()).abs() < 1e-9,
+                    "{}: {peak}",
+                    t.description
+                ),
+            }
+        }
+    }
+}
