@@ -229,7 +229,7 @@ fn a_three_trial_session_names_a_shared_delay_once() {
 
 /// Writes a session of two CEINMS folders (seeds 31 and 32) with `effects` hidden in both,
 /// diagnoses it into `out` and returns `diagnosis_session.json`.
-fn diagnose_two_folders(d: &Path, tag: &str, effects: &Effects) -> Value {
+fn diagnose_two_folders(d: &Path, tag: &str, effects: &Effects) -> (Value, String) {
     let truth = truth_with_tibialis();
     std::fs::write(d.join("subject.xml"), subject_xml(&truth)).unwrap();
     for seed in [31, 32] {
@@ -249,18 +249,21 @@ fn diagnose_two_folders(d: &Path, tag: &str, effects: &Effects) -> Value {
     );
     std::fs::write(d.join(format!("{tag}.json")), manifest).unwrap();
     let out = format!("out_{tag}");
-    ok(&surae(
+    let run = surae(
         &[
             "diagnose",
             "--session",
             &format!("{tag}.json"),
             "--out",
             &out,
-            "--quiet",
         ],
         d,
-    ));
-    json(&d.join(&out).join("diagnosis_session.json"))
+    );
+    ok(&run);
+    (
+        json(&d.join(&out).join("diagnosis_session.json")),
+        String::from_utf8_lossy(&run.stdout).into_owned(),
+    )
 }
 
 #[test]
@@ -269,7 +272,8 @@ fn a_session_without_unloaded_runs_is_judged_by_its_held_out_residual() {
     let d = dir.path();
     // the model's own moment: each trial predicted by the calibration on the other leaves
     // noise, with no shape that comes back
-    let clean = diagnose_two_folders(d, "clean", &Effects::none());
+    let (clean, said) = diagnose_two_folders(d, "clean", &Effects::none());
+    assert!(!said.contains("--extensions"), "{said}");
     let h = &clean["held_out_shape"];
     let per_trial = h["per_trial"].as_array().unwrap();
     assert_eq!(per_trial.len(), 2, "{h}");
@@ -291,7 +295,12 @@ fn a_session_without_unloaded_runs_is_judged_by_its_held_out_residual() {
     // fatigue, which no parameter of the calibration can take up (a force that falls with the
     // activation integrated since the start), comes back in the trial left out
     let fatigue = Effects::from_json_str(r#"{"fatigue": {"rate_per_s": 0.5}}"#).unwrap();
-    let shifted = diagnose_two_folders(d, "fatigue", &fatigue);
+    let (shifted, said) = diagnose_two_folders(d, "fatigue", &fatigue);
+    // the user is sent to the measurement of what would lower the held-out error
+    assert!(
+        said.contains("surae validate --session fatigue.json --extensions"),
+        "{said}"
+    );
     let h = &shifted["held_out_shape"];
     assert_eq!(h["reproducible"], true, "{h}");
     assert!(h["p_value"].as_f64().unwrap() < 1e-3, "{h}");

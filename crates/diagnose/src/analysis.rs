@@ -439,14 +439,9 @@ pub(crate) fn analyse(
     let deg: Vec<f64> = inp.angle().iter().map(|a| a.to_degrees()).collect();
     let vel: Vec<f64> = inp.velocity().iter().map(|a| a.to_degrees()).collect();
     let acc: Vec<f64> = inp.acceleration().iter().map(|a| a.to_degrees()).collect();
-    let act: Vec<f64> = (0..n)
-        .map(|i| {
-            (0..3)
-                .map(|j| inp.envelope(muscle_model::Muscle::ALL[j])[i])
-                .sum::<f64>()
-                / 3.0
-        })
-        .collect();
+    let act = crate::StateVariable::Activation
+        .samples(inp)
+        .expect("every trial has the triceps envelopes");
     let rate: Vec<f64> = (0..n)
         .map(|i| {
             let (a, b) = (i.saturating_sub(1), (i + 1).min(n - 1));

@@ -3,7 +3,7 @@
 //! whitens the residual (docs/diagnosis.md, docs/dynamometer.md).
 
 use experiment::UnloadedCorrection;
-use muscle_model::{Effects, ModelParams, Muscle, TrialInputs};
+use muscle_model::{Effects, ModelParams, TrialInputs};
 use numerics::LevenbergMarquardtSettings;
 
 use crate::fit::Context;
@@ -34,15 +34,9 @@ pub(crate) fn segment(
 
 /// The segmentation of a moving angle, the mean sol/gm/gl envelope marking relaxed cycles.
 pub(crate) fn segment_motion(inputs: &TrialInputs) -> Result<Segmentation, DiagnoseError> {
-    let act: Vec<f64> = (0..inputs.len())
-        .map(|i| {
-            Muscle::ALL
-                .iter()
-                .map(|m| inputs.envelope(*m)[i])
-                .sum::<f64>()
-                / 3.0
-        })
-        .collect();
+    let act = crate::StateVariable::Activation
+        .samples(inputs)
+        .expect("every trial has the triceps envelopes");
     Segmentation::new(inputs.angle(), inputs.fs(), Some(&act)).map_err(|reason| {
         DiagnoseError::Segmentation {
             recording: "trial",

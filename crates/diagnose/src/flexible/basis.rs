@@ -3,8 +3,6 @@
 //! about every 2 s in time), or `sign(q̇)` for direction, each column centred on its mean over
 //! the compared samples except in time.
 
-use muscle_model::Muscle;
-
 use crate::fit::Context;
 
 use super::report::SearchedValue;
@@ -45,19 +43,7 @@ fn knot_count(v: StateVariable) -> usize {
 /// The variable per sample, `None` when the recording has no such variable (no TA channel)
 /// or it does not change over the compared samples (no joint angle).
 pub(super) fn series(ctx: &Context, v: StateVariable) -> Option<Vec<f64>> {
-    let inp = &ctx.inputs;
-    let n = inp.len();
-    let deg = |x: &[f64]| x.iter().map(|a| a.to_degrees()).collect::<Vec<f64>>();
-    let s = match v {
-        StateVariable::Angle => deg(inp.angle()),
-        StateVariable::Velocity | StateVariable::Direction => deg(inp.velocity()),
-        StateVariable::Acceleration => deg(inp.acceleration()),
-        StateVariable::Time => inp.times().to_vec(),
-        StateVariable::Activation => (0..n)
-            .map(|i| Muscle::ALL.iter().map(|m| inp.envelope(*m)[i]).sum::<f64>() / 3.0)
-            .collect(),
-        StateVariable::ActivationTa => inp.envelope_ta()?.to_vec(),
-    };
+    let s = v.samples(&ctx.inputs)?;
     let (lo, hi) = observed_range(ctx, &s)?;
     (hi - lo > 1e-9 * (1.0 + hi.abs().max(lo.abs()))).then_some(s)
 }

@@ -1,7 +1,7 @@
 //! The state variables of the flexible terms' vocabulary, and those a catalogued effect's
 //! shape lives in.
 
-use muscle_model::EffectKind;
+use muscle_model::{EffectKind, Muscle, TrialInputs};
 use serde::Serialize;
 
 /// A state variable of the flexible terms' vocabulary.
@@ -46,6 +46,29 @@ impl StateVariable {
             StateVariable::Activation => "activation",
             StateVariable::ActivationTa => "activation_ta",
         }
+    }
+
+    /// The variable at every sample of `inputs`, in its unit: degrees for the angle, velocity
+    /// (and direction) and acceleration, seconds for time (the trial's clock), the mean sol,
+    /// gm, gl envelope for activation, the TA envelope (`None` without one).
+    pub fn samples(self, inputs: &TrialInputs) -> Option<Vec<f64>> {
+        let deg = |x: &[f64]| x.iter().map(|a| a.to_degrees()).collect::<Vec<f64>>();
+        Some(match self {
+            StateVariable::Angle => deg(inputs.angle()),
+            StateVariable::Velocity | StateVariable::Direction => deg(inputs.velocity()),
+            StateVariable::Acceleration => deg(inputs.acceleration()),
+            StateVariable::Time => inputs.times().to_vec(),
+            StateVariable::Activation => (0..inputs.len())
+                .map(|i| {
+                    Muscle::ALL
+                        .iter()
+                        .map(|m| inputs.envelope(*m)[i])
+                        .sum::<f64>()
+                        / 3.0
+                })
+                .collect(),
+            StateVariable::ActivationTa => inputs.envelope_ta()?.to_vec(),
+        })
     }
 
     /// Unit of the variable's values (empty: dimensionless).

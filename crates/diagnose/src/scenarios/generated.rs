@@ -159,22 +159,17 @@ pub fn generated_trial(seed: u64) -> Result<GeneratedTrial, DiagnoseError> {
     let span = synthetic.trial.time_s[synthetic.trial.time_s.len() - 1] - t0;
     let inputs = &synthetic.inputs;
     let n = synthetic.trial.torque_nm.len().min(inputs.len());
+    // the trial's own clock from 0; the others as the flexible terms see them
     let series = |v: StateVariable| -> Vec<f64> {
-        match v {
-            StateVariable::Angle => inputs.angle()[..n].to_vec(),
-            StateVariable::Velocity | StateVariable::Direction => inputs.velocity()[..n].to_vec(),
-            StateVariable::Acceleration => inputs.acceleration()[..n].to_vec(),
-            StateVariable::Time => synthetic.trial.time_s[..n].iter().map(|t| t - t0).collect(),
-            StateVariable::Activation | StateVariable::ActivationTa => (0..n)
-                .map(|i| {
-                    Muscle::ALL
-                        .iter()
-                        .map(|m| inputs.envelope(*m)[i])
-                        .sum::<f64>()
-                        / 3.0
-                })
-                .collect(),
+        let mut x = v
+            .samples(inputs)
+            .expect("the generated variables exist in every trial");
+        x.truncate(n);
+        if v == StateVariable::Time {
+            let first = x[0];
+            x.iter_mut().for_each(|t| *t -= first);
         }
+        x
     };
     // 0–5: one variable (smooth, stepped or periodic); 6: a product; 7: the EMG gain
     let family = draw.random_range(0..8_usize);
@@ -195,11 +190,12 @@ pub fn generated_trial(seed: u64) -> Result<GeneratedTrial, DiagnoseError> {
             std::f64::consts::TAU * draw.random::<f64>(),
         );
         let freq_hz = 0.2 + 1.8 * draw.random::<f64>();
-        let omega0 = (0.5 + 4.5 * draw.random::<f64>()).to_radians();
+        // °/s, as the velocity's samples
+        let omega0 = 0.5 + 4.5 * draw.random::<f64>();
         let (torque, words): (Vec<f64>, String) = if variable == StateVariable::Direction {
             (
                 x.iter().map(|w| size * (w / omega0).tanh()).collect(),
-                format!("ω0 {:.1} °/s", omega0.to_degrees()),
+                format!("ω0 {omega0:.1} °/s"),
             )
         } else if variable == StateVariable::Time && shape == GeneratedShape::Periodic {
             (

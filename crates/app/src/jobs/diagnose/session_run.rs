@@ -153,6 +153,19 @@ pub(super) fn run(args: &DiagnoseJob, session_path: &Path, rep: &Reporter) -> Ap
         for l in joint.summary_lines() {
             say(&l);
         }
+        if joint
+            .held_out_shape
+            .as_ref()
+            .is_some_and(|h| h.reproducible)
+        {
+            // the diagnosis names causes from its catalogue; which extension of the model
+            // lowers the held-out error is validate's measurement
+            say(&format!(
+                "  which extension of the model lowers the held-out error: surae validate \
+                 --session {} --extensions",
+                session.manifest.path.display()
+            ));
+        }
         say(&format!(
             "wrote {} and a folder per trial in {}",
             path.display(),
