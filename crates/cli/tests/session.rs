@@ -409,30 +409,34 @@ fn session3_manifest(dir: &Path, names: &[&str], extra: &str) -> std::path::Path
     path
 }
 
+/// `surae simulate --session manifest` with session3's true parameters (written into `d`), in
+/// `d/out`; its `simulate.json`.
+fn simulate_with_truth(d: &Path, manifest: &Path, out: &str) -> serde_json::Value {
+    let fx = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/session3");
+    let truth = json(&fx.join("truth.json"));
+    std::fs::write(d.join("truth_params.json"), truth["params"].to_string()).unwrap();
+    ok(&surae(
+        &[
+            "simulate",
+            "--session",
+            manifest.to_str().unwrap(),
+            "--params",
+            "truth_params.json",
+            "--out",
+            out,
+        ],
+        d,
+    ));
+    json(&d.join(out).join("simulate.json"))
+}
+
 #[test]
 fn a_session_normalises_each_channel_over_all_its_trials() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let fx = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/session3");
-    let truth = json(&fx.join("truth.json"));
-    std::fs::write(d.join("truth_params.json"), truth["params"].to_string()).unwrap();
     let all = session3_manifest(d, &["knee0_30", "knee90_30", "knee0_60"], "");
     let alone = session3_manifest(d, &["knee90_30"], "");
-    let sim = |manifest: &Path, out: &str| {
-        ok(&surae(
-            &[
-                "simulate",
-                "--session",
-                manifest.to_str().unwrap(),
-                "--params",
-                "truth_params.json",
-                "--out",
-                out,
-            ],
-            d,
-        ));
-        json(&d.join(out).join("simulate.json"))
-    };
+    let sim = |manifest: &Path, out: &str| simulate_with_truth(d, manifest, out);
     // With the truth, every trial of the session is fitted to the dynamometer's noise
     // (about 1.3 N·m RMS), the flexed-knee trial included.
     let s = sim(&all, "all");
@@ -455,24 +459,7 @@ fn a_session_normalises_each_channel_over_all_its_trials() {
 fn emg_normalised_per_trial_gives_each_trial_what_it_gets_alone() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let fx = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/session3");
-    let truth = json(&fx.join("truth.json"));
-    std::fs::write(d.join("truth_params.json"), truth["params"].to_string()).unwrap();
-    let sim = |manifest: &Path, out: &str| {
-        ok(&surae(
-            &[
-                "simulate",
-                "--session",
-                manifest.to_str().unwrap(),
-                "--params",
-                "truth_params.json",
-                "--out",
-                out,
-            ],
-            d,
-        ));
-        json(&d.join(out).join("simulate.json"))
-    };
+    let sim = |manifest: &Path, out: &str| simulate_with_truth(d, manifest, out);
     let names = ["knee0_30", "knee90_30", "knee0_60"];
     let per_trial = session3_manifest(d, &names, r#""emg_normalisation": "trial", "#);
     let s = sim(&per_trial, "per_trial");
