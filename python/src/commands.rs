@@ -148,10 +148,11 @@ where
 ///     None: the bundled trial, with its unloaded run and truth.
 /// unloaded: the unloaded run, a CSV path or a dict (time_s, ankle_angle_deg, torque_nm);
 ///     not defaulted when trial is given.
-/// method: "sa" (simulated annealing with a polish) or "mcmc" (Metropolis-Hastings).
+/// method: "sa" (simulated annealing with a polish), "mcmc" (Metropolis-Hastings) or "nuts"
+///     (the No-U-Turn sampler along the model's exact gradient).
 /// seed: seed of every random choice.
 /// truth: true parameters (dict or JSON file); adds errors_pct.
-/// max_iterations: MCMC only, a cap on the iterations per chain.
+/// max_iterations: MCMC only, a cap on the iterations per chain (nuts: warm-up plus draws).
 /// params, effects: the fixed model, dicts or JSON files (as for simulate).
 /// emg_is_envelope: the EMG columns already hold envelopes in [0, 1].
 /// knee_angle_deg: a constant knee flexion (degrees) for a trial without a knee_angle_deg
@@ -198,7 +199,12 @@ pub fn identify<'py>(
     let method = match method {
         "sa" => Method::Sa,
         "mcmc" => Method::Mcmc,
-        other => return Err(bad(format!("method '{other}': expected 'sa' or 'mcmc'"))),
+        "nuts" => Method::Nuts,
+        other => {
+            return Err(bad(format!(
+                "method '{other}': expected 'sa', 'mcmc' or 'nuts'"
+            )))
+        }
     };
     let progress = ProgressMode::from_arg(progress)?;
     let (trial, trial_data) = trial_arg(trial)?;

@@ -63,7 +63,7 @@ def test_dict_inputs_are_named_in_messages():
         t = surae.bundled_trial()
         t["emg_xx"] = t["emg_gl"]
         surae.diagnose(t)
-    with pytest.raises(surae.InputError, match="^method 'lm': expected 'sa' or 'mcmc'$"):
+    with pytest.raises(surae.InputError, match="^method 'lm': expected 'sa', 'mcmc' or 'nuts'$"):
         surae.identify(method="lm")
 
 

@@ -99,12 +99,16 @@ pub enum Method {
     Sa,
     /// Metropolis–Hastings chains with an AR(1) noise likelihood.
     Mcmc,
+    /// The No-U-Turn sampler (Stan's NUTS) on the same likelihood, along the model's exact
+    /// gradient.
+    Nuts,
 }
 
 /// Arguments of `surae identify`.
 #[derive(clap::Args, Debug)]
 pub struct IdentifyArgs {
-    /// `sa` (simulated annealing) or `mcmc` (Metropolis–Hastings).
+    /// `sa` (simulated annealing), `mcmc` (Metropolis–Hastings) or `nuts` (the No-U-Turn
+    /// sampler).
     #[arg(long, value_enum)]
     pub method: Method,
     /// Trial: a trial CSV, a recording map (`.json`) of a lab's files, or a CEINMS trial folder (a session of one) (docs/formats.md);
@@ -393,6 +397,7 @@ impl From<Method> for surae_app::Method {
         match m {
             Method::Sa => surae_app::Method::Sa,
             Method::Mcmc => surae_app::Method::Mcmc,
+            Method::Nuts => surae_app::Method::Nuts,
         }
     }
 }

@@ -484,7 +484,7 @@ pub(crate) fn whitened_jacobian(
     lm: &LevenbergMarquardtSettings,
 ) -> Option<DMatrix<f64>> {
     let res = WhitenedResiduals { ctx, problem };
-    let (jac, _) = numerics::lm::finite_difference_jacobian(&res, x, w, bounds, lm).ok()?;
+    let (jac, _) = numerics::lm::residual_jacobian(&res, x, w, bounds, lm).ok()?;
     Some(DMatrix::from_vec(w.len(), x.len(), jac?))
 }
 

@@ -13,7 +13,7 @@
 //! decrease of 10⁻⁷.
 
 use nalgebra::DMatrix;
-use numerics::lm::finite_difference_jacobian;
+use numerics::lm::residual_jacobian;
 use numerics::{
     levenberg_marquardt, LevenbergMarquardtSettings, LevenbergMarquardtStop, Residuals,
 };
@@ -73,8 +73,7 @@ where
     let mut evaluations = o.evaluations;
     let mut jacobian = o.jacobian;
     if o.stop == LevenbergMarquardtStop::MaxIterations && !o.jacobian_at_x {
-        let (fresh, used) =
-            finite_difference_jacobian(&residuals, &o.x, &o.residuals, bounds, s).ok()?;
+        let (fresh, used) = residual_jacobian(&residuals, &o.x, &o.residuals, bounds, s).ok()?;
         evaluations += used;
         jacobian = fresh.or(jacobian);
     }

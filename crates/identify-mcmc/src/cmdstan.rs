@@ -145,6 +145,36 @@ pub const NUTS_COLUMNS: [&str; 7] = [
     "energy__",
 ];
 
+/// What [`write_cmdstan_nuts_chain`] writes: the sampler's settings, per-draw statistics,
+/// adapted step sizes and metrics and the draws (`[parameter][chain][draw]`, box
+/// coordinates), from a [`NutsRun`] or from a [`crate::McmcIdentification`] sampled by NUTS
+/// ([`crate::McmcIdentification::nuts_chains`]).
+#[derive(Clone, Copy, Debug)]
+pub struct NutsChains<'a> {
+    /// The sampler's settings.
+    pub settings: &'a crate::NutsSettings,
+    /// Sampler statistics of every kept draw, `[chain][draw]`.
+    pub stats: &'a [Vec<crate::NutsDraw>],
+    /// The adapted step size of every chain.
+    pub step_size: &'a [f64],
+    /// The adapted inverse metric of every chain.
+    pub inv_metric: &'a [Vec<f64>],
+    /// The kept draws, `[parameter][chain][draw]`.
+    pub draws: &'a [Vec<Vec<f64>>],
+}
+
+impl<'a> From<&'a NutsRun> for NutsChains<'a> {
+    fn from(run: &'a NutsRun) -> Self {
+        NutsChains {
+            settings: &run.settings,
+            stats: &run.stats,
+            step_size: &run.step_size,
+            inv_metric: &run.inv_metric,
+            draws: &run.draws,
+        }
+    }
+}
+
 /// Writes chain `chain` (from 0) of a [`NutsRun`] in CmdStan's CSV layout, as CmdStan's NUTS
 /// writes it: the configuration `#` lines (`algorithm = hmc`, `engine = nuts`, the adaptation
 /// settings), the columns [`NUTS_COLUMNS`] then the parameters (`names`, `_` for `.`), CmdStan's
@@ -159,13 +189,14 @@ pub const NUTS_COLUMNS: [&str; 7] = [
 /// # Errors
 /// I/O errors of `w`; `InvalidInput` when `chain` is not one of the run's chains or `names`
 /// does not have one name per parameter.
-pub fn write_cmdstan_nuts_chain<W: Write>(
-    run: &NutsRun,
+pub fn write_cmdstan_nuts_chain<'a, W: Write>(
+    run: impl Into<NutsChains<'a>>,
     names: &[&str],
     chain: usize,
     description: &[&str],
     mut w: W,
 ) -> std::io::Result<()> {
+    let run: NutsChains<'a> = run.into();
     let invalid = |msg: String| std::io::Error::new(std::io::ErrorKind::InvalidInput, msg);
     let stats = run.stats.get(chain).ok_or_else(|| {
         invalid(format!(
@@ -173,14 +204,14 @@ pub fn write_cmdstan_nuts_chain<W: Write>(
             run.stats.len()
         ))
     })?;
-    if names.len() != run.dim {
+    if names.len() != run.draws.len() {
         return Err(invalid(format!(
             "{} names given for {} parameters",
             names.len(),
-            run.dim
+            run.draws.len()
         )));
     }
-    let s = &run.settings;
+    let s = run.settings;
     let algorithm = [
         "adapt".to_string(),
         format!("  engaged = {}", u8::from(s.warmup > 0)),
@@ -196,7 +227,10 @@ pub fn write_cmdstan_nuts_chain<W: Write>(
         "    engine = nuts".to_string(),
         "      nuts".to_string(),
         format!("        max_depth = {}", s.max_depth),
-        "    metric = diag_e".to_string(),
+        format!(
+            "    metric = {}",
+            if s.dense_metric { "dense_e" } else { "diag_e" }
+        ),
         format!("    stepsize = {}", s.initial_step_size),
     ];
     write_config(
@@ -216,9 +250,17 @@ pub fn write_cmdstan_nuts_chain<W: Write>(
     writeln!(w)?;
     writeln!(w, "# Adaptation terminated")?;
     writeln!(w, "# Step size = {}", run.step_size[chain])?;
-    writeln!(w, "# Diagonal elements of inverse mass matrix:")?;
     let inv: Vec<String> = run.inv_metric[chain].iter().map(f64::to_string).collect();
-    writeln!(w, "# {}", inv.join(", "))?;
+    if s.dense_metric {
+        // CmdStan's dense_e block: every row of the inverse metric
+        writeln!(w, "# Elements of inverse mass matrix:")?;
+        for row in inv.chunks(run.draws.len().max(1)) {
+            writeln!(w, "# {}", row.join(", "))?;
+        }
+    } else {
+        writeln!(w, "# Diagonal elements of inverse mass matrix:")?;
+        writeln!(w, "# {}", inv.join(", "))?;
+    }
     for (k, st) in stats.iter().enumerate() {
         write!(
             w,
@@ -231,7 +273,7 @@ pub fn write_cmdstan_nuts_chain<W: Write>(
             u8::from(st.divergent),
             st.energy
         )?;
-        for p in &run.draws {
+        for p in run.draws {
             write!(w, ",{}", p[chain][k])?;
         }
         writeln!(w)?;

@@ -477,6 +477,33 @@ pub struct McmcTrialFit {
     pub corrected: bool,
 }
 
+/// What the gradient-based sampler reports beside the posterior: CmdStan's per-draw
+/// statistics and the adapted step sizes and metrics.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
+pub struct NutsStats {
+    /// The sampler's settings.
+    pub settings: crate::NutsSettings,
+    /// Sampler statistics of every kept draw, `[chain][draw]`.
+    pub draws: Vec<Vec<crate::NutsDraw>>,
+    /// The adapted step size of every chain.
+    pub step_size: Vec<f64>,
+    /// The adapted inverse metric (diagonal, unconstrained coordinates) of every chain.
+    pub inv_metric: Vec<Vec<f64>>,
+    /// Gradient evaluations (each one simulation and its exact Jacobian) over all chains.
+    pub gradient_evaluations: u64,
+    /// Mean leapfrog steps per kept draw.
+    pub mean_leapfrog: f64,
+    /// Mean `accept_stat__` of the kept draws.
+    pub mean_accept_stat: f64,
+    /// Divergent transitions among the kept draws, and during warm-up.
+    pub divergences: u64,
+    /// Divergent transitions during warm-up.
+    pub warmup_divergences: u64,
+    /// Kept draws whose trajectory stopped at the largest tree depth.
+    pub max_depth_hits: u64,
+}
+
 /// What [`crate::identify()`] found.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[non_exhaustive]
@@ -535,6 +562,10 @@ pub struct McmcIdentification {
     pub trials: Vec<McmcTrialFit>,
     /// Wall time of the whole identification (s).
     pub wall_s: f64,
+    /// The gradient-based sampler's statistics (with [`crate::identify_session_nuts`]; `None`
+    /// for the random walk).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nuts: Option<NutsStats>,
     /// The sampler result in the model's parameters: draws `[parameter][chain][draw]`,
     /// log-likelihood `ℓ(x)` per draw, summaries and correlations in `x` (the sampler itself
     /// ran in `z`; the chains stored `x` at every step).
@@ -542,6 +573,17 @@ pub struct McmcIdentification {
 }
 
 impl McmcIdentification {
+    /// The NUTS chains for [`crate::write_cmdstan_nuts_chain`] (`None` for the random walk).
+    pub fn nuts_chains(&self) -> Option<crate::cmdstan::NutsChains<'_>> {
+        self.nuts.as_ref().map(|n| crate::cmdstan::NutsChains {
+            settings: &n.settings,
+            stats: &n.draws,
+            step_size: &n.step_size,
+            inv_metric: &n.inv_metric,
+            draws: &self.run.draws,
+        })
+    }
+
     /// Posterior means in vector order.
     pub fn mean(&self) -> Vec<f64> {
         self.posterior.iter().map(|p| p.mean).collect()

@@ -163,11 +163,13 @@
 
 pub mod cmdstan;
 pub mod diagnostics;
+mod full_posterior;
 pub mod identify;
 pub mod mixture;
 mod modes;
 pub mod noise;
 mod nuts;
+mod nuts_identify;
 mod sampler;
 mod sampling_coordinates;
 mod session_identify;
@@ -177,7 +179,7 @@ mod target;
 mod transform;
 mod trial_term;
 
-pub use cmdstan::{write_cmdstan_chain, write_cmdstan_nuts_chain};
+pub use cmdstan::{write_cmdstan_chain, write_cmdstan_nuts_chain, NutsChains};
 pub use mixture::{ComponentSpec, MixtureProposal};
 pub use sampler::{
     run, run_with_observer, run_with_proposal, ChainPhase, ChainProgress, ChainStopReason,
@@ -192,10 +194,12 @@ pub use transform::LogisticBox;
 
 pub use identify::{
     McmcIdentification, McmcIdentifySettings, McmcNoiseSource, ModeInfo, NamedCorrelation,
-    NoiseSpec, ParamPosterior, DEFAULT_MAX_LAG, NO_UNLOADED_OFFSET_SD_NM, UNLOADED_OFFSET_SD_NM,
+    NoiseSpec, NutsStats, ParamPosterior, DEFAULT_MAX_LAG, NO_UNLOADED_OFFSET_SD_NM,
+    UNLOADED_OFFSET_SD_NM,
 };
 pub use identify::{McmcTrialFit, SessionTrialLikelihood};
 pub use noise::{Ar1White, Noise, NoiseKind, NoiseParams};
+pub use nuts_identify::identify_session_nuts;
 pub use session_identify::{identify, identify_session};
 
 /// Everything that can go wrong before sampling starts.
@@ -337,4 +341,11 @@ pub enum McmcError {
     /// on re-evaluation; cannot happen for a deterministic model).
     #[error("a kept draw could not be re-evaluated")]
     Remap,
+    /// The gradient-based sampler needs the model's exact gradient, which it does not have for
+    /// a free parameter or the formulation.
+    #[error("NUTS needs the model's exact gradient: {reason}")]
+    NoExactGradient {
+        /// The model's reason.
+        reason: String,
+    },
 }

@@ -94,7 +94,7 @@ fn with_measured(problem: &Problem, measured: Vec<f64>) -> Result<Problem, McmcE
 }
 
 /// The trial's problem on its corrected torque (measured − systematic).
-fn corrected_problem(t: &SessionTrialLikelihood<'_>) -> Result<Problem, McmcError> {
+pub(crate) fn corrected_problem(t: &SessionTrialLikelihood<'_>) -> Result<Problem, McmcError> {
     let problem = t.problem;
     match &t.noise.systematic {
         None => Ok(problem.clone()),
@@ -118,7 +118,7 @@ fn corrected_problem(t: &SessionTrialLikelihood<'_>) -> Result<Problem, McmcErro
 }
 
 /// Every trial has the first trial's free parameters and bounds.
-fn check_shared(trials: &[SessionTrialLikelihood<'_>]) -> Result<(), McmcError> {
+pub(crate) fn check_shared(trials: &[SessionTrialLikelihood<'_>]) -> Result<(), McmcError> {
     let first = trials.first().ok_or(McmcError::EmptySession)?.problem;
     for (i, t) in trials.iter().enumerate().skip(1) {
         if t.problem.free() != first.free() {
@@ -140,7 +140,7 @@ fn check_shared(trials: &[SessionTrialLikelihood<'_>]) -> Result<(), McmcError> 
 /// The noise model of every trial: given, or fitted to that trial's residual of one joint
 /// Nelder–Mead fit of the summed squared errors (run only when some trial needs it). Returns the
 /// models and the evaluations and failures of the fit.
-fn noise_models(
+pub(crate) fn noise_models(
     trials: &[SessionTrialLikelihood<'_>],
     corrected: &[Problem],
     settings: &McmcIdentifySettings,
@@ -350,6 +350,7 @@ where
         corrected: trials[0].noise.systematic.is_some(),
         trials: trial_fits,
         wall_s: started.elapsed().as_secs_f64(),
+        nuts: None,
         run,
     })
 }
@@ -447,7 +448,7 @@ fn dispersed_starts(
 }
 
 /// Each parameter's posterior summary under its name.
-fn posteriors(run: &RunResult, names: &[String]) -> Vec<ParamPosterior> {
+pub(crate) fn posteriors(run: &RunResult, names: &[String]) -> Vec<ParamPosterior> {
     run.summary
         .iter()
         .zip(names)
@@ -468,7 +469,11 @@ fn posteriors(run: &RunResult, names: &[String]) -> Vec<ParamPosterior> {
 }
 
 /// The `count` strongest posterior correlations, by parameter name.
-fn named_correlations(run: &RunResult, names: &[String], count: usize) -> Vec<NamedCorrelation> {
+pub(crate) fn named_correlations(
+    run: &RunResult,
+    names: &[String],
+    count: usize,
+) -> Vec<NamedCorrelation> {
     run.strongest_correlations
         .iter()
         .take(count)
@@ -482,7 +487,7 @@ fn named_correlations(run: &RunResult, names: &[String], count: usize) -> Vec<Na
 
 /// Each trial's fit at the posterior mean `mean`, against its torque as measured and as
 /// corrected.
-fn trial_fits(
+pub(crate) fn trial_fits(
     trials: &[SessionTrialLikelihood<'_>],
     corrected: &[Problem],
     noise_params: &[NoiseParams],
@@ -508,7 +513,7 @@ fn finite(rates: &[f64]) -> Vec<f64> {
 
 /// The RMS over every sample of the session (measured, corrected): the trial's own for a
 /// session of one, else `√(Σ SSE_t / Σ n_t)` over the samples each trial weighs.
-fn pooled_rms(
+pub(crate) fn pooled_rms(
     trials: &[SessionTrialLikelihood<'_>],
     corrected: &[Problem],
     mean: &[f64],

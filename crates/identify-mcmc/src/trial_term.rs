@@ -90,6 +90,19 @@ impl<'a> TrialTerm<'a> {
         }
     }
 
+    /// Prior sd of the constant offset integrated out (N·m; 0: none).
+    pub fn offset_sd(&self) -> f64 {
+        self.offset_sd
+    }
+
+    /// `Σ_segments` ln-normalisation of the whitening filter (module documentation).
+    pub fn log_norm(&self) -> f64 {
+        self.segments
+            .iter()
+            .map(|(a, b)| self.whitener.log_norm(b - a))
+            .sum()
+    }
+
     /// Append the whitened `e` (segment by segment, masked samples dropped) to `out`.
     pub fn whiten_append(&self, e: &[f64], out: &mut Vec<f64>) {
         for &(a, b) in &self.segments {

@@ -185,64 +185,93 @@ impl Curves {
     }
 
     /// The unique `ṽ` with `act·fv(ṽ) + β·ṽ = r`, where `act = â·fl(l̃)·(fatigue factor) ≥ 0`
-    /// and `r = F̃M − fpe(l̃)`.
-    ///
-    /// The left side is continuous and strictly increasing (slope ≥ β > 0), so the solution
-    /// exists and is unique; on each branch of `fv` the equation is a quadratic in `ṽ`, solved
-    /// here in closed form (numerically stable root formula).
+    /// and `r = F̃M − fpe(l̃)` ([`solve_velocity_of`] with this parameter set's constants).
     #[inline]
     pub fn solve_velocity(&self, act: f64, r: f64) -> f64 {
-        let beta = self.damping;
-        let act = act.max(0.0);
-        if r < -beta {
-            // fv = 0 below ṽ = −1: pure damping.
-            r / beta
-        } else if r <= act {
-            // Concentric: β ṽ² − (act·Af + β·Af + r) ṽ − Af (act − r) = 0, root in [−1, 0].
-            let af = self.af;
-            let b = -(act * af + beta * af + r);
-            let c0 = -af * (act - r);
-            let v = smaller_root(beta, b, c0);
-            v.clamp(-1.0, 0.0)
+        solve_velocity_of(act, r, self.damping, self.af, self.flen, self.c_ecc)
+    }
+}
+
+/// The scalar the model's right-hand side is written in: `f64`, or a dual number that carries
+/// derivatives with respect to parameters along (forward sensitivities). Branches compare
+/// real parts, so a dual number follows the branch its value takes.
+pub trait Scalar: num_dual::DualNum<f64> + Copy {}
+impl<T: num_dual::DualNum<f64> + Copy> Scalar for T {}
+
+/// `max(x, lo)` by the real part (`lo` for NaN, as `f64::max`).
+#[inline(always)]
+pub(crate) fn at_least<D: Scalar>(x: D, lo: f64) -> D {
+    if x.re() >= lo {
+        x
+    } else {
+        D::from(lo)
+    }
+}
+
+/// The unique `ṽ` with `act·fv(ṽ) + β·ṽ = r` for damping `β`, curvature `Af`, plateau `Flen`
+/// and eccentric constant `c` (see [`eccentric_constant`]), where `act ≥ 0` is `â·fl(l̃)`
+/// times the fatigue factor and `r = F̃M − fpe(l̃)`.
+///
+/// The left side is continuous and strictly increasing (slope ≥ β > 0), so the solution
+/// exists and is unique; on each branch of `fv` the equation is a quadratic in `ṽ`, solved
+/// here in closed form (numerically stable root formula). With dual numbers the derivative is
+/// the implicit one, `dṽ = (dr − fv·d(act) − act·∂fv/∂(Af, Flen, c)) / (act·fv′ + β)`, because
+/// the root formula is differentiated as written.
+#[inline]
+pub fn solve_velocity_of<D: Scalar>(act: D, r: D, beta: D, af: D, flen: D, c_ecc: D) -> D {
+    let act = at_least(act, 0.0);
+    if r.re() < -beta.re() {
+        // fv = 0 below ṽ = −1: pure damping.
+        r / beta
+    } else if r.re() <= act.re() {
+        // Concentric: β ṽ² − (act·Af + β·Af + r) ṽ − Af (act − r) = 0, root in [−1, 0].
+        let b = -(act * af + beta * af + r);
+        let c0 = -af * (act - r);
+        let v = smaller_root(beta, b, c0);
+        if v.re() < -1.0 {
+            D::from(-1.0)
+        } else if v.re() > 0.0 {
+            D::from(0.0)
         } else {
-            // Eccentric: β ṽ² + (act·Flen + β c − r) ṽ + c (act − r) = 0, root > 0.
-            let c = self.c_ecc;
-            let b = act * self.flen + beta * c - r;
-            let c0 = c * (act - r);
-            larger_root(beta, b, c0).max(0.0)
+            v
         }
+    } else {
+        // Eccentric: β ṽ² + (act·Flen + β c − r) ṽ + c (act − r) = 0, root > 0.
+        let b = act * flen + beta * c_ecc - r;
+        let c0 = c_ecc * (act - r);
+        at_least(larger_root(beta, b, c0), 0.0)
     }
 }
 
 /// Smaller root of `a x² + b x + c = 0` with `a > 0`, `c ≤ 0` (so real roots of opposite sign).
 #[inline]
-fn smaller_root(a: f64, b: f64, c: f64) -> f64 {
-    let d = (b * b - 4.0 * a * c).max(0.0).sqrt();
-    if b <= 0.0 {
-        let q = 0.5 * (-b + d);
-        if q == 0.0 {
-            0.0
+fn smaller_root<D: Scalar>(a: D, b: D, c: D) -> D {
+    let d = at_least(b * b - a * 4.0 * c, 0.0).sqrt();
+    if b.re() <= 0.0 {
+        let q = (-b + d) * 0.5;
+        if q.re() == 0.0 {
+            D::from(0.0)
         } else {
             c / q
         }
     } else {
-        -0.5 * (b + d) / a
+        (b + d) * (-0.5) / a
     }
 }
 
 /// Larger root of `a x² + b x + c = 0` with `a > 0`, `c ≤ 0`.
 #[inline]
-fn larger_root(a: f64, b: f64, c: f64) -> f64 {
-    let d = (b * b - 4.0 * a * c).max(0.0).sqrt();
-    if b >= 0.0 {
-        let q = -0.5 * (b + d);
-        if q == 0.0 {
-            0.0
+fn larger_root<D: Scalar>(a: D, b: D, c: D) -> D {
+    let d = at_least(b * b - a * 4.0 * c, 0.0).sqrt();
+    if b.re() >= 0.0 {
+        let q = (b + d) * (-0.5);
+        if q.re() == 0.0 {
+            D::from(0.0)
         } else {
             c / q
         }
     } else {
-        0.5 * (-b + d) / a
+        (-b + d) * 0.5 / a
     }
 }
 

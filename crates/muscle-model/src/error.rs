@@ -69,6 +69,14 @@ pub enum ModelError {
         /// Sample index.
         index: usize,
     },
+    /// A derivative the model cannot take exactly (the caller may difference instead).
+    #[error("no exact derivative with respect to `{param}`: {reason}")]
+    NoExactDerivative {
+        /// The parameter's name (or `formulation`).
+        param: String,
+        /// Why.
+        reason: &'static str,
+    },
 }
 
 impl ModelError {

@@ -137,3 +137,65 @@ pub(crate) fn needs_ta(effects: &Effects) -> bool {
         .antagonist_coactivation
         .is_some_and(|e| e.gain_nm != 0.0)
 }
+
+/// `∂τ_effects/∂θ` at every sample into `out`, for parameter `index` of the joint-level effect
+/// `kind` (values from `effects`, an absent effect at its null values; `ta` = `a_TA` when the
+/// antagonist's gain is asked for). The terms are explicit functions of their parameters:
+///
+/// ```text
+/// ∂/∂c = 1,  ∂/∂s = exp(k·q) − 1,  ∂/∂k = s·q·exp(k·q),  ∂/∂m = sin(q − φ),
+/// ∂/∂φ = −m·cos(q − φ)·π/180 (φ in degrees),  ∂/∂b = q̇,  ∂/∂I = −q̈,  ∂/∂g = −a_TA
+/// ```
+///
+/// Returns false for a parameter that is not a joint-level term (delay, fatigue, `Flen`).
+pub(crate) fn joint_effect_derivative(
+    inputs: &TrialInputs,
+    effects: &Effects,
+    kind: crate::effects::EffectKind,
+    index: usize,
+    ta: &[f64],
+    out: &mut [f64],
+) -> bool {
+    use crate::effects::EffectKind as K;
+    let v = effects.values(kind).unwrap_or_else(|| kind.null_values());
+    let q = inputs.angle();
+    match (kind, index) {
+        (K::TorqueOffset, 0) => out.fill(1.0),
+        (K::PassiveJointTorque, 0) => {
+            for (o, &qi) in out.iter_mut().zip(q) {
+                *o = (v[1] * qi).exp_m1();
+            }
+        }
+        (K::PassiveJointTorque, 1) => {
+            for (o, &qi) in out.iter_mut().zip(q) {
+                *o = v[0] * qi * (v[1] * qi).exp();
+            }
+        }
+        (K::Gravity, 0) => {
+            let phi = v[1].to_radians();
+            for (o, &qi) in out.iter_mut().zip(q) {
+                *o = (qi - phi).sin();
+            }
+        }
+        (K::Gravity, 1) => {
+            let phi = v[1].to_radians();
+            let per_degree = std::f64::consts::PI / 180.0;
+            for (o, &qi) in out.iter_mut().zip(q) {
+                *o = -v[0] * (qi - phi).cos() * per_degree;
+            }
+        }
+        (K::ViscousDamping, 0) => out.copy_from_slice(&inputs.velocity()[..out.len()]),
+        (K::Inertia, 0) => {
+            for (o, &a) in out.iter_mut().zip(inputs.acceleration()) {
+                *o = -a;
+            }
+        }
+        (K::AntagonistCoactivation, 0) if ta.len() == out.len() => {
+            for (o, &a) in out.iter_mut().zip(ta) {
+                *o = -a;
+            }
+        }
+        _ => return false,
+    }
+    true
+}

@@ -86,6 +86,7 @@
 
 pub mod activation;
 pub mod curves;
+pub mod derivatives;
 pub mod effects;
 pub mod error;
 mod fast_simulation;
@@ -108,6 +109,7 @@ pub mod stats;
 pub mod synthetic;
 pub mod workspace;
 
+pub use derivatives::{exact_derivative_available, exact_torque_jacobian};
 pub use effects::{EffectKind, Effects, ParamSpec};
 pub use error::ModelError;
 pub use inputs::{GeometrySeries, TrialInputs};

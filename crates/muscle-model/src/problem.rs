@@ -555,6 +555,57 @@ impl Problem {
         Ok(())
     }
 
+    /// Whether [`Problem::jacobian_with`] covers every free parameter under this problem's
+    /// effects and settings (`Err` says which one it does not).
+    pub fn exact_jacobian_available(&self) -> Result<(), ModelError> {
+        crate::derivatives::exact_derivative_available(
+            &self.free,
+            &self.base_effects_with_free(),
+            &self.settings,
+        )
+    }
+
+    /// The exact Jacobian `∂τ̂/∂x` of the predicted torque at `x` by forward sensitivities
+    /// ([`crate::derivatives`]), column-major into `jac` (`jac[k·n + i]` for sample `i` and
+    /// free parameter `k`; resized), and the prediction itself into the workspace
+    /// ([`ProblemWorkspace::prediction`]).
+    ///
+    /// # Errors
+    /// [`ModelError::NoExactDerivative`] for a free parameter or formulation it does not cover,
+    /// the simulation's errors otherwise.
+    pub fn jacobian_with(
+        &self,
+        x: &[f64],
+        ws: &mut ProblemWorkspace,
+        jac: &mut Vec<f64>,
+    ) -> Result<(), ModelError> {
+        let (p, e) = self.params_from_vector(x)?;
+        crate::derivatives::exact_torque_jacobian(
+            &self.inputs,
+            &p,
+            &e,
+            &self.settings,
+            &self.free,
+            jac,
+        )?;
+        self.eval_pred(x, ws)
+    }
+
+    /// The base effects with every free effect parameter's effect enabled (as
+    /// [`Problem::params_from_vector`] leaves them).
+    fn base_effects_with_free(&self) -> Effects {
+        let mut p = self.base_params;
+        let mut e = self.base_effects;
+        for id in &self.free {
+            id.set(
+                &mut p,
+                &mut e,
+                id.get(&self.base_params, &self.base_effects),
+            );
+        }
+        e
+    }
+
     /// Predicted torque at `x` (allocates the output).
     pub fn predict(&self, x: &[f64]) -> Result<Vec<f64>, ModelError> {
         let mut out = vec![0.0; self.inputs.len()];

@@ -203,6 +203,40 @@ impl ProblemSet {
         Ok(())
     }
 
+    /// Whether [`ProblemSet::jacobian_with`] covers every free parameter of every trial.
+    pub fn exact_jacobian_available(&self) -> Result<(), ModelError> {
+        self.problems
+            .iter()
+            .try_for_each(Problem::exact_jacobian_available)
+    }
+
+    /// The exact Jacobian `∂τ̂/∂x` of the predicted torque of every trial, the trials' rows one
+    /// after the other (as [`ProblemSet::residuals_with`]), column-major into `jac`
+    /// (`jac[k·samples + i]`; resized). See [`Problem::jacobian_with`].
+    pub fn jacobian_with(
+        &self,
+        x: &[f64],
+        ws: &mut ProblemSetWorkspace,
+        jac: &mut Vec<f64>,
+    ) -> Result<(), ModelError> {
+        ws.fit(self.len());
+        let m = self.samples;
+        let k = self.dim();
+        jac.clear();
+        jac.resize(m * k, 0.0);
+        let mut one = Vec::new();
+        let mut start = 0;
+        for (p, w) in self.problems.iter().zip(ws.per_trial.iter_mut()) {
+            let n = p.inputs().len();
+            p.jacobian_with(x, w, &mut one)?;
+            for j in 0..k {
+                jac[j * m + start..j * m + start + n].copy_from_slice(&one[j * n..(j + 1) * n]);
+            }
+            start += n;
+        }
+        Ok(())
+    }
+
     /// Weighted RMS torque error over all trials, `sqrt(SSE / Σw)` (N·m).
     pub fn rms_with(&self, x: &[f64], ws: &mut ProblemSetWorkspace) -> Result<f64, ModelError> {
         Ok((self.sse_with(x, ws)? / self.weight_sum).sqrt())

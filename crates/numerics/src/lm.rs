@@ -1,10 +1,12 @@
-//! Bounded Levenberg–Marquardt for nonlinear least squares with a finite-difference Jacobian.
+//! Bounded Levenberg–Marquardt for nonlinear least squares, with the residuals' exact Jacobian
+//! when they have one and a finite-difference Jacobian otherwise.
 //!
 //! Minimises `C(x) = ‖r(x)‖² = Σᵢ rᵢ(x)²` over the box `l ≤ x ≤ h`. Steps are taken in
 //! unit-box coordinates `u = (x − l)/(h − l)`, so that one damping and one difference step
 //! serve parameters of any scale. Each iteration
 //!
-//! 1. forms the Jacobian `J = ∂r/∂u` by finite differences of step `s` (a share of each range):
+//! 1. forms the Jacobian `J = ∂r/∂u`: the residuals' own ([`Residuals::jacobian`]) times each
+//!    range, or by finite differences of step `s` (a share of each range):
 //!    forward, `(r(u + s·eⱼ) − r(u))/s` (backward at the upper bound), or central,
 //!    `(r(u⁺) − r(u⁻))/(u⁺ⱼ − u⁻ⱼ)` with `u±ⱼ = uⱼ ± s` clipped to `[0, 1]`; the columns are
 //!    evaluated in parallel and the result does not depend on the number of threads;
@@ -143,6 +145,20 @@ pub trait Residuals: Sync {
     /// Write `r(x)` into `out` (resizing it; the length must not change between calls);
     /// `false` when it cannot be evaluated. Non-finite entries count as a failure.
     fn residuals(&self, x: &[f64], workspace: &mut Self::Workspace, out: &mut Vec<f64>) -> bool;
+    /// The exact Jacobian `∂r/∂x` at `x` (x units, column-major: column `j` is
+    /// `jac[j·m..(j + 1)·m]` for `m` residuals), when the residuals have one: `Some(true)` when
+    /// written; `Some(false)` when it cannot be evaluated at `x` and `None` (the default) both
+    /// make the search difference the residuals instead (a failure counts as one failed
+    /// evaluation).
+    fn jacobian(
+        &self,
+        x: &[f64],
+        workspace: &mut Self::Workspace,
+        jac: &mut [f64],
+    ) -> Option<bool> {
+        let _ = (x, workspace, jac);
+        None
+    }
 }
 
 impl<F: Fn(&[f64], &mut (), &mut Vec<f64>) -> bool + Sync> Residuals for F {
@@ -231,6 +247,20 @@ fn jacobian_unit<R: Residuals + ?Sized>(
     jac: &mut [f64],
 ) -> (bool, usize, usize) {
     let m = r0.len();
+    let x = ubox.to_box(u);
+    let mut exact_failed = 0;
+    if let Some(ok) = residuals.jacobian(&x, &mut residuals.workspace(), jac) {
+        if ok && jac.iter().all(|v| v.is_finite()) {
+            // ∂r/∂u = ∂r/∂x·(hi − lo), column by column
+            for (j, col) in jac.chunks_mut(m).enumerate() {
+                let w = ubox.width()[j];
+                col.iter_mut().for_each(|v| *v *= w);
+            }
+            return (true, 1, 0);
+        }
+        // an exact Jacobian that cannot be evaluated here: difference the residuals instead
+        exact_failed = 1;
+    }
     let h = settings.fd_step;
     let central = settings.differences == FiniteDifferences::Central;
     let columns: Vec<(bool, usize)> = jac
@@ -269,21 +299,22 @@ fn jacobian_unit<R: Residuals + ?Sized>(
         )
         .collect();
     let per_column = if central { 2 } else { 1 };
-    let failed = columns.iter().map(|c| c.1).sum();
+    let failed = columns.iter().map(|c| c.1).sum::<usize>() + exact_failed;
     (
         columns.iter().all(|c| c.0),
-        per_column * columns.len(),
+        per_column * columns.len() + exact_failed,
         failed,
     )
 }
 
-/// The finite-difference Jacobian `∂r/∂x` (x units, column-major) of `residuals` at `x`
-/// (residual `r`) inside `bounds`, with the difference scheme and step of `settings`, and the
-/// evaluations used; `None` for the Jacobian when a column cannot be evaluated.
+/// The Jacobian `∂r/∂x` (x units, column-major) of `residuals` at `x` (residual `r`) inside
+/// `bounds`: their exact one ([`Residuals::jacobian`]) when they offer it, otherwise by
+/// differences with the scheme and step of `settings`; and the evaluations used (an exact
+/// Jacobian counts as one). `None` for the Jacobian when it cannot be evaluated.
 ///
 /// # Errors
 /// Invalid settings or bounds, or `x` of the wrong length.
-pub fn finite_difference_jacobian<R: Residuals + ?Sized>(
+pub fn residual_jacobian<R: Residuals + ?Sized>(
     residuals: &R,
     x: &[f64],
     r: &[f64],
@@ -527,6 +558,99 @@ mod tests {
         }
     }
 
+    /// `y = a·exp(−b t)` with its exact Jacobian, counting the Jacobians taken.
+    struct Decay {
+        calls: std::sync::atomic::AtomicUsize,
+        fail: bool,
+    }
+
+    impl Residuals for Decay {
+        type Workspace = ();
+        fn workspace(&self) {}
+        fn residuals(&self, x: &[f64], _: &mut (), out: &mut Vec<f64>) -> bool {
+            out.clear();
+            out.extend(
+                T.iter()
+                    .map(|t| x[0] * (-x[1] * t).exp() - 2.0 * (-3.0 * t).exp()),
+            );
+            true
+        }
+        fn jacobian(&self, x: &[f64], _: &mut (), jac: &mut [f64]) -> Option<bool> {
+            self.calls
+                .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            if self.fail {
+                return Some(false);
+            }
+            let m = T.len();
+            for (i, t) in T.iter().enumerate() {
+                jac[i] = (-x[1] * t).exp();
+                jac[m + i] = -x[0] * t * (-x[1] * t).exp();
+            }
+            Some(true)
+        }
+    }
+
+    const T: [f64; 3] = [0.0, 0.2, 0.5];
+
+    #[test]
+    fn an_exact_jacobian_replaces_the_differences() {
+        let r = Decay {
+            calls: Default::default(),
+            fail: false,
+        };
+        let bounds = [(0.0, 5.0), (0.0, 5.0)];
+        let o = levenberg_marquardt(
+            &r,
+            &[1.0, 1.0],
+            &bounds,
+            &LevenbergMarquardtSettings::default(),
+            |_| {},
+        )
+        .unwrap();
+        assert!(
+            (o.x[0] - 2.0).abs() < 1e-6 && (o.x[1] - 3.0).abs() < 1e-6,
+            "{o:?}"
+        );
+        let calls = r.calls.load(std::sync::atomic::Ordering::Relaxed);
+        assert_eq!(calls, o.iterations);
+        // one evaluation per Jacobian instead of one per column
+        let trials = o.evaluations - 1 - o.iterations;
+        assert!(o.accepted >= 1 && trials >= o.accepted, "{o:?}");
+        // the exact Jacobian comes back in x units
+        let (jac, evaluations) = residual_jacobian(
+            &r,
+            &[2.0, 3.0],
+            &[0.0; 3],
+            &bounds,
+            &LevenbergMarquardtSettings::default(),
+        )
+        .unwrap();
+        let jac = jac.unwrap();
+        assert_eq!(evaluations, 1);
+        assert!(
+            (jac[0] - 1.0).abs() < 1e-15 && (jac[4] + 2.0 * 0.2 * (-0.6f64).exp()).abs() < 1e-14
+        );
+        // a Jacobian that cannot be evaluated falls back to differences, and the fit still
+        // converges
+        let failing = Decay {
+            calls: Default::default(),
+            fail: true,
+        };
+        let o = levenberg_marquardt(
+            &failing,
+            &[1.0, 1.0],
+            &bounds,
+            &LevenbergMarquardtSettings::default(),
+            |_| {},
+        )
+        .unwrap();
+        assert!(
+            (o.x[0] - 2.0).abs() < 1e-5 && (o.x[1] - 3.0).abs() < 1e-5,
+            "{o:?}"
+        );
+        assert_eq!(o.failed_evaluations, o.iterations);
+    }
+
     #[test]
     fn a_bound_holds_the_fit() {
         let o = fit(&[(0.0, 5.0), (0.0, 2.5)], FiniteDifferences::Forward);
@@ -548,8 +672,7 @@ mod tests {
             ..Default::default()
         };
         let bounds = [(-10.0, 10.0), (0.0, 100.0)];
-        let (j, ev) =
-            finite_difference_jacobian(&r, &[1.0, 2.0], &[2.0, 2.0], &bounds, &s).unwrap();
+        let (j, ev) = residual_jacobian(&r, &[1.0, 2.0], &[2.0, 2.0], &bounds, &s).unwrap();
         let j = j.unwrap();
         assert_eq!(ev, 4);
         for (got, want) in j.iter().zip([3.0, 2.0, 0.0, 1.0]) {

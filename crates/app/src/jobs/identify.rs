@@ -33,6 +33,8 @@ pub enum Method {
     Sa,
     /// Metropolis–Hastings chains with an AR(1) noise likelihood.
     Mcmc,
+    /// The No-U-Turn sampler on the same likelihood, along its exact gradient.
+    Nuts,
 }
 
 impl Method {
@@ -40,7 +42,13 @@ impl Method {
         match self {
             Method::Sa => "sa",
             Method::Mcmc => "mcmc",
+            Method::Nuts => "nuts",
         }
+    }
+
+    /// A posterior sampler (`mcmc` or `nuts`).
+    pub(super) fn samples(self) -> bool {
+        matches!(self, Method::Mcmc | Method::Nuts)
     }
 }
 
@@ -274,9 +282,9 @@ pub(super) fn errors_pct(
 /// Runs the command.
 pub fn run(args: IdentifyJob, rep: &Reporter) -> AppResult {
     let with = extended::parse_with(args.with_effects.as_deref())?;
-    if args.max_iterations.is_some() && args.method != Method::Mcmc {
+    if args.max_iterations.is_some() && !args.method.samples() {
         return Err(AppError::bad(
-            "--max-iterations applies to --method mcmc only",
+            "--max-iterations applies to --method mcmc and nuts only",
         ));
     }
     if let Some(c) = args.chains {
@@ -321,7 +329,9 @@ pub fn run(args: IdentifyJob, rep: &Reporter) -> AppResult {
         mcmc,
     } = match args.method {
         Method::Sa => run_sa(&prep, args.seed, args.chains, rep)?,
-        Method::Mcmc => mcmc::run_mcmc(&prep, args.seed, args.max_iterations, rep)?,
+        Method::Mcmc | Method::Nuts => {
+            mcmc::run_mcmc(&prep, args.method, args.seed, args.max_iterations, rep)?
+        }
     };
 
     let (report, point_params, adequacy_lines) = identify_report(&prep, estimate, args.seed)?;
@@ -602,6 +612,7 @@ fn write_figures(
         match method {
             Method::Sa => "simulated annealing with a Levenberg–Marquardt polish",
             Method::Mcmc => "Metropolis–Hastings sampling",
+            Method::Nuts => "No-U-Turn sampling along the exact gradient",
         }
     ));
     let nominal = ModelParams::nominal();

@@ -1,5 +1,5 @@
 //! Warm-up adaptation as in Stan: dual averaging of the step size and the windowed estimate of
-//! a diagonal metric.
+//! the metric windows (the metric itself is module `metric`).
 
 /// Dual-averaging constants (Hoffman & Gelman 2014, §3.2.1; Stan's defaults).
 pub(super) const GAMMA: f64 = 0.05;
@@ -130,47 +130,6 @@ impl Windows {
     }
 }
 
-/// Welford's running mean and variance per coordinate.
-#[derive(Clone, Debug)]
-pub(super) struct Welford {
-    n: f64,
-    mean: Vec<f64>,
-    m2: Vec<f64>,
-}
-
-impl Welford {
-    pub(super) fn new(d: usize) -> Self {
-        Self {
-            n: 0.0,
-            mean: vec![0.0; d],
-            m2: vec![0.0; d],
-        }
-    }
-
-    pub(super) fn add(&mut self, q: &[f64]) {
-        self.n += 1.0;
-        for ((m, s), &x) in self.mean.iter_mut().zip(&mut self.m2).zip(q) {
-            let delta = x - *m;
-            *m += delta / self.n;
-            *s += (x - *m) * delta;
-        }
-    }
-
-    /// The regularised variance `n/(n+5)·s² + 10⁻³·5/(n+5)` into `var`, then a restart.
-    pub(super) fn regularised_variance(&mut self, var: &mut [f64]) {
-        let n = self.n;
-        if n >= 2.0 {
-            for (v, s) in var.iter_mut().zip(&self.m2) {
-                let s2 = s / (n - 1.0);
-                *v = (n / (n + 5.0)) * s2 + 1e-3 * (5.0 / (n + 5.0));
-            }
-        }
-        self.n = 0.0;
-        self.mean.iter_mut().for_each(|m| *m = 0.0);
-        self.m2.iter_mut().for_each(|m| *m = 0.0);
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -208,21 +167,5 @@ mod tests {
             eps = da.learn(0.1);
         }
         assert!(eps < 1.0 && da.final_step_size() < 1.0);
-    }
-
-    #[test]
-    fn welford_matches_two_pass() {
-        let xs = [1.0, 4.0, 2.5, -3.0, 0.5, 7.0];
-        let mut w = Welford::new(1);
-        for x in xs {
-            w.add(&[x]);
-        }
-        let n = xs.len() as f64;
-        let m = xs.iter().sum::<f64>() / n;
-        let s2 = xs.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0);
-        let mut v = [0.0];
-        w.regularised_variance(&mut v);
-        let want = n / (n + 5.0) * s2 + 1e-3 * 5.0 / (n + 5.0);
-        assert!((v[0] - want).abs() < 1e-12);
     }
 }

@@ -13,9 +13,11 @@ use crate::summary::{correlation_matrix, summaries, Summary};
 use crate::{GradLogDensity, LogisticBox, McmcError, MAX_INIT_TRIES};
 
 mod adaptation;
+mod metric;
 mod trajectory;
 
-use adaptation::{DualAveraging, Welford, Windows};
+use adaptation::{DualAveraging, Windows};
+use metric::{Metric, Welford};
 use trajectory::{hamiltonian, leapfrog, sample_momentum, transition, Model, Point, Scratch};
 
 /// Settings of [`run_nuts`], Stan's defaults. Counts are iterations **per chain**.
@@ -51,6 +53,9 @@ pub struct NutsSettings {
     pub term_buffer: usize,
     /// Length of the first metric window; each next one doubles (25).
     pub base_window: usize,
+    /// Adapt a dense inverse metric (the posterior covariance, Stan's `dense_e`) instead of a
+    /// diagonal one (`diag_e`, Stan's default; false).
+    pub dense_metric: bool,
 }
 
 impl Default for NutsSettings {
@@ -67,6 +72,7 @@ impl Default for NutsSettings {
             init_buffer: 75,
             term_buffer: 50,
             base_window: 25,
+            dense_metric: false,
         }
     }
 }
@@ -167,7 +173,8 @@ pub struct NutsRun {
     /// NaN without warm-up. The kept draws' mean ([`NutsRun::mean_accept_stat`]) is usually
     /// higher: they use `exp(x̄)`, smaller than the typical adapted step (as in Stan).
     pub adaptation_accept_stat: Vec<f64>,
-    /// The adapted inverse metric (diagonal, unconstrained coordinates) of every chain.
+    /// The adapted inverse metric (unconstrained coordinates) of every chain: its diagonal, or
+    /// with [`NutsSettings::dense_metric`] every element row by row.
     pub inv_metric: Vec<Vec<f64>>,
     /// Gradient evaluations over all chains (start search, step-size heuristic, warm-up and
     /// sampling).
@@ -402,7 +409,7 @@ fn start_point<T: GradLogDensity + ?Sized>(
 fn initial_step_size<T: GradLogDensity + ?Sized>(
     z: &Point,
     mut eps: f64,
-    inv_metric: &[f64],
+    inv_metric: &Metric,
     model: &mut Model<'_, T>,
     rng: &mut ChaCha8Rng,
     chain: usize,
@@ -447,7 +454,7 @@ fn run_chain<T: GradLogDensity + ?Sized>(
     let mut rng = chain_rng(settings.seed, chain);
     let mut model = Model::new(target, transform);
     let mut z = start_point(&mut model, transform, bounds, chain, init, &mut rng)?;
-    let mut inv_metric = vec![1.0; d];
+    let mut inv_metric = Metric::unit(d, settings.dense_metric);
     let mut scratch = Scratch::new(d, settings.max_depth);
     let mut eps = settings.initial_step_size;
     let mut dual = DualAveraging::new(settings.target_accept, eps);
@@ -458,7 +465,7 @@ fn run_chain<T: GradLogDensity + ?Sized>(
         settings.term_buffer,
         settings.base_window,
     );
-    let mut welford = Welford::new(d);
+    let mut welford = Welford::new(d, settings.dense_metric);
     let mut warmup_divergences = 0u64;
     // Sum and count of accept_stat since the dual averaging's last restart.
     let mut since_restart = (0.0, 0usize);
@@ -479,7 +486,7 @@ fn run_chain<T: GradLogDensity + ?Sized>(
             welford.add(&z.q);
         }
         if windows.advance() {
-            welford.regularised_variance(&mut inv_metric);
+            inv_metric.update(&mut welford);
             eps = initial_step_size(&z, eps, &inv_metric, &mut model, &mut rng, chain)?;
             dual.restart(eps);
             since_restart = (0.0, 0);
@@ -524,7 +531,7 @@ fn run_chain<T: GradLogDensity + ?Sized>(
         stats,
         step_size: eps,
         adaptation_accept_stat: since_restart.0 / since_restart.1 as f64,
-        inv_metric,
+        inv_metric: inv_metric.elements(),
         evaluations: model.evaluations,
         failed: model.failed,
         warmup_divergences,

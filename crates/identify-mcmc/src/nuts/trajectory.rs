@@ -4,8 +4,8 @@
 
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
-use rand_distr::StandardNormal;
 
+use super::metric::Metric;
 use crate::{GradLogDensity, LogisticBox, NutsSettings};
 
 /// A point of phase space: position `q` (unconstrained), momentum `p`, `log p(q)` (Jacobian
@@ -78,13 +78,8 @@ pub(super) fn log_add_exp(a: f64, b: f64) -> f64 {
 }
 
 /// `H = −log p(q) + ½ pᵀ M⁻¹ p`; NaN becomes `+∞`.
-pub(super) fn hamiltonian(z: &Point, inv_metric: &[f64]) -> f64 {
-    let k: f64 =
-        z.p.iter()
-            .zip(inv_metric)
-            .map(|(p, m)| p * p * m)
-            .sum::<f64>();
-    let h = -z.logp + 0.5 * k;
+pub(super) fn hamiltonian(z: &Point, metric: &Metric) -> f64 {
+    let h = -z.logp + 0.5 * metric.quadratic(&z.p);
     if h.is_nan() {
         f64::INFINITY
     } else {
@@ -92,27 +87,22 @@ pub(super) fn hamiltonian(z: &Point, inv_metric: &[f64]) -> f64 {
     }
 }
 
-/// Draws `p ~ N(0, M)`, `M = diag(1/inv_metric)`.
-pub(super) fn sample_momentum(z: &mut Point, inv_metric: &[f64], rng: &mut ChaCha8Rng) {
-    for (p, m) in z.p.iter_mut().zip(inv_metric) {
-        let n: f64 = rng.sample(StandardNormal);
-        *p = n / m.sqrt();
-    }
+/// Draws `p ~ N(0, M)`.
+pub(super) fn sample_momentum(z: &mut Point, metric: &Metric, rng: &mut ChaCha8Rng) {
+    metric.sample(&mut z.p, rng);
 }
 
 /// One leapfrog step of size `eps` (negative: backward in time).
 pub(super) fn leapfrog<T: GradLogDensity + ?Sized>(
     z: &mut Point,
     eps: f64,
-    inv_metric: &[f64],
+    metric: &Metric,
     model: &mut Model<'_, T>,
 ) {
     for (p, g) in z.p.iter_mut().zip(&z.grad) {
         *p += 0.5 * eps * g;
     }
-    for ((q, p), m) in z.q.iter_mut().zip(&z.p).zip(inv_metric) {
-        *q += eps * m * p;
-    }
+    metric.step_position(&mut z.q, &z.p, eps);
     z.logp = model.eval(&z.q, &mut z.grad);
     if z.logp.is_finite() {
         for (p, g) in z.p.iter_mut().zip(&z.grad) {
@@ -122,10 +112,8 @@ pub(super) fn leapfrog<T: GradLogDensity + ?Sized>(
 }
 
 /// `p♯ = M⁻¹p`.
-fn sharp(p: &[f64], inv_metric: &[f64], out: &mut [f64]) {
-    for ((o, p), m) in out.iter_mut().zip(p).zip(inv_metric) {
-        *o = p * m;
-    }
+fn sharp(p: &[f64], metric: &Metric, out: &mut [f64]) {
+    metric.sharp(p, out);
 }
 
 /// The generalised no-U-turn criterion: the trajectory keeps going while both ends' sharp
@@ -203,7 +191,7 @@ struct Tree<'b, 'a, T: ?Sized> {
     scratch: &'b mut Scratch,
     model: &'b mut Model<'a, T>,
     rng: &'b mut ChaCha8Rng,
-    inv_metric: &'b [f64],
+    inv_metric: &'b Metric,
     h0: f64,
     max_energy_error: f64,
     n_leapfrog: u32,
@@ -349,7 +337,7 @@ impl<T: GradLogDensity + ?Sized> Tree<'_, '_, T> {
 pub(super) fn transition<T: GradLogDensity + ?Sized>(
     z: &mut Point,
     eps: f64,
-    inv_metric: &[f64],
+    inv_metric: &Metric,
     settings: &NutsSettings,
     model: &mut Model<'_, T>,
     rng: &mut ChaCha8Rng,
@@ -487,7 +475,7 @@ mod tests {
             logp: 0.0,
         };
         z.logp = model.eval(&z.q.clone(), &mut z.grad);
-        let inv = [0.001, 0.0005];
+        let inv = Metric::Diagonal(vec![0.001, 0.0005]);
         let start = z.clone();
         let h0 = hamiltonian(&z, &inv);
         for _ in 0..20 {
@@ -537,7 +525,7 @@ mod tests {
             let t = transition(
                 &mut z,
                 0.5,
-                &[1.0],
+                &Metric::Diagonal(vec![1.0]),
                 &NutsSettings::default(),
                 &mut model,
                 &mut rng,

@@ -21,7 +21,7 @@ use ode::{DoPri5, OdeError, OdeSystem};
 /// Cubic Hermite interpolation of the drive (tabulated at `t0 + j/fs`) at time `t`:
 /// `(act, d(act)/dt, LMT)`.
 #[inline(always)]
-fn drive_at(drive: &[[f64; 4]], t0: f64, fs: f64, t: f64) -> (f64, f64, f64) {
+pub(super) fn drive_at(drive: &[[f64; 4]], t0: f64, fs: f64, t: f64) -> (f64, f64, f64) {
     let n = drive.len();
     let x = ((t - t0) * fs).clamp(0.0, (n - 1) as f64);
     let i = (x as usize).min(n - 2);

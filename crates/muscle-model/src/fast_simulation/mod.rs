@@ -43,10 +43,13 @@ mod fibre;
 mod grid;
 mod integrate;
 mod kept;
+mod sensitivity;
 #[cfg(test)]
 mod test_support;
 
 pub(crate) use cache::channel_for;
 pub(crate) use channel::Channel;
+pub(crate) use fibre::FibreValues;
 pub(crate) use fibre::{state, unit_torque, Fibre};
 pub(crate) use integrate::{run, run_lanes};
+pub(crate) use sensitivity::{dual, eps_of, initial_length, run_sensitivities};

@@ -15,12 +15,27 @@ pub(super) fn write_chains(
     seed: u64,
     trial: &str,
 ) -> AppResult<Vec<PathBuf>> {
+    let mut files = Vec::new();
+    if let Some(chains) = m.nuts_chains() {
+        let description = [
+            "surae identify --method nuts: the No-U-Turn sampler along the model's exact gradient",
+            &format!("trial = {trial}"),
+            "lp__ = log posterior on the unconstrained coordinates (the logistic transform's Jacobian included)",
+        ];
+        let names: Vec<&str> = m.names.iter().map(String::as_str).collect();
+        for c in 0..chains.stats.len() {
+            let mut csv = Vec::new();
+            identify_mcmc::write_cmdstan_nuts_chain(chains, &names, c, &description, &mut csv)
+                .map_err(AppError::internal)?;
+            files.push(out.write(&format!("chains/chain_{}.csv", c + 1), &csv)?);
+        }
+        return Ok(files);
+    }
     let description = [
         "surae identify --method mcmc: random-walk Metropolis-Hastings with mode jumps (not NUTS)",
         &format!("trial = {trial}"),
         "lp__ = log uniform prior on the bounds + log_lik.1; log_lik.1 = log-likelihood of the trial",
     ];
-    let mut files = Vec::new();
     for c in 0..m.run.log_density.len() {
         let mut csv = Vec::new();
         identify_mcmc::write_cmdstan_chain(m, c, seed, &description, &mut csv)

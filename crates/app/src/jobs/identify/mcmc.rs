@@ -136,6 +136,53 @@ pub(super) fn mcmc_settings(
     Ok(settings)
 }
 
+/// NUTS's settings for `--seed` and `--max-iterations` (warm-up plus draws per chain, split
+/// in half; default 1000 + 1000, Stan's), with a dense metric.
+pub(super) fn nuts_settings(
+    seed: u64,
+    max_iterations: Option<usize>,
+) -> AppResult<identify_mcmc::NutsSettings> {
+    // a dense metric: the muscles' F0 and α0 are correlated in the posterior, which a
+    // diagonal metric leaves for the trajectories to wind along
+    let mut settings = identify_mcmc::NutsSettings {
+        seed,
+        dense_metric: true,
+        ..identify_mcmc::NutsSettings::default()
+    };
+    if let Some(n) = max_iterations {
+        settings.warmup = n / 2;
+        settings.draws = n - n / 2;
+        settings
+            .validate()
+            .map_err(|e| AppError::bad(format!("--max-iterations {n}: {e}")))?;
+    }
+    Ok(settings)
+}
+
+/// Runs `method`'s sampler on `trials` (the random walk with a progress display; NUTS runs
+/// its fixed number of iterations).
+pub(super) fn sample_with(
+    method: Method,
+    trials: &[identify_mcmc::SessionTrialLikelihood<'_>],
+    seed: u64,
+    max_iterations: Option<usize>,
+    what: &str,
+    rep: &Reporter,
+) -> AppResult<identify_mcmc::McmcIdentification> {
+    if method == Method::Nuts {
+        let settings = identify_mcmc::McmcIdentifySettings::default();
+        let nuts = nuts_settings(seed, max_iterations)?;
+        rep.say(&format!(
+            "NUTS: {} chains × ({} warm-up + {} draws) …",
+            nuts.chains, nuts.warmup, nuts.draws
+        ));
+        return identify_mcmc::identify_session_nuts(trials, &settings, &nuts)
+            .map_err(|e| AppError::bad(format!("{what}: identification failed: {e}")));
+    }
+    let settings = mcmc_settings(seed, max_iterations)?;
+    sample(trials, &settings, what, rep)
+}
+
 /// Runs the sampler on `trials` with a progress display.
 pub(super) fn sample(
     trials: &[identify_mcmc::SessionTrialLikelihood<'_>],
@@ -250,7 +297,8 @@ pub(super) fn summary_lines(
 ) -> Vec<String> {
     let (max_rhat, min_ess) = m.worst_diagnostics();
     let mut lines = vec![format!(
-        "identify (mcmc): {what} — {} evaluations in {:.1} s; {}",
+        "identify ({}): {what} — {} evaluations in {:.1} s; {}",
+        if m.nuts.is_some() { "nuts" } else { "mcmc" },
         m.evaluations,
         m.wall_s,
         if m.converged {
@@ -280,12 +328,32 @@ pub(super) fn summary_lines(
             ));
         }
     }
-    lines.push(format!(
-        "  {} posterior mode(s) from the multi-start search; random-walk acceptance {:.2}, mode-jump acceptance {:.2}",
-        m.modes.len(),
-        m.acceptance_rate,
-        m.jump_acceptance_rate
-    ));
+    match &m.nuts {
+        Some(n) => {
+            let min_ess = m.posterior.iter().fold(f64::INFINITY, |a, p| a.min(p.ess_bulk));
+            lines.push(format!(
+                "  NUTS: mean step size {:.3}, {:.1} leapfrog steps per draw, accept_stat {:.2}, {} divergent of {} draws ({} in warm-up), {} at the largest tree depth",
+                n.step_size.iter().sum::<f64>() / n.step_size.len().max(1) as f64,
+                n.mean_leapfrog,
+                n.mean_accept_stat,
+                n.divergences,
+                n.settings.draws * n.settings.chains,
+                n.warmup_divergences,
+                n.max_depth_hits
+            ));
+            lines.push(format!(
+                "  {} gradient evaluations (simulation + exact Jacobian), {:.1} per effective draw of the slowest parameter",
+                n.gradient_evaluations,
+                n.gradient_evaluations as f64 / min_ess
+            ));
+        }
+        None => lines.push(format!(
+            "  {} posterior mode(s) from the multi-start search; random-walk acceptance {:.2}, mode-jump acceptance {:.2}",
+            m.modes.len(),
+            m.acceptance_rate,
+            m.jump_acceptance_rate
+        )),
+    }
     let width = m.names.iter().map(|n| n.len()).max().unwrap_or(0).max(16);
     lines.push(format!(
         "  {:<width$} {:>10} {:>9}        90 % interval             R̂      ESS  identifiable",
@@ -335,6 +403,7 @@ pub(super) fn summary_lines(
 
 pub(super) fn run_mcmc(
     prep: &Prepared,
+    method: Method,
     seed: u64,
     max_iterations: Option<usize>,
     rep: &Reporter,
@@ -352,12 +421,18 @@ pub(super) fn run_mcmc(
     .map_err(|e| AppError::internal(e.to_string()))?;
     let noise = NoiseSpec::from_prepared(&prep.prepared, NoiseKind::Ar1White)
         .map_err(|e| AppError::bad(format!("{}: {e}", prep.loaded.name)))?;
-    let settings = mcmc_settings(seed, max_iterations)?;
     let trial = SessionTrialLikelihood {
         problem: &problem,
         noise: &noise,
     };
-    let m = sample(&[trial], &settings, &prep.loaded.name, rep)?;
+    let m = sample_with(
+        method,
+        &[trial],
+        seed,
+        max_iterations,
+        &prep.loaded.name,
+        rep,
+    )?;
     let mean = m.mean();
     // prediction on the corrected scale, like the SA figures
     let prediction = prep
@@ -368,7 +443,7 @@ pub(super) fn run_mcmc(
     let trials = vec![trial_entry(&prep.loaded.name, &m.trials[0], fit)];
     let lines = summary_lines(&prep.loaded.name, &m, &trials, prep.dynamometer.is_some());
     let estimate = Estimate {
-        method: Method::Mcmc,
+        method,
         params: posterior_means(&m),
         rms_nm: m.rms_corrected_nm,
         rms_raw_nm: m.rms_nm,

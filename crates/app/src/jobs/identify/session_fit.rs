@@ -32,7 +32,7 @@ pub(super) fn run(
 ) -> AppResult {
     let truth = session_truth(args)?;
     let free = free_names(args, session_path, with)?;
-    if args.method == super::Method::Mcmc {
+    if args.method.samples() {
         return run_mcmc(
             args,
             session_path,
@@ -316,7 +316,11 @@ fn write_figures(
     mcmc: Option<&identify_mcmc::McmcIdentification>,
     rep: &Reporter,
 ) -> AppResult<Vec<std::path::PathBuf>> {
-    let method = if mcmc.is_some() { "mcmc" } else { "sa" };
+    let method = match mcmc {
+        Some(m) if m.nuts.is_some() => "nuts",
+        Some(_) => "mcmc",
+        None => "sa",
+    };
     let mut set = FigureSet::new(
         out,
         &format!(
@@ -733,7 +737,6 @@ fn run_mcmc(
     use identify_mcmc::SessionTrialLikelihood;
     let session = load_session(session_path, &args.model, free, rep)?;
     let set = session.problem_set()?;
-    let settings = super::mcmc::mcmc_settings(args.seed, args.max_iterations)?;
     let out_dir = args
         .out
         .clone()
@@ -764,7 +767,14 @@ fn run_mcmc(
     let out = OutDir::prepare_or_discard(&out_dir, &input_refs, &planned_refs, args.discard_files)?;
     let show = rep.show();
     let what = session_path.display().to_string();
-    let m = super::mcmc::sample(&likelihoods, &settings, &what, rep)?;
+    let m = super::mcmc::sample_with(
+        args.method,
+        &likelihoods,
+        args.seed,
+        args.max_iterations,
+        &what,
+        rep,
+    )?;
 
     let mean = m.mean();
     let start = set.base_vector();
@@ -785,7 +795,7 @@ fn run_mcmc(
     // a session's per-trial fits are its own `trials`, with each trial's source and checks
     let posterior = super::mcmc::mcmc_report(&m, Vec::new());
     let doc = SessionIdentifyReport {
-        method: "mcmc",
+        method: args.method.name(),
         params: estimate,
         rms_nm: m.rms_corrected_nm,
         rms_raw_nm: Some(m.rms_nm),

@@ -1,0 +1,261 @@
+//! The Bayesian identification of a session's shared parameters with the gradient-based sampler
+//! ([`identify_session_nuts`]): the same trials, corrections, noise models and report as the
+//! random walk of module `session_identify`, sampled by NUTS on the full posterior of module
+//! `full_posterior` with its exact gradient.
+//!
+//! The random walk samples `F0` on its exact conditional and the other parameters in
+//! coordinates whitened by a Laplace factor found by a multi-start search; NUTS needs neither:
+//! it samples every free parameter through the logistic transform of its bound, adapts a
+//! metric in warm-up (Stan's windows), and moves along the gradient.
+//!
+//! The chains start around the least-squares optimum of the session (a bounded
+//! Levenberg–Marquardt on the exact Jacobian from the base point): chain `c` at `u* + 0.5·z`,
+//! `z ~ N(0, I)` from the seed's stream 0, in the unconstrained coordinates `u`. From Stan's
+//! default, `u ~ U(−2, 2)`, far from the narrow posterior of a whole trial, the first warm-up
+//! iterations built trees of hundreds of leapfrog steps.
+
+use std::time::Instant;
+
+use crate::full_posterior::FullPosterior;
+use crate::identify::{
+    McmcIdentification, McmcIdentifySettings, NutsStats, SessionTrialLikelihood,
+};
+use crate::session_identify::{
+    check_shared, corrected_problem, named_correlations, noise_models, pooled_rms, posteriors,
+    trial_fits,
+};
+use crate::summary::strongest_correlations;
+use crate::trial_term::TrialModel;
+use crate::{run_nuts, ChainStopReason, McmcError, NutsSettings, RunResult};
+use muscle_model::{Problem, ProblemSet, ProblemSetWorkspace};
+use numerics::{levenberg_marquardt, LevenbergMarquardtSettings, Residuals};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+
+/// Sample the posterior of the shared free parameters of a session's trials with NUTS
+/// (module documentation). `settings` gives the convergence targets (`mcmc.rhat_target`,
+/// `mcmc.ess_target`), the correlations to report and the noise fit's evaluations; `nuts`
+/// the sampler's own settings (seed, chains, warm-up, draws).
+///
+/// `converged` says whether every parameter reached R̂ < target and bulk ESS ≥ target with
+/// the draws asked for (the run does not extend itself).
+///
+/// # Errors
+/// As [`crate::identify_session`]; and [`McmcError::NoExactGradient`] when the model has no
+/// exact derivative for a free parameter (activation, delay, fatigue) or formulation.
+pub fn identify_session_nuts(
+    trials: &[SessionTrialLikelihood<'_>],
+    settings: &McmcIdentifySettings,
+    nuts: &NutsSettings,
+) -> Result<McmcIdentification, McmcError> {
+    let started = Instant::now();
+    check_shared(trials)?;
+    settings.mcmc.validate()?;
+    nuts.validate()?;
+    let corrected: Vec<Problem> = trials
+        .iter()
+        .map(corrected_problem)
+        .collect::<Result<_, _>>()?;
+    for p in &corrected {
+        p.exact_jacobian_available()
+            .map_err(|e| McmcError::NoExactGradient {
+                reason: e.to_string(),
+            })?;
+    }
+    let first = &corrected[0];
+    let bounds = first.bounds().to_vec();
+    let (noise_params, mut evaluations, mut failed) = noise_models(trials, &corrected, settings)?;
+    let models: Vec<TrialModel<'_>> = corrected
+        .iter()
+        .zip(trials)
+        .zip(&noise_params)
+        .map(|((problem, t), n)| {
+            Ok(TrialModel {
+                problem,
+                noise: n.model()?,
+                offset_sd: t.noise.offset_sd_nm,
+            })
+        })
+        .collect::<Result<_, McmcError>>()?;
+    let target = FullPosterior::new(&models);
+    let (starts, fit_evaluations) = starts_near_the_optimum(&corrected, nuts);
+    evaluations += fit_evaluations;
+    let out = run_nuts(&target, nuts, Some(&starts))?;
+    evaluations += out.gradient_evaluations;
+    failed += out.failed_evaluations;
+
+    let targets_met = out.max_rhat() < settings.mcmc.rhat_target
+        && out.min_ess_bulk() >= settings.mcmc.ess_target;
+    // the random walk's report, filled from the NUTS run
+    let chain_accept: Vec<f64> = out
+        .stats
+        .iter()
+        .map(|c| c.iter().map(|d| d.accept_stat).sum::<f64>() / c.len().max(1) as f64)
+        .collect();
+    let run = RunResult {
+        settings: settings.mcmc,
+        dim: out.dim,
+        draws: out.draws.clone(),
+        log_density: out.log_density.clone(),
+        warmup_iterations: nuts.warmup,
+        sampling_iterations: nuts.draws,
+        warmup_converged: true,
+        stop: if targets_met {
+            ChainStopReason::Converged
+        } else {
+            ChainStopReason::CapReached
+        },
+        converged: targets_met,
+        acceptance_rate: chain_accept.clone(),
+        warmup_acceptance_rate: out.adaptation_accept_stat.clone(),
+        jump_acceptance_rate: vec![f64::NAN; nuts.chains],
+        evaluations: out.gradient_evaluations,
+        failed_evaluations: out.failed_evaluations,
+        out_of_bounds: 0,
+        zero_density: 0,
+        max_abs_coordinate: f64::NAN,
+        summary: out.summary.clone(),
+        correlation: out.correlation.clone(),
+        strongest_correlations: strongest_correlations(&out.correlation),
+    };
+    let names = first.names().to_vec();
+    let posterior = posteriors(&run, &names);
+    let correlations = named_correlations(&run, &names, settings.correlations);
+    let mean: Vec<f64> = posterior.iter().map(|p| p.mean).collect();
+    let fits = trial_fits(trials, &corrected, &noise_params, &mean);
+    evaluations += 2 * trials.len() as u64;
+    let (rms_nm, rms_corrected_nm) = pooled_rms(trials, &corrected, &mean, &fits);
+    let optimum = out
+        .log_density
+        .iter()
+        .enumerate()
+        .flat_map(|(c, lp)| lp.iter().enumerate().map(move |(i, v)| (c, i, *v)))
+        .fold((0, 0, f64::NEG_INFINITY), |best, cur| {
+            if cur.2 > best.2 {
+                cur
+            } else {
+                best
+            }
+        });
+    let optimum: Vec<f64> = (0..out.dim)
+        .map(|k| out.draws[k][optimum.0][optimum.1])
+        .collect();
+    let stats = NutsStats {
+        settings: *nuts,
+        step_size: out.step_size.clone(),
+        inv_metric: out.inv_metric.clone(),
+        gradient_evaluations: out.gradient_evaluations,
+        mean_leapfrog: out.mean_leapfrog(),
+        mean_accept_stat: out.mean_accept_stat(),
+        divergences: out.divergences,
+        warmup_divergences: out.warmup_divergences,
+        max_depth_hits: out.max_depth_hits,
+        draws: out.stats,
+    };
+    Ok(McmcIdentification {
+        names,
+        bounds,
+        posterior,
+        correlations,
+        posterior_correlation: run.correlation.clone(),
+        converged: targets_met,
+        max_abs_z: f64::NAN,
+        z_half_width: f64::NAN,
+        stop: run.stop,
+        warmup_iterations: nuts.warmup,
+        sampling_iterations: nuts.draws,
+        acceptance_rate: stats.mean_accept_stat,
+        evaluations,
+        failed_evaluations: failed,
+        optimum,
+        modes: Vec::new(),
+        jump_acceptance_rate: f64::NAN,
+        rms_nm,
+        rms_corrected_nm,
+        noise: noise_params[0],
+        corrected: trials[0].noise.systematic.is_some(),
+        trials: fits,
+        wall_s: started.elapsed().as_secs_f64(),
+        nuts: Some(stats),
+        run,
+    })
+}
+
+/// `measured − predicted` of every trial of a set, with the model's exact Jacobian.
+struct SetResiduals<'a>(&'a ProblemSet);
+
+impl Residuals for SetResiduals<'_> {
+    type Workspace = ProblemSetWorkspace;
+    fn workspace(&self) -> ProblemSetWorkspace {
+        ProblemSetWorkspace::new(self.0)
+    }
+    fn residuals(&self, x: &[f64], ws: &mut ProblemSetWorkspace, out: &mut Vec<f64>) -> bool {
+        out.resize(self.0.samples(), 0.0);
+        self.0.residuals_with(x, ws, out).is_ok()
+    }
+    fn jacobian(&self, x: &[f64], ws: &mut ProblemSetWorkspace, jac: &mut [f64]) -> Option<bool> {
+        let mut full = Vec::new();
+        if self.0.jacobian_with(x, ws, &mut full).is_err() || full.len() != jac.len() {
+            return Some(false);
+        }
+        for (j, f) in jac.iter_mut().zip(&full) {
+            *j = -f;
+        }
+        Some(true)
+    }
+}
+
+/// One start per chain around the least-squares optimum (module documentation), strictly
+/// inside the bounds, and the evaluations of the fit.
+fn starts_near_the_optimum(corrected: &[Problem], nuts: &NutsSettings) -> (Vec<Vec<f64>>, u64) {
+    let first = &corrected[0];
+    let bounds = first.bounds().to_vec();
+    let base: Vec<f64> = first
+        .base_vector()
+        .iter()
+        .zip(&bounds)
+        .map(|(v, (lo, hi))| v.clamp(*lo, *hi))
+        .collect();
+    let (optimum, evaluations) = match ProblemSet::new(corrected.to_vec()) {
+        Ok(set) => {
+            match levenberg_marquardt(
+                &SetResiduals(&set),
+                &base,
+                &bounds,
+                &LevenbergMarquardtSettings::default(),
+                |_| {},
+            ) {
+                Ok(fit) => (fit.x, fit.evaluations as u64),
+                Err(_) => (base, 1),
+            }
+        }
+        Err(_) => (base, 0),
+    };
+    let transform = crate::LogisticBox::new(&bounds);
+    let mut u = vec![0.0; bounds.len()];
+    // an optimum at a bound maps to ±∞: pull it just inside
+    let inside: Vec<f64> = optimum
+        .iter()
+        .zip(&bounds)
+        .map(|(v, (lo, hi))| v.clamp(lo + 1e-3 * (hi - lo), hi - 1e-3 * (hi - lo)))
+        .collect();
+    transform.to_unconstrained(&inside, &mut u);
+    let mut rng = ChaCha8Rng::seed_from_u64(nuts.seed);
+    rng.set_stream(0);
+    let starts = (0..nuts.chains)
+        .map(|_| {
+            let v: Vec<f64> = u
+                .iter()
+                .map(|ui| {
+                    let z: f64 = StandardNormal.sample(&mut rng);
+                    ui + 0.5 * z
+                })
+                .collect();
+            let mut x = vec![0.0; v.len()];
+            transform.to_box(&v, &mut x);
+            x
+        })
+        .collect();
+    (starts, evaluations)
+}

@@ -1,0 +1,158 @@
+//! Forward sensitivities of one muscle's fibre length, integrated with it.
+//!
+//! For parameters `θ` of the fibre's constants (`LOM`, `LST`, `α0`, `vmax`, the curves), the
+//! sensitivity `s = ∂LM/∂θ` obeys the variational equation of `L̇M = vM(act, LMT, LM; θ)`,
+//!
+//! ```text
+//! ṡ = (∂vM/∂LM)·s + ∂vM/∂θ,     s(t₀) = −(∂g/∂θ)/(∂g/∂LM)
+//! ```
+//!
+//! where `g(LM; θ) = F̃T/cos α − fpe − act·fl` is the static-equilibrium residual whose root is
+//! the initial fibre length (at the fibre-length floor, `s(t₀) = ∂LM_min/∂θ`; at rest with the
+//! tendon just slack, where `g` is flat, the root is the slack length and `s(t₀)` follows from
+//! `ε(LM; θ) = 0`). The partial
+//! derivatives are those of the right-hand side as written: it is evaluated in dual numbers
+//! ([`crate::curves::Scalar`]) seeded in `θ` and in `s`. The state `[LM, act, s₁ … s_K]` is
+//! integrated by one [`ode::DoPri5`] whose error norm measures every component, so that the
+//! steps resolve the sensitivities as well as the fibre length: `s` is integrated, not a
+//! difference of two adaptive integrations, so it has none of their jitter. (Controlling the
+//! steps by `[LM, act]` alone, the simulation's own steps, leaves the α0 columns 0.1–0.5 % from
+//! the tight reference at the default tolerances; controlled by all, 0.02–0.05 %.) The torque's derivative follows at every sample from
+//! `∂(F0·fT(ε(LMT, LM; θ))·r)/∂θ` with `LM` carrying `s`.
+
+use super::channel::Channel;
+use super::fibre::Fibre;
+use super::integrate::drive_at;
+use crate::inputs::TrialInputs;
+use crate::settings::SimSettings;
+use crate::stats::SimStats;
+use nalgebra::SVector;
+use num_dual::{Derivative, Dual64, DualSVec64};
+use ode::{DoPri5, OdeError, OdeSystem};
+
+/// The sensitivities are integrated at this share of the simulation's tolerances.
+const SENSITIVITY_TOLERANCE: f64 = 0.1;
+
+/// A dual number of value `re` and derivative `eps`.
+pub(crate) fn dual<const K: usize>(re: f64, eps: [f64; K]) -> DualSVec64<K> {
+    DualSVec64::new(re, Derivative::some(SVector::from(eps)))
+}
+
+/// The derivative part of `x` (zeros when it carries none).
+pub(crate) fn eps_of<const K: usize>(x: &DualSVec64<K>) -> [f64; K] {
+    let m = x.eps.unwrap_generic(nalgebra::Const::<K>, nalgebra::U1);
+    std::array::from_fn(|k| m[k])
+}
+
+/// The fibre ODE with its `K` sensitivities on `[LM, act, s₁ … s_K]` (`N = K + 2`).
+struct SensitivitySystem<'a, const K: usize> {
+    drive: &'a [[f64; 4]],
+    t0: f64,
+    fs: f64,
+    fib: &'a Fibre<DualSVec64<K>>,
+}
+
+impl<const N: usize, const K: usize> OdeSystem<N> for SensitivitySystem<'_, K> {
+    #[inline]
+    fn rhs(&mut self, t: f64, y: &[f64; N], dy: &mut [f64; N]) {
+        let (act, dact, lmt) = drive_at(self.drive, self.t0, self.fs, t);
+        let lm = dual(y[0], std::array::from_fn(|k| y[2 + k]));
+        let v = self.fib.velocity(DualSVec64::from(act), lmt, lm);
+        dy[0] = v.re;
+        dy[1] = dact;
+        let e = eps_of(&v);
+        dy[2..K + 2].copy_from_slice(&e);
+    }
+}
+
+/// The initial fibre length `lm0` (the equilibrium's root, found by the caller) with its
+/// derivative with respect to the seeds of `fib` (`real` the same constants in `f64`).
+pub(crate) fn initial_length<const K: usize>(
+    ch: &Channel,
+    fib: &Fibre<DualSVec64<K>>,
+    real: &Fibre<Dual64>,
+    lm0: f64,
+) -> DualSVec64<K> {
+    if lm0 <= fib.lm_min.re {
+        // at the floor the fibre length is the floor's
+        return fib.lm_min;
+    }
+    let act = ch.drive[0][0];
+    let lmt = ch.drive[0][2];
+    let g_theta = fib.equilibrium_residual(DualSVec64::from(act), lmt, DualSVec64::from(lm0));
+    let g_lm = real
+        .equilibrium_residual(Dual64::from(act), lmt, Dual64::new(lm0, 1.0))
+        .eps;
+    if g_lm != 0.0 && g_lm.is_finite() {
+        let gt = eps_of(&g_theta);
+        return dual(lm0, std::array::from_fn(|k| -gt[k] / g_lm));
+    }
+    // At rest with the tendon just slack the residual is flat (no active force, no tendon
+    // force below slack): the root the bisection finds is the slack length, ε(LM; θ) = 0.
+    let e_theta = eps_of(&fib.strain(lmt, DualSVec64::from(lm0)));
+    let e_lm = real.strain(lmt, Dual64::new(lm0, 1.0)).eps;
+    dual(
+        lm0,
+        std::array::from_fn(|k| {
+            let s = -e_theta[k] / e_lm;
+            if s.is_finite() {
+                s
+            } else {
+                0.0
+            }
+        }),
+    )
+}
+
+/// Integrates `LM` and its `K` sensitivities over the samples of `inputs` (`N = K + 2`):
+/// `LM` at every sample into `lm_out`, `∂LM/∂θ_k` into `sens_out[k]`.
+pub(crate) fn run_sensitivities<const N: usize, const K: usize>(
+    ch: &Channel,
+    inputs: &TrialInputs,
+    fib: &Fibre<DualSVec64<K>>,
+    lm0: DualSVec64<K>,
+    settings: &SimSettings,
+    lm_out: &mut [f64],
+    sens_out: &mut [Vec<f64>],
+) -> Result<SimStats, OdeError> {
+    assert_eq!(N, K + 2, "the state is [LM, act] and K sensitivities");
+    let times = inputs.times();
+    let n = times.len();
+    let s0 = eps_of(&lm0);
+    lm_out[0] = lm0.re;
+    for k in 0..K {
+        sens_out[k].clear();
+        sens_out[k].resize(n, 0.0);
+        sens_out[k][0] = s0[k];
+    }
+    if n < 2 {
+        return Ok(SimStats::default());
+    }
+    let mut sys = SensitivitySystem {
+        drive: &ch.drive,
+        t0: ch.grid.t0,
+        fs: ch.grid.rate,
+        fib,
+    };
+    let mut y0 = [0.0; N];
+    y0[0] = lm0.re;
+    y0[1] = ch.drive[0][0];
+    y0[2..].copy_from_slice(&s0);
+    let mut adaptive = settings.adaptive(inputs);
+    adaptive.rtol *= SENSITIVITY_TOLERANCE;
+    adaptive.atol *= SENSITIVITY_TOLERANCE;
+    let mut stepper = DoPri5::<N>::new(adaptive)?.with_log_controller();
+    stepper.init(&mut sys, times[0], y0, times[n - 1])?;
+    let mut next = 1;
+    while next < n {
+        stepper.step(&mut sys)?;
+        let dense = stepper.dense();
+        let to = next + times[next..].partition_point(|&x| x <= dense.t());
+        dense.component_into(&times[next..to], 0, &mut lm_out[next..to]);
+        for (k, out) in sens_out.iter_mut().enumerate().take(K) {
+            dense.component_into(&times[next..to], 2 + k, &mut out[next..to]);
+        }
+        next = to;
+    }
+    Ok(stepper.stats().into())
+}
