@@ -22,10 +22,9 @@ use crate::identify::{
 };
 use crate::session_identify::{
     check_shared, corrected_problem, named_correlations, noise_models, pooled_rms, posteriors,
-    trial_fits,
+    trial_fits, trial_models,
 };
 use crate::summary::strongest_correlations;
-use crate::trial_term::TrialModel;
 use crate::{run_nuts, ChainStopReason, McmcError, NutsSettings, RunResult};
 use muscle_model::{Problem, ProblemSet, ProblemSetWorkspace};
 use numerics::{levenberg_marquardt, LevenbergMarquardtSettings, Residuals};
@@ -66,18 +65,7 @@ pub fn identify_session_nuts(
     let first = &corrected[0];
     let bounds = first.bounds().to_vec();
     let (noise_params, mut evaluations, mut failed) = noise_models(trials, &corrected, settings)?;
-    let models: Vec<TrialModel<'_>> = corrected
-        .iter()
-        .zip(trials)
-        .zip(&noise_params)
-        .map(|((problem, t), n)| {
-            Ok(TrialModel {
-                problem,
-                noise: n.model()?,
-                offset_sd: t.noise.offset_sd_nm,
-            })
-        })
-        .collect::<Result<_, McmcError>>()?;
+    let models = trial_models(trials, &corrected, &noise_params)?;
     let target = FullPosterior::new(&models);
     let (starts, fit_evaluations) = starts_near_the_optimum(&corrected, nuts);
     evaluations += fit_evaluations;

@@ -240,18 +240,7 @@ where
     let bounds = first.bounds().to_vec();
 
     let (noise_params, mut evaluations, mut failed) = noise_models(trials, &corrected, settings)?;
-    let models: Vec<TrialModel<'_>> = corrected
-        .iter()
-        .zip(trials)
-        .zip(&noise_params)
-        .map(|((problem, t), n)| {
-            Ok(TrialModel {
-                problem,
-                noise: n.model()?,
-                offset_sd: t.noise.offset_sd_nm,
-            })
-        })
-        .collect::<Result<_, McmcError>>()?;
+    let models = trial_models(trials, &corrected, &noise_params)?;
 
     let k = settings.z_half_width;
     let modes = marginal_modes(
@@ -445,6 +434,27 @@ fn dispersed_starts(
         inits.push(chosen);
     }
     inits
+}
+
+/// Every trial's likelihood model: its corrected problem, its noise model and its offset's
+/// prior sd.
+pub(crate) fn trial_models<'a>(
+    trials: &[SessionTrialLikelihood<'_>],
+    corrected: &'a [Problem],
+    noise_params: &[NoiseParams],
+) -> Result<Vec<TrialModel<'a>>, McmcError> {
+    corrected
+        .iter()
+        .zip(trials)
+        .zip(noise_params)
+        .map(|((problem, t), n)| {
+            Ok(TrialModel {
+                problem,
+                noise: n.model()?,
+                offset_sd: t.noise.offset_sd_nm,
+            })
+        })
+        .collect()
 }
 
 /// Each parameter's posterior summary under its name.
