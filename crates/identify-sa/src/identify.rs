@@ -656,8 +656,6 @@ struct LmResult {
 struct WeightedResiduals<'a> {
     set: &'a ProblemSet,
     sqrt_w: Option<Vec<f64>>,
-    /// The model's exact Jacobian covers the free parameters.
-    exact: bool,
 }
 
 impl Residuals for WeightedResiduals<'_> {
@@ -676,34 +674,6 @@ impl Residuals for WeightedResiduals<'_> {
             }
         }
         true
-    }
-
-    /// `∂rᵢ/∂x = −√wᵢ·∂τ̂ᵢ/∂x` from the model's exact Jacobian, when it covers the free
-    /// parameters (otherwise the polish differences the residuals).
-    fn jacobian(&self, x: &[f64], ws: &mut ProblemSetWorkspace, jac: &mut [f64]) -> Option<bool> {
-        if !self.exact {
-            return None;
-        }
-        let mut full = Vec::new();
-        if self.set.jacobian_with(x, ws, &mut full).is_err() || full.len() != jac.len() {
-            return Some(false);
-        }
-        let m = self.set.samples();
-        for (col, src) in jac.chunks_mut(m).zip(full.chunks(m)) {
-            match &self.sqrt_w {
-                Some(sw) => {
-                    for ((c, s), w) in col.iter_mut().zip(src).zip(sw) {
-                        *c = -s * w;
-                    }
-                }
-                None => {
-                    for (c, s) in col.iter_mut().zip(src) {
-                        *c = -s;
-                    }
-                }
-            }
-        }
-        Some(true)
     }
 }
 
@@ -732,7 +702,6 @@ fn levenberg_marquardt_polish(
         sqrt_w: set
             .weights()
             .map(|ws| ws.iter().map(|v| v.sqrt()).collect()),
-        exact: set.exact_jacobian_available().is_ok(),
     };
     let fit = levenberg_marquardt(&residuals, x0, set.bounds(), s, |p| {
         report(p.iteration as u32, p.cost, p.evaluations as u64);
