@@ -203,13 +203,6 @@ impl ProblemSet {
         Ok(())
     }
 
-    /// Whether [`ProblemSet::jacobian_with`] covers every free parameter of every trial.
-    pub fn exact_jacobian_available(&self) -> Result<(), ModelError> {
-        self.problems
-            .iter()
-            .try_for_each(Problem::exact_jacobian_available)
-    }
-
     /// The exact Jacobian `∂τ̂/∂x` of the predicted torque of every trial, the trials' rows one
     /// after the other (as [`ProblemSet::residuals_with`]), column-major into `jac`
     /// (`jac[k·samples + i]`; resized). See [`Problem::jacobian_with`].
