@@ -41,6 +41,20 @@ fn nuts_writes_its_report_and_cmdstan_chains_with_the_sampler_columns() {
     );
     let v = json(&out.join("identify.json"));
     assert_eq!(v["method"], "nuts");
+    let nuts = &v["nuts"];
+    assert_eq!(
+        nuts["step_size"].as_array().map(Vec::len),
+        Some(4),
+        "{nuts}"
+    );
+    assert_eq!(nuts["dense_metric"], true);
+    let gradients = nuts["gradient_evaluations"].as_u64().unwrap();
+    assert!(
+        gradients >= 4 * 20,
+        "one gradient per iteration at least: {nuts}"
+    );
+    assert!(nuts["mean_leapfrog"].as_f64().unwrap() >= 1.0, "{nuts}");
+    assert!(nuts["gradients_per_effective_draw"].as_f64().unwrap() > 0.0);
     let chain = std::fs::read_to_string(out.join("chains/chain_1.csv")).unwrap();
     assert!(
         chain.contains("engine = nuts") && chain.contains("metric = dense_e"),
@@ -62,16 +76,20 @@ fn nuts_writes_its_report_and_cmdstan_chains_with_the_sampler_columns() {
 }
 
 #[test]
-fn a_recording_session_s_activation_and_delay_are_refused_before_anything_is_written() {
+fn a_free_set_without_an_exact_gradient_is_refused_before_anything_is_written() {
+    // the activation's time constants change the activation's own integration, which the
+    // sensitivities do not cover (the shape and the delay they do)
     let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("w36");
+    let out = dir.path().join("tau");
     let o = surae(
         &[
             "identify",
             "--method",
             "nuts",
             "--session",
-            "fixtures/walk36/session.json",
+            "fixtures/session3/session.json",
+            "--free",
+            "+activation.tau_act_s",
             "--out",
             out.to_str().unwrap(),
         ],
@@ -80,7 +98,7 @@ fn a_recording_session_s_activation_and_delay_are_refused_before_anything_is_wri
     assert_eq!(o.status.code(), Some(2), "{}", stderr_of(&o));
     let err = stderr_of(&o);
     assert!(
-        err.contains("exact gradient") && err.contains("activation.shape_a"),
+        err.contains("exact gradient") && err.contains("activation.tau_act_s"),
         "{err}"
     );
     assert_eq!(err.trim().lines().count(), 1, "{err}");

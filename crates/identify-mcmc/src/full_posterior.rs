@@ -17,10 +17,29 @@
 
 use std::cell::RefCell;
 
-use muscle_model::ProblemWorkspace;
+use muscle_model::{MuscleField, ParamId, Problem, ProblemWorkspace};
 
 use crate::target::{GradLogDensity, LogDensity};
 use crate::trial_term::{TrialModel, TrialTerm};
+
+/// The box the posterior is sampled on: `problem`'s bounds with each F0 capped at the model's
+/// limit ([`muscle_model::params::MAX_FOM_N`]). A recording's F0 bounds are multiples of a
+/// reference force and can pass it; the model refuses such parameters, and a density of −∞
+/// inside the box would end every trajectory that reaches that part of it.
+pub(crate) fn sampled_bounds(problem: &Problem) -> Vec<(f64, f64)> {
+    problem
+        .free()
+        .iter()
+        .zip(problem.bounds())
+        .map(|(id, &(lo, hi))| match id {
+            ParamId::Muscle(_, MuscleField::FomN) => {
+                let cap = muscle_model::params::MAX_FOM_N;
+                (lo.min(cap), hi.min(cap))
+            }
+            _ => (lo, hi),
+        })
+        .collect()
+}
 
 /// One trial's part of [`FullPosterior`].
 struct FullTrial<'a> {
@@ -70,7 +89,7 @@ impl<'a> FullPosterior<'a> {
             .collect();
         FullPosterior {
             trials,
-            bounds: models[0].problem.bounds().to_vec(),
+            bounds: sampled_bounds(models[0].problem),
         }
     }
 

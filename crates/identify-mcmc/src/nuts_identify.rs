@@ -16,7 +16,7 @@
 
 use std::time::Instant;
 
-use crate::full_posterior::FullPosterior;
+use crate::full_posterior::{sampled_bounds, FullPosterior};
 use crate::identify::{
     McmcIdentification, McmcIdentifySettings, NutsStats, SessionTrialLikelihood,
 };
@@ -63,7 +63,7 @@ pub fn identify_session_nuts(
             })?;
     }
     let first = &corrected[0];
-    let bounds = first.bounds().to_vec();
+    let bounds = sampled_bounds(first);
     let (noise_params, mut evaluations, mut failed) = noise_models(trials, &corrected, settings)?;
     let models = trial_models(trials, &corrected, &noise_params)?;
     let target = FullPosterior::new(&models);
@@ -198,7 +198,7 @@ impl Residuals for SetResiduals<'_> {
 /// inside the bounds, and the evaluations of the fit.
 fn starts_near_the_optimum(corrected: &[Problem], nuts: &NutsSettings) -> (Vec<Vec<f64>>, u64) {
     let first = &corrected[0];
-    let bounds = first.bounds().to_vec();
+    let bounds = sampled_bounds(first);
     let base: Vec<f64> = first
         .base_vector()
         .iter()

@@ -110,6 +110,53 @@ impl ManalBuchanan {
         }
     }
 
+    /// `d²â/da²` at `a` (clamped): 0 on the linear part.
+    #[inline]
+    pub fn curvature(&self, a: f64) -> f64 {
+        let a = a.clamp(0.0, 1.0);
+        if self.is_identity() || a >= self.u0 {
+            0.0
+        } else {
+            let d = self.beta * a + 1.0;
+            -self.alpha * self.beta * self.beta / (d * d)
+        }
+    }
+
+    /// `(∂â/∂A, ∂(dâ/da)/∂A)` at `a` (clamped): the curve's derivatives with respect to its
+    /// shape at fixed `a`, in dual numbers through the constants. The bisection's root
+    /// `x = β·u0` solves `g(x) = m·u0/a0`, so `dx/dA = (d(m·u0/a0)/dA)/g′(x)` (the implicit
+    /// function's derivative, exact at the root whatever the bisection's path). Both
+    /// derivatives are continuous across the break point, where value and slope of the two
+    /// pieces agree for every `A`. Below [`MB_IDENTITY_BELOW`] they are taken at that shape
+    /// (the limit as `A → 0⁺`).
+    pub fn shape_derivatives(&self, a: f64) -> [f64; 2] {
+        use num_dual::{Dual64, DualNum};
+        let mb = if self.is_identity() {
+            Self::compute(MB_IDENTITY_BELOW)
+        } else {
+            *self
+        };
+        let shape = Dual64::new(mb.shape, 1.0);
+        let s = shape / std::f64::consts::SQRT_2;
+        let u0 = -s + MB_CENTRE;
+        let a0 = s + MB_CENTRE;
+        let m = (-a0 + 1.0) / (-u0 + 1.0);
+        let target = m * u0 / a0;
+        let g = |x: Dual64| x / ((x + 1.0) * x.ln_1p());
+        let x_re = mb.beta * mb.u0;
+        let slope = g(Dual64::new(x_re, 1.0)).eps;
+        let x = Dual64::new(x_re, target.eps / slope);
+        let beta = x / u0;
+        let alpha = a0 / x.ln_1p();
+        let a = a.clamp(0.0, 1.0);
+        if a >= mb.u0 {
+            [(m * a - m + 1.0).eps, m.eps]
+        } else {
+            let d = beta * a + 1.0;
+            [(alpha * d.ln()).eps, (alpha * beta / d).eps]
+        }
+    }
+
     /// Derivative `dâ/da` (for tests and linearisations).
     #[inline]
     pub fn slope(&self, a: f64) -> f64 {
@@ -151,5 +198,39 @@ impl Activation {
     pub fn rate(&self, u: f64, a: f64) -> f64 {
         let u = u.clamp(0.0, 1.0);
         (u - a) * (self.k1 * u + self.k2)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shape_derivatives_are_those_of_the_curve_rebuilt_at_a_moved_shape() {
+        // central differences of the closed form in A (smooth away from the break point; the
+        // bisection is exact to rounding, so a step of 1e-6 leaves about 1e-9 of error)
+        for shape in [0.01, 0.05, 0.11] {
+            let mb = ManalBuchanan::new(shape);
+            let h = 1e-6;
+            let (up, down) = (ManalBuchanan::new(shape + h), ManalBuchanan::new(shape - h));
+            for a in [0.02, 0.1, 0.25, 0.5, 0.9] {
+                if (a - mb.u0).abs() < 1e-3 {
+                    continue;
+                }
+                let [df, dslope] = mb.shape_derivatives(a);
+                let fd = (up.apply(a) - down.apply(a)) / (2.0 * h);
+                let fd_slope = (up.slope(a) - down.slope(a)) / (2.0 * h);
+                assert!(
+                    (df - fd).abs() < 1e-6 * fd.abs().max(1.0),
+                    "A {shape} a {a}: {df} {fd}"
+                );
+                assert!(
+                    (dslope - fd_slope).abs() < 1e-6 * fd_slope.abs().max(1.0),
+                    "A {shape} a {a}: {dslope} {fd_slope}"
+                );
+                let fd_curv = (mb.slope(a + h) - mb.slope(a - h)) / (2.0 * h);
+                assert!((mb.curvature(a) - fd_curv).abs() < 1e-5 * fd_curv.abs().max(1.0));
+            }
+        }
     }
 }

@@ -18,18 +18,26 @@
 //! two adaptive integrations moves by up to 10⁻² N·m for a change of 10⁻¹² in a parameter
 //! (`docs/model.md`, "Integration jitter"); this derivative moves smoothly.
 //!
+//! The activation's shape `A` and the electromechanical delay move every muscle's drive (the
+//! tabulated activation); their derivatives enter the same variational equation through
+//! `∂vM/∂act` (the crate's fast simulation, module `sensitivity`).
+//!
 //! What it covers: the [`Formulation::Fast`] simulation (the default) and the parameters
-//! above. Activation time constants and shape, the electromechanical delay and fatigue change
-//! the activation the fibres are driven by; their columns are not exact here and the call
-//! fails with [`ModelError::NoExactDerivative`] naming the parameter, so that a caller can
-//! difference them instead ([`exact_derivative_available`] says beforehand).
+//! above. The activation time constants and fatigue change the activation by an integration
+//! of their own (and with fatigue on, neither shape nor delay is covered); their columns are
+//! not exact here and the call fails with [`ModelError::NoExactDerivative`] naming the
+//! parameter, so that a caller can difference them instead ([`exact_derivative_available`]
+//! says beforehand).
 
 use crate::effects::{EffectKind, Effects};
 use crate::error::ModelError;
-use crate::fast_simulation::{dual, eps_of, initial_length, run_sensitivities, Fibre, FibreValues};
+use crate::fast_simulation::{
+    drive_derivative, dual, eps_of, initial_length, run_sensitivities, DriveSeat, Fibre,
+    FibreValues, SensitivityTrace,
+};
 use crate::inputs::TrialInputs;
 use crate::joint_effects::{delay_s, joint_effect_derivative, run_ta};
-use crate::muscle_torque::{fast_prepare, integration_error};
+use crate::muscle_torque::{envelope_of, fast_prepare, integration_error};
 use crate::musculotendon::MuscleUnit;
 use crate::params::{ModelParams, Muscle};
 use crate::problem::{MuscleField, ParamId};
@@ -46,6 +54,8 @@ enum Seat {
     Vmax,
     /// Curve constant `af, flen, gamma, kpe, e0m, e0t, damping` by index.
     Curve(usize),
+    /// Not a fibre value: what moves the activation the fibre is driven by.
+    Drive(DriveSeat),
 }
 
 /// How one free parameter enters the torque.
@@ -75,13 +85,28 @@ fn route(p: ParamId, effects: &Effects) -> Result<Route, ModelError> {
         ParamId::Curve(1) if effects.eccentric_enhancement.is_some() => Route::Zero,
         ParamId::Curve(i) => Route::Fibre(None, Seat::Curve(i)),
         ParamId::Effect(EffectKind::EccentricEnhancement, _) => Route::Fibre(None, Seat::Curve(1)),
+        ParamId::Activation(_) | ParamId::Effect(EffectKind::ElectromechanicalDelay, _)
+            if effects.fatigue.is_some() =>
+        {
+            return Err(refuse(
+                "with fatigue on, the activation's parameters change the fatigue factor too",
+            ))
+        }
+        ParamId::Activation(2) => Route::Fibre(None, Seat::Drive(DriveSeat::Shape)),
         ParamId::Activation(_) => {
             return Err(refuse(
-                "the activation time constants and shape change the activation table",
+                "the activation time constants change the activation's own integration",
+            ))
+        }
+        ParamId::Effect(EffectKind::ElectromechanicalDelay, _)
+            if effects.antagonist_coactivation.is_some() =>
+        {
+            return Err(refuse(
+                "the delay moves the antagonist's integrated activation too",
             ))
         }
         ParamId::Effect(EffectKind::ElectromechanicalDelay, _) => {
-            return Err(refuse("the delay shifts the activation table"))
+            Route::Fibre(None, Seat::Drive(DriveSeat::Delay))
         }
         ParamId::Effect(EffectKind::Fatigue, _) => {
             return Err(refuse("fatigue changes the activation table"))
@@ -169,6 +194,7 @@ pub fn exact_torque_jacobian(
             seats: &seats,
             scale,
             delay,
+            drive_values: [params.activation.shape_a, delay * 1e3],
             settings,
         };
         let s = match seats.len() {
@@ -212,6 +238,8 @@ struct UnitJob<'a> {
     seats: &'a [(Seat, Vec<usize>)],
     scale: Option<usize>,
     delay: f64,
+    /// The values of the shape `A` and of the delay in ms (the parameters' own unit).
+    drive_values: [f64; 2],
     settings: &'a SimSettings,
 }
 
@@ -252,15 +280,34 @@ impl UnitJob<'_> {
             curves: v.curves.map(Dual64::from),
         });
         let (ch, _, lm0) = fast_prepare(None, inputs, self.unit, self.delay)?;
-        let lm0 = initial_length(&ch, &fib, &real, lm0);
-        let mut lm = vec![0.0; n];
-        let mut sens = vec![Vec::new(); K];
+        let mut moved = Vec::new();
+        for (k, (seat, _)) in self.seats.iter().enumerate() {
+            if let Seat::Drive(d) = *seat {
+                let (value, per_second) = match d {
+                    DriveSeat::Shape => (self.drive_values[0], 1.0),
+                    // the delay's parameter is in ms
+                    DriveSeat::Delay => (self.drive_values[1], 1e-3),
+                };
+                per_unit[k] = 1.0 / size(value);
+                let env = envelope_of(inputs, self.unit)?;
+                moved.push(drive_derivative(
+                    &ch,
+                    inputs,
+                    env,
+                    d,
+                    per_second * size(value),
+                    k,
+                ));
+            }
+        }
+        let lm0 = initial_length(&ch, &fib, &real, &moved, lm0);
+        let mut trace = SensitivityTrace::default();
         let stats =
-            run_sensitivities::<N, K>(&ch, inputs, &fib, lm0, self.settings, &mut lm, &mut sens)
+            run_sensitivities::<N, K>(&ch, inputs, &fib, &moved, lm0, self.settings, &mut trace)
                 .map_err(integration_error(self.unit.name))?;
         let f0 = self.unit.f0;
         for i in 0..n {
-            let lmi = dual::<K>(lm[i], std::array::from_fn(|k| sens[k][i]));
+            let lmi = dual::<K>(trace.lm[i], std::array::from_fn(|k| trace.sens[k][i]));
             let ft = fib.tendon_force(ch.lmt[i], lmi);
             let r = ch.r[i];
             let e = eps_of(&ft);

@@ -452,6 +452,23 @@ impl TrialInputs {
         }
     }
 
+    /// The time derivative of [`TrialInputs::envelope_value_at`] (per second): the slope of
+    /// the linear interpolant on the interval holding `t`, or the monotone cubic's; 0 outside
+    /// the trial, where the value is held.
+    #[inline]
+    pub(crate) fn envelope_rate_at(&self, v: &[f64], t: f64) -> f64 {
+        let times = self.times();
+        if !(t > times[0] && t < times[times.len() - 1]) {
+            return 0.0;
+        }
+        let (i, s) = self.locate(t);
+        if self.low_rate {
+            crate::interp::pchip(v, i, s).1 * self.fs
+        } else {
+            (v[i + 1] - v[i]) * self.fs
+        }
+    }
+
     /// A series `v` known at the samples (knee angle, musculotendon length), at time `t`:
     /// linear interpolation, or in a low-rate trial the central-difference cubic; the first or
     /// last value outside the trial.

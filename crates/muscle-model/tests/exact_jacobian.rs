@@ -206,16 +206,35 @@ fn a_trial_that_starts_at_rest_with_a_slack_tendon_has_its_derivatives() {
 fn parameters_of_the_activation_are_refused_by_name() {
     let s = SimSettings::default();
     let e = Effects::none();
-    for (name, word) in [
-        ("activation.tau_act_s", "activation"),
-        ("electromechanical_delay.delay_ms", "delay"),
-        ("fatigue.rate_per_s", "fatigue"),
+    let with = |name: &str| {
+        let (mut p, mut e) = (ModelParams::nominal(), Effects::none());
+        let id = ParamId::parse(name).unwrap();
+        let v = id.get(&p, &e).max(0.1);
+        id.set(&mut p, &mut e, v);
+        e
+    };
+    for (name, effects, word) in [
+        ("activation.tau_act_s", e, "activation"),
+        ("fatigue.rate_per_s", e, "fatigue"),
+        (
+            "electromechanical_delay.delay_ms",
+            with("fatigue.rate_per_s"),
+            "fatigue",
+        ),
+        ("activation.shape_a", with("fatigue.rate_per_s"), "fatigue"),
+        (
+            "electromechanical_delay.delay_ms",
+            with("antagonist_coactivation.gain_nm"),
+            "antagonist",
+        ),
     ] {
-        let err = exact_derivative_available(&ids(&[name]), &e, &s).unwrap_err();
+        let err = exact_derivative_available(&ids(&[name]), &effects, &s).unwrap_err();
         let msg = err.to_string();
         assert!(matches!(err, ModelError::NoExactDerivative { .. }), "{msg}");
         assert!(msg.contains(name) && msg.contains(word), "{msg}");
     }
+    let drive = ids(&["activation.shape_a", "electromechanical_delay.delay_ms"]);
+    assert!(exact_derivative_available(&drive, &e, &s).is_ok());
     let four = SimSettings {
         formulation: Formulation::FourState,
         ..s
@@ -246,4 +265,60 @@ fn flen_under_the_eccentric_effect_has_no_influence_and_the_effect_s_has() {
         .unwrap();
     assert!(jac[..n].iter().all(|v| *v == 0.0));
     assert!(rms(&jac[n..]) > 1.0, "{}", rms(&jac[n..]));
+}
+
+#[test]
+fn the_activation_shape_and_the_delay_have_exact_columns_on_high_and_low_rate_trials() {
+    // The shape A and the delay move the tabulated activation, not a fibre constant: their
+    // columns against Richardson differences of simulations at rtol 1e-13 at random points of
+    // the bounds box (A > 0, d > 0), on the 2048 Hz seed trial and on a 100 Hz gait-like trial
+    // (a low-rate trial: the tables sit on a finer grid than the samples and the envelope is a
+    // monotone cubic), with a muscle column beside them.
+    let gait = muscle_model::synthetic::gait_like_trial(100.0, 3.0).unwrap();
+    for (trial, inputs) in [("seed", seed_inputs()), ("gait", gait)] {
+        let n = inputs.len();
+        let free = ids(&[
+            "activation.shape_a",
+            "electromechanical_delay.delay_ms",
+            "gm.lst_m",
+        ]);
+        let (mut p, mut e) = (ModelParams::nominal(), Effects::none());
+        ParamId::parse("electromechanical_delay.delay_ms")
+            .unwrap()
+            .set(&mut p, &mut e, 40.0);
+        let at = |rtol: f64| {
+            Problem::new(inputs.clone(), vec![0.0; n], p, e, free.clone())
+                .unwrap()
+                .with_settings(fast(rtol))
+        };
+        let (problem, looser) = (at(1e-13), at(1e-11));
+        let bounds = problem.bounds().to_vec();
+        let mut rng = ChaCha8Rng::seed_from_u64(43);
+        let mut ws = ProblemWorkspace::new();
+        let (mut jac, mut jac_loose) = (Vec::new(), Vec::new());
+        for point in 0..2 {
+            let x: Vec<f64> = bounds
+                .iter()
+                .map(|&(lo, hi)| rng.random_range(lo + 0.05 * (hi - lo)..=hi))
+                .collect();
+            problem.jacobian_with(&x, &mut ws, &mut jac).unwrap();
+            looser.jacobian_with(&x, &mut ws, &mut jac_loose).unwrap();
+            for (j, id) in free.iter().enumerate() {
+                let got = &jac[j * n..(j + 1) * n];
+                let converged = relative(&jac_loose[j * n..(j + 1) * n], got);
+                assert!(
+                    converged < 1e-6,
+                    "{trial} point {point} {id}: rtol 1e-11 against 1e-13 {converged:.2e}"
+                );
+                let reference = reference_column(&problem, &x, j, 1e-5 * x[j].abs());
+                assert!(rms(&reference) > 0.0, "{trial} {id}: no influence");
+                let rel = relative(got, &reference);
+                assert!(
+                    rel < 1e-4,
+                    "{trial} point {point} {id} = {}: against differences {rel:.2e}",
+                    x[j]
+                );
+            }
+        }
+    }
 }

@@ -76,7 +76,7 @@ impl TableKey {
 #[derive(Debug)]
 pub(super) struct ActTable {
     pub(super) key: TableKey,
-    act: Activation,
+    pub(super) act: Activation,
     /// `a` at the grid's points.
     pub(super) a: Vec<f64>,
     /// `ȧ = rate(u(tⱼ), aⱼ)` at the grid's points.

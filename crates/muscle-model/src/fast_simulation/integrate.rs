@@ -18,15 +18,14 @@ use crate::settings::SimSettings;
 use crate::stats::SimStats;
 use ode::{DoPri5, OdeError, OdeSystem};
 
-/// Cubic Hermite interpolation of the drive (tabulated at `t0 + j/fs`) at time `t`:
-/// `(act, d(act)/dt, LMT)`.
+/// The cubic Hermite weights at time `t` on a table of `n` points at `t0 + j/fs`: the first
+/// point `i` of the interval holding `t`, the weights of `[vᵢ, Δt·v̇ᵢ, vᵢ₊₁, Δt·v̇ᵢ₊₁]` for the
+/// value, and those of `vᵢ − vᵢ₊₁`, `Δt·v̇ᵢ`, `Δt·v̇ᵢ₊₁` for its derivative in `s`.
 #[inline(always)]
-pub(super) fn drive_at(drive: &[[f64; 4]], t0: f64, fs: f64, t: f64) -> (f64, f64, f64) {
-    let n = drive.len();
+pub(super) fn hermite_weights(n: usize, t0: f64, fs: f64, t: f64) -> (usize, [f64; 4], [f64; 3]) {
     let x = ((t - t0) * fs).clamp(0.0, (n - 1) as f64);
     let i = (x as usize).min(n - 2);
     let s = x - i as f64;
-    let (d0, d1) = (drive[i], drive[i + 1]);
     let s1 = 1.0 - s;
     let s12 = s1 * s1;
     let s2 = s * s;
@@ -38,6 +37,15 @@ pub(super) fn drive_at(drive: &[[f64; 4]], t0: f64, fs: f64, t: f64) -> (f64, f6
     let g00 = -6.0 * s * s1;
     let g10 = s1 * (1.0 - 3.0 * s);
     let g11 = s * (3.0 * s - 2.0);
+    (i, [h00, h10, h01, h11], [g00, g10, g11])
+}
+
+/// Cubic Hermite interpolation of the drive (tabulated at `t0 + j/fs`) at time `t`:
+/// `(act, d(act)/dt, LMT)`.
+#[inline(always)]
+pub(super) fn drive_at(drive: &[[f64; 4]], t0: f64, fs: f64, t: f64) -> (f64, f64, f64) {
+    let (i, [h00, h10, h01, h11], [g00, g10, g11]) = hermite_weights(drive.len(), t0, fs, t);
+    let (d0, d1) = (drive[i], drive[i + 1]);
     (
         h00 * d0[0] + h10 * d0[1] + h01 * d1[0] + h11 * d1[1],
         fs * (g00 * (d0[0] - d1[0]) + g10 * d0[1] + g11 * d1[1]),

@@ -52,4 +52,6 @@ pub(crate) use channel::Channel;
 pub(crate) use fibre::FibreValues;
 pub(crate) use fibre::{state, unit_torque, Fibre};
 pub(crate) use integrate::{run, run_lanes};
-pub(crate) use sensitivity::{dual, eps_of, initial_length, run_sensitivities};
+pub(crate) use sensitivity::{
+    drive_derivative, dual, eps_of, initial_length, run_sensitivities, DriveSeat, SensitivityTrace,
+};
