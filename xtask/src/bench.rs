@@ -8,9 +8,11 @@
 //! The series-geometry row times the same forward simulation with every muscle's
 //! musculotendon length and moment arm given as series at the samples (the values of the
 //! polynomials), against the polynomial fast path. `--model-only` prints the forward-model
-//! rows alone (no identification, diagnosis or peer).
+//! rows alone (no identification, diagnosis or peer); `--samplers` the samplers' rows alone
+//! (module `samplers`: the random walk against NUTS, with the gradient's cost).
 
 mod long_recording;
+mod samplers;
 mod walk36;
 
 use anyhow::{bail, Context, Result};
@@ -24,10 +26,14 @@ use std::time::Instant;
 
 const USAGE: &str =
     "usage: cargo xtask bench [--repeat N] [--reps M] [--trial T.csv] [--model-only]\n\
+       cargo xtask bench --samplers [--sampler-iterations N]\n\
   --repeat N     Python peer simulations (median; default 5)\n\
   --reps M       Rust repetitions per row (median; default 2000)\n\
   --trial T.csv  trial (default <workspace>/fixtures/seed/trial.csv)\n\
-  --model-only   the forward-model rows only (polynomial and series geometry)";
+  --model-only   the forward-model rows only (polynomial and series geometry)\n\
+  --samplers     random walk against NUTS on the seed trial, fixtures/session3 and\n\
+                 fixtures/walk36, with the exact gradient's cost (takes hours on 2 cores)\n\
+  --sampler-iterations N  NUTS iterations per chain, half warm-up (default 2000)";
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -289,6 +295,8 @@ struct BenchArgs {
     reps: usize,
     trial_path: PathBuf,
     model_only: bool,
+    /// NUTS iterations per chain when the samplers' rows are asked for.
+    samplers: Option<usize>,
 }
 
 /// Reads the options; `None` when `--help` was asked for (the usage is then printed).
@@ -297,9 +305,15 @@ fn parse_args(args: &mut impl Iterator<Item = String>, root: &Path) -> Result<Op
     let mut reps = 2000;
     let mut trial_path = root.join("fixtures/seed/trial.csv");
     let mut model_only = false;
+    let mut samplers = None;
+    let mut sampler_iterations = 2000;
     while let Some(a) = args.next() {
         match a.as_str() {
             "--model-only" => model_only = true,
+            "--samplers" => samplers = Some(()),
+            "--sampler-iterations" => {
+                sampler_iterations = args.next().context("--sampler-iterations N")?.parse()?
+            }
             "--repeat" => repeat = args.next().context("--repeat N")?.parse()?,
             "--reps" => reps = args.next().context("--reps M")?.parse()?,
             "--trial" => trial_path = args.next().context("--trial T.csv")?.into(),
@@ -318,6 +332,7 @@ fn parse_args(args: &mut impl Iterator<Item = String>, root: &Path) -> Result<Op
         reps,
         trial_path,
         model_only,
+        samplers: samplers.map(|()| sampler_iterations),
     }))
 }
 
@@ -576,10 +591,15 @@ pub fn run(args: &mut impl Iterator<Item = String>) -> Result<bool> {
         reps,
         trial_path,
         model_only,
+        samplers,
     }) = parse_args(args, &root)?
     else {
         return Ok(true);
     };
+    if let Some(iterations) = samplers {
+        samplers::run(&root, iterations)?;
+        return Ok(true);
+    }
     let trial = experiment::read_trial(&trial_path)
         .with_context(|| format!("reading {}", trial_path.display()))?;
     let inputs = experiment::model_inputs(&trial, &Default::default())?;

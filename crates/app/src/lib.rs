@@ -46,7 +46,7 @@ pub use jobs::envelope::{run as envelope, EnvelopeJob};
 pub use jobs::identify::{
     run as identify, AdequacyReport, CorrelationMatrixReport, CorrelationReport, IdentifyJob,
     IdentifyReport, McmcReport, McmcTrialReport, Method, NoiseCorrectionReport, NoiseUseReport,
-    PosteriorReport, SaChainsReport,
+    NutsReport, PosteriorReport, SaChainsReport,
 };
 pub use jobs::inspect::{run as inspect, InspectJob, MapInspectionReport, TrialSpanReport};
 pub use jobs::sensitivity::{run as sensitivity, SensitivityJob};

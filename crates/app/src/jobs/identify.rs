@@ -10,9 +10,9 @@ mod session_fit;
 
 pub use reports::{
     AdequacyReport, CorrelationMatrixReport, CorrelationReport, IdentifyReport, McmcReport,
-    McmcTrialReport, NoiseCorrectionReport, NoiseUseReport, PosteriorReport, SaChainsReport,
-    SessionAdequacyReport, SessionContextReport, SessionIdentifyReport, SessionSaChainsReport,
-    SessionTrialReport,
+    McmcTrialReport, NoiseCorrectionReport, NoiseUseReport, NutsReport, PosteriorReport,
+    SaChainsReport, SessionAdequacyReport, SessionContextReport, SessionIdentifyReport,
+    SessionSaChainsReport, SessionTrialReport,
 };
 
 use super::{load_model_config, LoadedTrial, ModelSettings};

@@ -284,6 +284,20 @@ pub(super) fn mcmc_report(
         },
         noise_model: m.noise,
         trials,
+        nuts: m.nuts.as_ref().map(|n| {
+            let (_, min_ess) = m.worst_diagnostics();
+            NutsReport {
+                step_size: n.step_size.clone(),
+                dense_metric: n.settings.dense_metric,
+                mean_leapfrog: n.mean_leapfrog,
+                mean_accept_stat: n.mean_accept_stat,
+                divergences: n.divergences,
+                warmup_divergences: n.warmup_divergences,
+                max_depth_hits: n.max_depth_hits,
+                gradient_evaluations: n.gradient_evaluations,
+                gradients_per_effective_draw: n.gradient_evaluations as f64 / min_ess,
+            }
+        }),
     }
 }
 

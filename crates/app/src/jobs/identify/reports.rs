@@ -94,6 +94,33 @@ pub struct McmcReport {
     /// Per-trial fit at the posterior mean (one trial's; a session's are in its own `trials`).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub trials: Vec<McmcTrialReport>,
+    /// The No-U-Turn sampler's own statistics (`--method nuts` only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nuts: Option<NutsReport>,
+}
+
+/// What the No-U-Turn sampler adds to the MCMC report: its adaptation and its cost.
+#[derive(Debug, Clone, Serialize)]
+#[non_exhaustive]
+pub struct NutsReport {
+    /// Each chain's adapted step size.
+    pub step_size: Vec<f64>,
+    /// Whether the metric adapted in warm-up is dense (else diagonal).
+    pub dense_metric: bool,
+    /// Leapfrog steps per kept draw, all chains.
+    pub mean_leapfrog: f64,
+    /// Mean `accept_stat__` of the kept draws.
+    pub mean_accept_stat: f64,
+    /// Divergent transitions among the kept draws.
+    pub divergences: u64,
+    /// Divergent transitions in warm-up.
+    pub warmup_divergences: u64,
+    /// Kept draws whose tree reached the largest depth.
+    pub max_depth_hits: u64,
+    /// Gradient evaluations (each a simulation and its exact Jacobian), warm-up included.
+    pub gradient_evaluations: u64,
+    /// Gradient evaluations per bulk effective draw of the slowest parameter.
+    pub gradients_per_effective_draw: f64,
 }
 
 /// One parameter's posterior.
