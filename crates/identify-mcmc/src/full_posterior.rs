@@ -58,9 +58,24 @@ pub(crate) struct FullPosterior<'a> {
     bounds: Vec<(f64, f64)>,
 }
 
+/// Buffers of one evaluation, kept per thread so that a gradient allocates nothing once warm.
+#[derive(Default)]
+struct Scratch {
+    /// One workspace per trial (a workspace keeps its trial's channels).
+    workspaces: Vec<ProblemWorkspace>,
+    /// The prediction of a value-only evaluation.
+    prediction: Vec<f64>,
+    /// The residual, then its whitened form `ẽ`, then `v = ẽ − κõ(õᵀẽ)`.
+    residual: Vec<f64>,
+    whitened: Vec<f64>,
+    /// The model's Jacobian, column-major.
+    jacobian: Vec<f64>,
+    /// One whitened Jacobian column `W J_k` over the included samples.
+    column: Vec<f64>,
+}
+
 thread_local! {
-    /// One workspace per trial and thread (a workspace keeps its trial's channels).
-    static WORKSPACES: RefCell<Vec<ProblemWorkspace>> = const { RefCell::new(Vec::new()) };
+    static SCRATCH: RefCell<Scratch> = RefCell::new(Scratch::default());
 }
 
 impl<'a> FullPosterior<'a> {
@@ -95,51 +110,53 @@ impl<'a> FullPosterior<'a> {
 
     /// `log π(x)`, and its gradient into `grad` when given.
     fn evaluate_with(&self, x: &[f64], mut grad: Option<&mut [f64]>) -> Option<f64> {
-        WORKSPACES.with(|cell| {
-            let mut wss = cell.borrow_mut();
-            if wss.len() < self.trials.len() {
-                wss.resize_with(self.trials.len(), ProblemWorkspace::new);
+        SCRATCH.with(|cell| {
+            let s = &mut *cell.borrow_mut();
+            if s.workspaces.len() < self.trials.len() {
+                s.workspaces
+                    .resize_with(self.trials.len(), ProblemWorkspace::new);
             }
             if let Some(g) = grad.as_deref_mut() {
                 g.fill(0.0);
             }
             let mut total = 0.0;
-            let (mut e, mut we, mut col, mut wcol, mut jac) =
-                (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
-            for (t, ws) in self.trials.iter().zip(wss.iter_mut()) {
+            for (t, ws) in self.trials.iter().zip(s.workspaces.iter_mut()) {
                 let problem = t.term.problem;
                 let n = problem.measured().len();
                 let pred: &[f64] = if grad.is_some() {
-                    problem.jacobian_with(x, ws, &mut jac).ok()?;
+                    problem.jacobian_with(x, ws, &mut s.jacobian).ok()?;
                     ws.prediction()
                 } else {
-                    e.resize(n, 0.0);
-                    problem.predict_with(x, ws, &mut e).ok()?;
-                    &e
+                    s.prediction.resize(n, 0.0);
+                    problem.predict_with(x, ws, &mut s.prediction).ok()?;
+                    &s.prediction
                 };
-                let resid: Vec<f64> = problem
-                    .measured()
-                    .iter()
-                    .zip(pred)
-                    .map(|(y, p)| y - p)
-                    .collect();
-                we.clear();
-                t.term.whiten_append(&resid, &mut we);
+                s.residual.clear();
+                s.residual
+                    .extend(problem.measured().iter().zip(pred).map(|(y, p)| y - p));
+                s.whitened.clear();
+                t.term.whiten_append(&s.residual, &mut s.whitened);
+                let we = &mut s.whitened;
                 let ee: f64 = we.iter().map(|v| v * v).sum();
                 let oe: f64 = we.iter().zip(&t.ones).map(|(a, b)| a * b).sum();
                 total += t.norm - 0.5 * (ee - t.kappa * oe * oe);
-                if let Some(g) = grad.as_deref_mut() {
-                    // v = ẽ − κ õ (õᵀẽ); ∂/∂x_k = (W J_k)ᵀ v
-                    for (v, o) in we.iter_mut().zip(&t.ones) {
-                        *v -= t.kappa * o * oe;
-                    }
-                    for (k, gk) in g.iter_mut().enumerate() {
-                        col.clear();
-                        col.extend_from_slice(&jac[k * n..(k + 1) * n]);
-                        wcol.clear();
-                        t.term.whiten_append(&col, &mut wcol);
-                        *gk += wcol.iter().zip(&we).map(|(a, b)| a * b).sum::<f64>();
-                    }
+                let Some(g) = grad.as_deref_mut() else {
+                    continue;
+                };
+                // v = ẽ − κ õ (õᵀẽ); ∂/∂x_k = (W J_k)ᵀ v
+                for (v, o) in we.iter_mut().zip(&t.ones) {
+                    *v -= t.kappa * o * oe;
+                }
+                for (k, gk) in g.iter_mut().enumerate() {
+                    s.column.clear();
+                    t.term
+                        .whiten_append(&s.jacobian[k * n..(k + 1) * n], &mut s.column);
+                    *gk += s
+                        .column
+                        .iter()
+                        .zip(we.iter())
+                        .map(|(a, b)| a * b)
+                        .sum::<f64>();
                 }
             }
             let finite = total.is_finite()
