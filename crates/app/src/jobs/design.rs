@@ -199,8 +199,9 @@ pub fn run(args: DesignJob, rep: &Reporter) -> AppResult {
             first_seed: args.emg_seed,
             draws: args.emg_draws,
         },
-        jacobian: JacobianStepReport {
-            rel_step: settings.jacobian.rel_step,
+        jacobian: JacobianReport {
+            method: settings.jacobian.method.name(),
+            rel_step: settings.jacobian.method.rel_step(),
             rtol: settings.jacobian.sim.rtol,
         },
     };
@@ -289,7 +290,7 @@ pub struct DesignReport {
     /// The synthetic EMG realisations averaged over.
     pub emg: EmgDrawsReport,
     /// The Jacobian's finite-difference step and integration tolerance.
-    pub jacobian: JacobianStepReport,
+    pub jacobian: JacobianReport,
 }
 
 /// One protocol's expected uncertainty, by parameter name.
@@ -356,12 +357,15 @@ pub struct EmgDrawsReport {
     pub draws: usize,
 }
 
-/// The Jacobian's settings in a design.
+/// How a design's Jacobian was taken.
 #[derive(Debug, Clone, Copy, serde::Serialize)]
 #[non_exhaustive]
-pub struct JacobianStepReport {
-    /// Relative finite-difference step.
-    pub rel_step: f64,
+pub struct JacobianReport {
+    /// `exact` (forward sensitivities) or `central` (differences).
+    pub method: &'static str,
+    /// The difference step as a share of each bound width (`central` only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rel_step: Option<f64>,
     /// Relative integration tolerance.
     pub rtol: f64,
 }
