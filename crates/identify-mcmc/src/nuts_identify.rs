@@ -247,3 +247,117 @@ fn starts_near_the_optimum(corrected: &[Problem], nuts: &NutsSettings) -> (Vec<V
         .collect();
     (starts, evaluations)
 }
+
+#[cfg(test)]
+mod curvature_study {
+    //! Why a sampler with one fixed metric needs short steps on the bundled trial: the local
+    //! curvature of the posterior, measured in the metric of the posterior's own covariance.
+
+    use super::*;
+    use crate::{identify_session, GradLogDensity, LogisticBox, NoiseKind, NoiseSpec};
+
+    #[test]
+    #[ignore = "a study: about 15 s; run by .ci/statistical"]
+    fn the_bundled_posterior_is_a_thin_curved_ridge() {
+        let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/seed");
+        let trial = experiment::read_trial(format!("{root}/trial.csv")).unwrap();
+        let unloaded = experiment::read_unloaded(format!("{root}/unloaded.csv")).unwrap();
+        let inputs = experiment::model_inputs(&trial, &Default::default()).unwrap();
+        let problem = Problem::standard(inputs, trial.torque_nm.clone()).unwrap();
+        let noise = NoiseSpec::from_unloaded(&trial, &unloaded, NoiseKind::Ar1White).unwrap();
+        let trials = [SessionTrialLikelihood {
+            problem: &problem,
+            noise: &noise,
+        }];
+        let settings = McmcIdentifySettings::default();
+        // posterior draws from the random walk (seed 42), then the posterior itself
+        let rw =
+            identify_session(&trials, &settings, |_| std::ops::ControlFlow::Continue(())).unwrap();
+        assert!(rw.converged);
+        let corrected: Vec<Problem> = trials
+            .iter()
+            .map(corrected_problem)
+            .collect::<Result<_, _>>()
+            .unwrap();
+        let (noise_params, _, _) = noise_models(&trials, &corrected, &settings).unwrap();
+        let models = trial_models(&trials, &corrected, &noise_params).unwrap();
+        let target = FullPosterior::new(&models);
+        let bounds = sampled_bounds(&corrected[0]);
+        let box_map = LogisticBox::new(&bounds);
+        let d = bounds.len();
+        // the kept draws on the unconstrained coordinates, pooled over the chains
+        let draws = &rw.run.draws;
+        let pooled: Vec<Vec<f64>> = (0..draws[0].len())
+            .flat_map(|c| (0..draws[0][c].len()).map(move |i| (c, i)))
+            .map(|(c, i)| {
+                let x: Vec<f64> = (0..d).map(|k| draws[k][c][i]).collect();
+                let mut u = vec![0.0; d];
+                box_map.to_unconstrained(&x, &mut u);
+                u
+            })
+            .collect();
+        let n = pooled.len() as f64;
+        let mean: Vec<f64> = (0..d)
+            .map(|k| pooled.iter().map(|u| u[k]).sum::<f64>() / n)
+            .collect();
+        let cov = nalgebra::DMatrix::from_fn(d, d, |a, b| {
+            pooled
+                .iter()
+                .map(|u| (u[a] - mean[a]) * (u[b] - mean[b]))
+                .sum::<f64>()
+                / (n - 1.0)
+        });
+        let l = cov.clone().cholesky().unwrap().l();
+        // ∇ log p(u), the density on u with the transform's Jacobian
+        let grad_u = |u: &[f64]| {
+            let mut x = vec![0.0; d];
+            box_map.to_box(u, &mut x);
+            let mut g = vec![0.0; d];
+            target.log_density_grad(&x, &mut g).unwrap();
+            box_map.chain_rule(u, &mut g);
+            g
+        };
+        let (mut largest, mut smallest) = (Vec::new(), Vec::new());
+        let every = pooled.len() / 40;
+        for u in pooled.iter().step_by(every).take(40) {
+            // −∇² log p by central differences of the exact gradient (h = 0.01 on u: below
+            // 10⁻³ the integrator's jitter in the gradient dominates)
+            let h = 1e-2;
+            let mut hess = nalgebra::DMatrix::zeros(d, d);
+            for k in 0..d {
+                let mut a = u.clone();
+                a[k] += h;
+                let ga = grad_u(&a);
+                a[k] -= 2.0 * h;
+                let gb = grad_u(&a);
+                for j in 0..d {
+                    hess[(j, k)] = -(ga[j] - gb[j]) / (2.0 * h);
+                }
+            }
+            let sym = (&hess + hess.transpose()) * 0.5;
+            let whitened = l.transpose() * sym * &l;
+            let eig = whitened.symmetric_eigenvalues();
+            largest.push(eig.max());
+            smallest.push(eig.min());
+        }
+        let median = |v: &mut Vec<f64>| {
+            v.sort_by(f64::total_cmp);
+            v[v.len() / 2]
+        };
+        let (lo_max, hi_max) = (
+            largest.iter().cloned().fold(f64::INFINITY, f64::min),
+            largest.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
+        );
+        let med_max = median(&mut largest);
+        let med_min = median(&mut smallest);
+        println!(
+            "curvature in the metric of the posterior covariance, 40 draws: largest eigenvalue \
+             {lo_max:.1}–{hi_max:.1} (median {med_max:.1}), smallest: median {med_min:.2} \
+             (a Gaussian posterior: every eigenvalue 1)"
+        );
+        // A Gaussian gives 1 everywhere. Curvatures far above 1 mean a ridge thinner than the
+        // posterior's spread: leapfrog steps in that metric are stable only below about
+        // 2/√λ, so a fixed-metric sampler must take many steps to cross the posterior.
+        assert!(med_max > 10.0, "median largest curvature {med_max}");
+    }
+}
