@@ -451,7 +451,7 @@ fn review_named_causes(
         *evaluations,
     )?;
     // a review that cannot be fitted replaces nothing
-    let (replaced, ev) = flexible::review_causes(
+    let (mut replaced, ev) = flexible::review_causes(
         ctx,
         &selection.model,
         settings.flexible_margin_bic,
@@ -460,6 +460,19 @@ fn review_named_causes(
     .unwrap_or_default();
     *evaluations += ev;
     *evaluations += drop_causes(ctx, selection, &replaced)?;
+    // then the causes left against a flexible term in any variable, held out
+    if settings.heldout_contest && !selection.model.kinds.is_empty() {
+        let (more, ev) = flexible::heldout_contest(
+            ctx,
+            &selection.model,
+            settings.min_flexible_gain,
+            ctx.plan.n_obs(),
+        )
+        .unwrap_or_default();
+        *evaluations += ev;
+        *evaluations += drop_causes(ctx, selection, &more)?;
+        replaced.extend(more);
+    }
     Ok(replaced)
 }
 

@@ -71,8 +71,14 @@ pub struct DiagnoseSettings {
     /// variable (otherwise the flexible term is reported instead): 2, "positive evidence" on
     /// Kass and Raftery's scale.
     pub flexible_margin_bic: f64,
-    /// Held-out deviance gain above which a variable's flexible term enters `depends_on`.
+    /// Held-out deviance gain above which a variable's flexible term enters `depends_on`, and
+    /// by which a flexible term in place of a named cause must predict better to replace it
+    /// ([`DiagnoseSettings::heldout_contest`]).
     pub min_flexible_gain: f64,
+    /// Whether each named cause must also hold against a flexible term in every variable of
+    /// the vocabulary fitted in its place, held out (docs/diagnosis-method.md, "No false
+    /// story"): a cause that such a term predicts better by `min_flexible_gain` is not named.
+    pub heldout_contest: bool,
     /// Whether the raw triceps EMG is tested for the TA's crosstalk and corrected when it
     /// carries it (docs/diagnosis-method.md, "EMG crosstalk"; needs `emg_ta` and raw EMG).
     pub crosstalk_check: bool,
@@ -228,6 +234,7 @@ impl Default for DiagnoseSettings {
             start_seed: 0x5eed_d1a9,
             profile: ProfileSettings::default(),
             flexible_terms: true,
+            heldout_contest: true,
             flexible_margin_bic: 2.0,
             min_flexible_gain: 10.0,
             crosstalk_check: true,

@@ -39,5 +39,5 @@ pub(crate) use forms::ramp_column;
 pub use report::{
     FlexibleExtension, FlexibleTerm, Replacement, SearchedValue, Unexplained, VariableGain,
 };
-pub(crate) use review::review_causes;
+pub(crate) use review::{heldout_contest, review_causes};
 pub use variable::StateVariable;

@@ -91,6 +91,32 @@ pub struct Replacement {
     /// BIC of the model with the effect minus that with the flexible term instead (above
     /// `−margin`: not named).
     pub delta_bic: f64,
+    /// Held-out deviance of the model with the effect minus that with the flexible term
+    /// instead, on the term's folds, when the held-out contest replaced it (above
+    /// `min_flexible_gain`: not named); `None` when the BIC review did.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub heldout_deviance_gain: Option<f64>,
+}
+
+impl Replacement {
+    /// Why the effect is not named, in words: `<effect> …` without a full stop.
+    pub fn reason(&self) -> String {
+        match self.heldout_deviance_gain {
+            None => format!(
+                "{}: a flexible term in {} explains its share better (ΔBIC {:+.1})",
+                self.effect,
+                self.variable.name(),
+                -self.delta_bic
+            ),
+            Some(g) => format!(
+                "{}: a flexible term in {}, fitted in its place, predicts the held-out samples \
+                 better (held-out deviance gain {g:.1}, ΔBIC {:+.1})",
+                self.effect,
+                self.variable.name(),
+                -self.delta_bic
+            ),
+        }
+    }
 }
 
 /// What the unexplained structure depends on (`unexplained` in `diagnosis.json`).
@@ -117,12 +143,7 @@ impl Unexplained {
     pub fn summary_lines(&self) -> Vec<String> {
         let mut l = Vec::new();
         for r in &self.replaced {
-            l.push(format!(
-                "not named    {}: a flexible term in {} explains its share better (ΔBIC {:+.1})",
-                r.effect,
-                r.variable.name(),
-                -r.delta_bic
-            ));
+            l.push(format!("not named    {}", r.reason()));
         }
         match (&self.depends_on[..], &self.extension) {
             ([], _) | (_, None) => l.push(

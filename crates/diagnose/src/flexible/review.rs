@@ -10,11 +10,13 @@
 
 use rayon::prelude::*;
 
+use muscle_model::EffectKind;
+
 use crate::fit::{Context, Fit};
 use crate::DiagnoseError;
 
 use super::basis::{basis, FlexBasis};
-use super::fit::{fit_flexible, without_effects, FlexFit};
+use super::fit::{cross_validate, fit_flexible, time_folds, without_effects, FlexFit};
 use super::forms::{simplest_in_time, with_searched_forms};
 use super::report::Replacement;
 use super::variable::StateVariable;
@@ -98,6 +100,7 @@ pub(super) fn review(
                     effect: kind.name().to_string(),
                     variable,
                     delta_bic: d,
+                    heldout_deviance_gain: None,
                 });
             }
         }
@@ -114,4 +117,113 @@ pub(crate) fn review_causes(
     nobs: usize,
 ) -> Result<(Vec<Replacement>, usize), DiagnoseError> {
     review(ctx, model, model.bic(nobs), &[], margin_bic, nobs)
+}
+
+/// The held-out contest (docs/diagnosis-method.md, "No false story"): a named effect of `model`
+/// stays named only when no flexible term in any variable of the vocabulary, fitted in its
+/// place, predicts the held-out samples better by more than `min_gain` (held-out deviance on
+/// the term's folds: a term in time on the time blocks, every other on the trial's folds, the
+/// model with the effect cross-validated on the same). The BIC review compares a cause with
+/// terms in its own variables; this one asks whether the structure the cause fits is told
+/// better, out of sample, by a function of any state variable: an angle-shaped disturbance
+/// that gravity's sine fits in part, or an activation-shaped one that an offset fits in part.
+/// Returns the effects replaced (each with the variable of the best term) and the simulations.
+pub(crate) fn heldout_contest(
+    ctx: &Context,
+    model: &Fit,
+    min_gain: f64,
+    nobs: usize,
+) -> Result<(Vec<Replacement>, usize), DiagnoseError> {
+    let mut out = Vec::new();
+    let mut evaluations = 0;
+    if model.kinds.is_empty() {
+        return Ok((out, 0));
+    }
+    let problem = ctx.problem(&model.kinds)?;
+    let (with_dev, ev) = if model.heldout_dev.is_finite() {
+        (model.heldout_dev, 0)
+    } else {
+        let (_, dev, ev) = cross_validate(ctx, &ctx.folds, &problem, &model.x, &[]);
+        (dev, ev)
+    };
+    evaluations += ev;
+    let blocks = time_folds(ctx);
+    let (_, with_block_dev, ev) = cross_validate(ctx, &blocks, &problem, &model.x, &[]);
+    evaluations += ev;
+    for &kind in &model.kinds {
+        let (kinds, x) = without_effects(model, &[kind]);
+        let pred = ctx.problem(&kinds)?.predict(&x)?;
+        let resid: Vec<f64> = ctx.y.iter().zip(&pred).map(|(a, b)| a - b).collect();
+        // each term with a level: a catalogued effect shifts the torque's mean as well as
+        // shaping it (gravity's sine over the ankle's range is mostly a level and a slope), and
+        // a centred term cannot (in time the hats carry the level already); not in place of
+        // the offset, which is that level
+        let alternatives: Vec<FlexBasis> = StateVariable::ALL
+            .iter()
+            .filter_map(|v| basis(ctx, *v))
+            .flat_map(|b| with_searched_forms(ctx, b, &resid, None))
+            .map(|b| {
+                if kind == EffectKind::TorqueOffset {
+                    b
+                } else {
+                    with_level(ctx, b)
+                }
+            })
+            .collect();
+        let fits: Vec<Result<FlexFit, DiagnoseError>> = alternatives
+            .par_iter()
+            .map(|b| {
+                let folds = if b.variable == StateVariable::Time {
+                    &blocks
+                } else {
+                    &ctx.folds
+                };
+                fit_flexible(ctx, &kinds, &x, std::slice::from_ref(b), Some(folds), false)
+            })
+            .collect();
+        let mut best: Option<(f64, &FlexFit)> = None;
+        let fits: Vec<FlexFit> = fits.into_iter().flatten().collect();
+        for f in &fits {
+            evaluations += f.model.evaluations;
+            let reference = if f.bases[0].variable == StateVariable::Time {
+                with_block_dev
+            } else {
+                with_dev
+            };
+            let gain = reference - f.model.heldout_dev;
+            let delta_bic = model.bic(nobs) - f.bic(nobs);
+            if std::env::var("CONTEST_DBG").is_ok() {
+                eprintln!(
+                    "contest {}: {} gain {gain:.1} (bic with-alt {delta_bic:.1})",
+                    kind.name(),
+                    f.bases[0].variable.name()
+                );
+            }
+            if gain.is_finite() && best.is_none_or(|(g, _)| gain > g) {
+                best = Some((gain, f));
+            }
+        }
+        if let Some((gain, f)) = best {
+            if gain > min_gain {
+                out.push(Replacement {
+                    effect: kind.name().to_string(),
+                    variable: f.bases[0].variable,
+                    delta_bic: model.bic(nobs) - f.bic(nobs),
+                    heldout_deviance_gain: Some(gain),
+                });
+            }
+        }
+    }
+    Ok((out, evaluations))
+}
+
+/// `b` with a constant column added (not to a term in time, whose hats span the constant).
+fn with_level(ctx: &Context, mut b: FlexBasis) -> FlexBasis {
+    if b.variable != StateVariable::Time {
+        b.cols.push(vec![1.0; ctx.y.len()]);
+        for row in &mut b.rows {
+            row.push(1.0);
+        }
+    }
+    b
 }

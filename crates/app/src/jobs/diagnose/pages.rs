@@ -378,12 +378,7 @@ fn beyond_the_catalogue(
         .map_err(|e| AppError::internal(e.to_string()))?;
     }
     for r in &u.replaced {
-        page.paragraph(format!(
-            "{} was not named: a flexible term in {} explains its share better (ΔBIC {:+.1}).",
-            r.effect,
-            r.variable.name(),
-            -r.delta_bic
-        ));
+        page.paragraph(format!("Not named: {}.", r.reason()));
     }
     if let Some(k) = &u.catalogued_shape {
         page.paragraph(format!(
