@@ -466,6 +466,7 @@ fn review_named_causes(
             ctx,
             &selection.model,
             settings.min_flexible_gain,
+            settings.flexible_margin_bic,
             ctx.plan.n_obs(),
         )
         .unwrap_or_default();
