@@ -35,7 +35,7 @@ use std::path::PathBuf;
 pub use design::{DEFAULT_EMG_DRAWS, DEFAULT_EMG_SEED, OFFSET_PRIOR_SD_NM};
 pub use error::{AppError, AppResult};
 pub use jobs::design::{
-    run as design, DesignJob, DesignNoiseReport, DesignReport, EmgDrawsReport, JacobianReport,
+    run as design, DesignJob, DesignNoiseReport, DesignReport, EmgDrawsReport, JacobianStepReport,
     ProtocolReport,
 };
 pub use jobs::diagnose::{

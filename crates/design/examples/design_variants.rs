@@ -29,8 +29,8 @@ struct Variant {
     moving_only: bool,
     /// White noise of the same marginal sd instead of AR(1)+white.
     white: bool,
-    /// Default (fast) integration and central differences of this step (share of the bound
-    /// width) instead of tight integration and the exact Jacobian.
+    /// Default (fast) integration and this step (share of the bound width) instead of tight
+    /// integration and the default step.
     jittery: Option<f64>,
     emg_seed: u64,
     emg_draws: usize,
@@ -122,7 +122,7 @@ fn main() -> Result<(), design::DesignError> {
         };
         if let Some(step) = v.jittery {
             settings.jacobian.sim = SimSettings::default();
-            settings.jacobian.method = design::JacobianMethod::Central { rel_step: step };
+            settings.jacobian.rel_step = step;
         }
         let mut infos = BTreeMap::new();
         for t in protocols.iter().flat_map(|p| &p.trials) {

@@ -46,6 +46,6 @@ pub use evaluate::{
     ProtocolUncertainty, DEFAULT_EMG_DRAWS, DEFAULT_EMG_SEED, OFFSET_PRIOR_SD_NM,
 };
 pub use fisher::{fisher_information, posterior_sds, OffsetTreatment, TrialInformation};
-pub use jacobian::{torque_jacobian, JacobianMethod, JacobianSettings, TorqueJacobian};
+pub use jacobian::{torque_jacobian, JacobianSettings, TorqueJacobian};
 pub use noise::DesignNoise;
 pub use protocol::{trial_inputs, trial_name, DesignProtocol};

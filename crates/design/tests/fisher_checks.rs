@@ -1,11 +1,11 @@
-//! Checks of the design's numbers: the exact Jacobian agrees with central differences, the
-//! EMG realisations' mean is stable from one set of seeds to another, and the Fisher sds match
-//! the spread of least-squares estimates over repeated noise draws.
+//! Checks of the design's numbers: the Jacobian is stable under a halving of the difference
+//! step, the EMG realisations' mean is stable from one set of seeds to another, and the
+//! Fisher sds match the spread of least-squares estimates over repeated noise draws.
 
 use design::{
     fisher_information, posterior_sds, torque_jacobian, trial_informations, trial_inputs,
-    uncertainty_of, DesignNoise, DesignProtocol, DesignSettings, JacobianMethod, JacobianSettings,
-    OffsetTreatment, TrialInformation,
+    uncertainty_of, DesignNoise, DesignProtocol, DesignSettings, JacobianSettings, OffsetTreatment,
+    TrialInformation,
 };
 use experiment::{random_error, DynamometerSettings, Recording, SynthProtocol};
 use muscle_model::{simulate, Effects, ModelParams, ParamId, SimSettings};
@@ -23,49 +23,33 @@ fn rel_diff(a: &[f64], b: &[f64]) -> f64 {
 }
 
 #[test]
-fn exact_jacobian_agrees_with_differences_and_moves_no_sd_by_a_percent() {
-    // Central differences agree with the exact columns to their truncation error (O(h²);
-    // below a step of about 10⁻³ the integrator's jitter takes over), and the posterior sds of the exact Jacobian are those of the differenced one,
-    // which the documentation's design tables were first computed with, to within 1 %.
+fn jacobian_is_stable_when_the_step_is_halved() {
     let inputs = trial_inputs(&knee0(), 1).unwrap();
     let params = ModelParams::nominal();
-    let exact =
-        torque_jacobian("knee0@30", &inputs, &params, &JacobianSettings::default()).unwrap();
-    let central = |rel_step: f64| {
-        let s = JacobianSettings {
-            method: JacobianMethod::Central { rel_step },
-            ..JacobianSettings::default()
-        };
-        torque_jacobian("knee0@30", &inputs, &params, &s).unwrap()
+    let s = JacobianSettings::default();
+    let half = JacobianSettings {
+        rel_step: s.rel_step / 2.0,
+        ..s
     };
-    let (coarse, fine) = (central(4e-3), central(2e-3));
-    let noise = DesignNoise::synthetic().at(exact.dt_s).unwrap();
-    for k in 0..9 {
-        let (dc, df) = (
-            rel_diff(&exact.columns[k], &coarse.columns[k]),
-            rel_diff(&exact.columns[k], &fine.columns[k]),
-        );
-        eprintln!(
-            "{}: differences against exact {dc:.2e} (s 4e-3), {df:.2e} (s 2e-3)",
-            exact.params[k]
-        );
-        assert!(
-            dc < 2e-3 && df < 2e-3,
-            "{}: {dc:.2e}, {df:.2e}",
-            exact.params[k]
-        );
+    let j1 = torque_jacobian("knee0@30", &inputs, &params, &s).unwrap();
+    let j2 = torque_jacobian("knee0@30", &inputs, &params, &half).unwrap();
+    let noise = DesignNoise::synthetic().at(j1.dt_s).unwrap();
+    for (k, (a, b)) in j1.columns.iter().zip(&j2.columns).enumerate() {
+        let d = rel_diff(a, b);
+        eprintln!("{}: column change {:.2e}", j1.params[k], d);
+        assert!(d < 2e-3, "{}: column changed by {d:.2e}", j1.params[k]);
     }
-    // The marginal sds (near-collinear directions amplify column errors) move by < 1 %.
+    // The marginal sds (near-collinear directions amplify column errors) move by < 2 %.
     let sd = |j: &design::TorqueJacobian| {
         let info = TrialInformation::new(j, &noise);
         let f = fisher_information(&[&info], OffsetTreatment::Known).unwrap();
         posterior_sds(&f, &[0.0; 9], "knee0@30").unwrap()
     };
-    let (a, b) = (sd(&exact), sd(&coarse));
+    let (a, b) = (sd(&j1), sd(&j2));
     for k in 0..9 {
         let r = b[k] / a[k];
-        eprintln!("{}: sd ratio {r:.4}", exact.params[k]);
-        assert!((r - 1.0).abs() < 0.01, "{}: sd ratio {r}", exact.params[k]);
+        eprintln!("{}: sd ratio {r:.4}", j1.params[k]);
+        assert!((r - 1.0).abs() < 0.02, "{}: sd ratio {r}", j1.params[k]);
     }
 }
 

@@ -199,9 +199,8 @@ pub fn run(args: DesignJob, rep: &Reporter) -> AppResult {
             first_seed: args.emg_seed,
             draws: args.emg_draws,
         },
-        jacobian: JacobianReport {
-            method: settings.jacobian.method.name(),
-            rel_step: settings.jacobian.method.rel_step(),
+        jacobian: JacobianStepReport {
+            rel_step: settings.jacobian.rel_step,
             rtol: settings.jacobian.sim.rtol,
         },
     };
@@ -290,7 +289,7 @@ pub struct DesignReport {
     /// The synthetic EMG realisations averaged over.
     pub emg: EmgDrawsReport,
     /// The Jacobian's finite-difference step and integration tolerance.
-    pub jacobian: JacobianReport,
+    pub jacobian: JacobianStepReport,
 }
 
 /// One protocol's expected uncertainty, by parameter name.
@@ -357,15 +356,12 @@ pub struct EmgDrawsReport {
     pub draws: usize,
 }
 
-/// How a design's Jacobian was taken.
+/// The Jacobian's settings in a design.
 #[derive(Debug, Clone, Copy, serde::Serialize)]
 #[non_exhaustive]
-pub struct JacobianReport {
-    /// `exact` (forward sensitivities) or `central` (differences).
-    pub method: &'static str,
-    /// The difference step as a share of each bound width (`central` only).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub rel_step: Option<f64>,
+pub struct JacobianStepReport {
+    /// Relative finite-difference step.
+    pub rel_step: f64,
     /// Relative integration tolerance.
     pub rtol: f64,
 }
