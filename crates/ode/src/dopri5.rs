@@ -179,6 +179,17 @@ impl<const N: usize> DoPri5<N> {
     pub fn y(&self) -> &[f64; N] {
         &self.y
     }
+    /// Sets component `i` of the current state to `value` between two steps; the last step's
+    /// dense output and the stored derivative at the current point (first-same-as-last) are
+    /// kept. Meant for a jump that an event gives a component whose derivative does not depend
+    /// on it there: a forward sensitivity at the time a switching right-hand side switches.
+    ///
+    /// # Panics
+    /// When `i ≥ N`.
+    pub fn set_component(&mut self, i: usize, value: f64) {
+        self.y[i] = value;
+    }
+
     /// Step size proposed for the next step.
     pub fn h(&self) -> f64 {
         self.h

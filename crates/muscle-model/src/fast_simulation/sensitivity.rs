@@ -295,6 +295,46 @@ pub(crate) fn run_sensitivities<const N: usize, const K: usize>(
             dense.component_into(&times[next..to], 2 + k, &mut out[next..to]);
         }
         next = to;
+        floor_jump(&mut stepper, &mut sys, fib);
     }
     Ok(stepper.stats().into())
+}
+
+/// The sensitivities' jump where the fibre reaches its floor.
+///
+/// At `LM = lm_min(θ)` with a shortening velocity the velocity is held at zero: the
+/// right-hand side switches at a time `t*(θ)` where `LM(t*; θ) = lm_min(θ)`. Continuity of
+/// `LM` across the switch, differentiated in `θ`, gives `s⁺ + f⁺·∂t*/∂θ = s⁻ + f⁻·∂t*/∂θ`
+/// with `∂t*/∂θ = −(s⁻ − ∂lm_min/∂θ)/f⁻`, and with `f⁺ = 0`:
+///
+/// ```text
+/// s⁺ = ∂lm_min/∂θ
+/// ```
+///
+/// (the clamped fibre's length is the floor's, so is its derivative), after which `ṡ = 0`
+/// while the clamp holds. The velocity leaves the floor through zero, continuously, so the
+/// exit needs no jump. Without this the sensitivity kept its value from before the clamp,
+/// harmless while the tendon is slack (`∂τ/∂θ ∝ fT′ = 0`) and wrong by a spike where it
+/// tightens again (a gastrocnemius on a knee-flexed trial). Applied at the end of the step
+/// in which the clamp holds; that step's samples keep the values from before.
+fn floor_jump<const N: usize, const K: usize>(
+    stepper: &mut DoPri5<N>,
+    sys: &mut SensitivitySystem<'_, K>,
+    fib: &Fibre<DualSVec64<K>>,
+) {
+    let y = *stepper.y();
+    if y[0] > fib.lm_min.re {
+        return;
+    }
+    let mut dy = [0.0; N];
+    sys.rhs(stepper.t(), &y, &mut dy);
+    if dy[0] != 0.0 {
+        return;
+    }
+    let floor = eps_of(&fib.lm_min);
+    for (k, v) in floor.iter().enumerate() {
+        if y[2 + k] != *v {
+            stepper.set_component(2 + k, *v);
+        }
+    }
 }
