@@ -30,20 +30,25 @@ fn ids(names: &[&str]) -> Vec<ParamId> {
     names.iter().map(|n| ParamId::parse(n).unwrap()).collect()
 }
 
+/// The central difference of `problem`'s prediction in parameter `j` at `x`, step `h`.
+fn central_column(problem: &Problem, x: &[f64], j: usize, h: f64) -> Vec<f64> {
+    let (mut a, mut b) = (x.to_vec(), x.to_vec());
+    a[j] += h;
+    b[j] -= h;
+    let (ta, tb) = (problem.predict(&a).unwrap(), problem.predict(&b).unwrap());
+    ta.iter()
+        .zip(&tb)
+        .map(|(p, q)| (p - q) / (2.0 * h))
+        .collect()
+}
+
 /// Richardson extrapolation of central differences of `problem`'s prediction in parameter `j`
 /// at `x`, steps `h` and `2h`.
 fn reference_column(problem: &Problem, x: &[f64], j: usize, h: f64) -> Vec<f64> {
-    let central = |h: f64| {
-        let (mut a, mut b) = (x.to_vec(), x.to_vec());
-        a[j] += h;
-        b[j] -= h;
-        let (ta, tb) = (problem.predict(&a).unwrap(), problem.predict(&b).unwrap());
-        ta.iter()
-            .zip(&tb)
-            .map(|(p, q)| (p - q) / (2.0 * h))
-            .collect::<Vec<_>>()
-    };
-    let (d1, d2) = (central(h), central(2.0 * h));
+    let (d1, d2) = (
+        central_column(problem, x, j, h),
+        central_column(problem, x, j, 2.0 * h),
+    );
     d1.iter()
         .zip(&d2)
         .map(|(a, b)| (4.0 * a - b) / 3.0)
@@ -358,16 +363,7 @@ fn a_gastrocnemius_held_at_its_floor_on_a_knee_flexed_trial_has_its_derivatives(
         .jacobian_with(&x, &mut ProblemWorkspace::new(), &mut jac)
         .unwrap();
     for (j, id) in free.iter().enumerate() {
-        let central = |h: f64| {
-            let (mut a, mut b) = (x.clone(), x.clone());
-            a[j] += h;
-            b[j] -= h;
-            let (ta, tb) = (problem.predict(&a).unwrap(), problem.predict(&b).unwrap());
-            ta.iter()
-                .zip(&tb)
-                .map(|(p, q)| (p - q) / (2.0 * h))
-                .collect::<Vec<_>>()
-        };
+        let central = |h: f64| central_column(&problem, &x, j, h);
         let exact = &jac[j * n..(j + 1) * n];
         // the bound width of an LST is a tenth of it
         let coarse = relative(exact, &central(4e-3 * 0.1 * x[j]));
