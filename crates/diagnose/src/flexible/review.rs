@@ -151,6 +151,11 @@ pub(crate) fn heldout_contest(
     let blocks = time_folds(ctx);
     let (_, with_block_dev, ev) = cross_validate(ctx, &blocks, &problem, &model.x, &[]);
     evaluations += ev;
+    // a term in time is cross-validated on the time blocks, every other on the trial's folds,
+    // and compared with the model with the cause cross-validated on the same
+    let in_time = |v: StateVariable| v == StateVariable::Time;
+    let folds_for = |v: StateVariable| if in_time(v) { &blocks } else { &ctx.folds };
+    let with_dev_for = |v: StateVariable| if in_time(v) { with_block_dev } else { with_dev };
     for &kind in &model.kinds {
         let (kinds, x) = without_effects(model, &[kind]);
         let pred = ctx.problem(&kinds)?.predict(&x)?;
@@ -174,11 +179,7 @@ pub(crate) fn heldout_contest(
         let fits: Vec<Result<FlexFit, DiagnoseError>> = alternatives
             .par_iter()
             .map(|b| {
-                let folds = if b.variable == StateVariable::Time {
-                    &blocks
-                } else {
-                    &ctx.folds
-                };
+                let folds = folds_for(b.variable);
                 fit_flexible(ctx, &kinds, &x, std::slice::from_ref(b), Some(folds), false)
             })
             .collect();
@@ -189,12 +190,7 @@ pub(crate) fn heldout_contest(
         let mut better: Vec<(f64, &FlexFit)> = fits
             .iter()
             .filter_map(|f| {
-                let reference = if f.bases[0].variable == StateVariable::Time {
-                    with_block_dev
-                } else {
-                    with_dev
-                };
-                let gain = reference - f.model.heldout_dev;
+                let gain = with_dev_for(f.bases[0].variable) - f.model.heldout_dev;
                 (gain > min_gain).then_some((gain, f))
             })
             .collect();
@@ -213,11 +209,7 @@ pub(crate) fn heldout_contest(
                 // to it, no longer predicts the held-out samples better by the margin: both
                 // can be there (a true gravity beside a misfit in activation)
                 let x0 = with_effect_from(model, kind, &f.model.x);
-                let folds = if variable == StateVariable::Time {
-                    &blocks
-                } else {
-                    &ctx.folds
-                };
+                let folds = folds_for(variable);
                 match fit_flexible(ctx, &model.kinds, &x0, &f.bases, Some(folds), false) {
                     Ok(both) => {
                         evaluations += both.model.evaluations;
