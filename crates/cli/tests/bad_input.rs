@@ -887,6 +887,11 @@ fn bad_options_exit_2_with_one_line() {
                 &["abc"],
             ),
             opt("--seed negative", &["--method", "sa", "--seed=-1"], &["-1"]),
+            opt(
+                "the antagonist on a trial without a TA envelope",
+                &["--method", "sa", "--with", "antagonist_coactivation"],
+                &["antagonist_coactivation", "emg_ta"],
+            ),
         ],
     );
     run_all(

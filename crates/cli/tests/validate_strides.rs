@@ -297,6 +297,7 @@ fn extensions_are_judged_against_the_plain_calibration_on_the_same_folds() {
             "tendon_compliance",
             "eccentric_plateau",
             "activation_dynamics",
+            "antagonist",
             "emg_normalisation"
         ]
     );
@@ -327,7 +328,7 @@ fn extensions_are_judged_against_the_plain_calibration_on_the_same_folds() {
         }
     }
     assert_eq!(study["best"].as_str(), best.map(|b| b.1));
-    let emg = &study["candidates"][3];
+    let emg = &study["candidates"][4];
     assert_eq!(emg["emg_normalisation"], "trial");
     // the compliant tendon is calibrated within its recording range, 0.5–3 times the subject's
     // 0.04 strain at F0
@@ -335,6 +336,11 @@ fn extensions_are_judged_against_the_plain_calibration_on_the_same_folds() {
         .as_f64()
         .unwrap();
     assert!((0.02..=0.12).contains(&e0t), "{e0t}");
+    // the antagonist's gain, from the TA envelope of the recording, within its range
+    let gain = study["candidates"][3]["fold_values"][0]["antagonist_coactivation.gain_nm"]
+        .as_f64()
+        .unwrap();
+    assert!((0.0..=100.0).contains(&gain), "{gain}");
 }
 
 #[test]

@@ -15,8 +15,14 @@
 //! (Bonferroni), and it is **not adequate** when that keeps a reproducible shape, whatever
 //! the noise-model tests said. A session is not adequate when any of its trials is not; its
 //! `p = min(1, T·min_t p_t)` over its `T` trials is reported beside.
+//!
+//! Each part also carries the scale of the model's moment it asks for (`validate`'s
+//! `MomentScale`: `k̂ = Σ y ŷ / Σ ŷ²`, judged by predicting one half of the part from the
+//! other). A trial with a part that asks for another scale is not adequate either: the
+//! calibration's EMG-to-moment gain does not carry to it, whatever its shape.
 
 use serde::Serialize;
+use validate::MomentScale;
 
 use crate::report::Verdict;
 use crate::{Diagnosis, SessionDiagnosis};
@@ -38,6 +44,9 @@ pub struct HeldOutShapePart {
     pub r2: f64,
     /// p-value of the part's shape test.
     pub p_value: f64,
+    /// The scale of the model's moment the part asks for, cross-validated within it
+    /// (`validate`'s [`MomentScale`]; `None` when it was not measured).
+    pub scale: Option<MomentScale>,
 }
 
 impl HeldOutShapePart {
@@ -50,7 +59,20 @@ impl HeldOutShapePart {
             rms_nm,
             r2,
             p_value,
+            scale: None,
         }
+    }
+
+    /// The same part with the scale of the model's moment it asks for.
+    #[must_use]
+    pub fn with_scale(mut self, scale: Option<MomentScale>) -> Self {
+        self.scale = scale;
+        self
+    }
+
+    /// The part asks for another scale of the model's moment ([`MomentScale::differs`]).
+    fn scale_differs(&self) -> bool {
+        self.scale.is_some_and(|s| s.differs)
     }
 }
 
@@ -64,6 +86,9 @@ pub struct HeldOutShapeCheck {
     pub p_value: f64,
     /// Whether the trial's held-out residual keeps a reproducible shape.
     pub reproducible: bool,
+    /// Whether a held-out part of the trial asks for another scale of the model's moment: the
+    /// calibration's EMG-to-moment gain does not carry to it.
+    pub scale_differs: bool,
 }
 
 /// `min(1, m·min p)` of `m` p-values (1 for none).
@@ -81,11 +106,36 @@ impl HeldOutShapeCheck {
     #[must_use]
     pub fn of_parts(parts: Vec<HeldOutShapePart>) -> Self {
         let p_value = bonferroni(parts.iter().map(|p| p.p_value));
+        let scale_differs = parts.iter().any(HeldOutShapePart::scale_differs);
         Self {
             parts,
             p_value,
             reproducible: keeps_shape(p_value),
+            scale_differs,
         }
+    }
+
+    /// `true` when the calibration does not carry to the trial: a reproducible held-out shape
+    /// or another gain.
+    #[must_use]
+    pub fn not_adequate(&self) -> bool {
+        self.reproducible || self.scale_differs
+    }
+
+    /// The parts that ask for another gain, e.g. `× 0.73 (−35.4 % held out within the part)`.
+    fn scale_text(&self) -> Option<String> {
+        let list: Vec<String> = self
+            .parts
+            .iter()
+            .filter_map(|p| p.scale.filter(|s| s.differs))
+            .map(|s| {
+                format!(
+                    "× {:.2} (RMS {:.2} → {:.2} N·m, one half predicted from the other)",
+                    s.factor, s.rms_nm, s.cross_validated_rms_nm
+                )
+            })
+            .collect();
+        (!list.is_empty()).then(|| list.join("; "))
     }
 
     /// The terminal line of the check.
@@ -101,7 +151,7 @@ impl HeldOutShapeCheck {
                 )
             })
             .collect();
-        format!(
+        let mut line = format!(
             "held out     residual shape p = {:.1e} ({}): {}",
             self.p_value,
             parts.join("; "),
@@ -110,7 +160,14 @@ impl HeldOutShapeCheck {
             } else {
                 "no reproducible shape"
             }
-        )
+        );
+        if let Some(t) = self.scale_text() {
+            line.push_str(&format!(
+                "\nheld-out gain the model's moment {t}: the calibration's gain does not carry \
+                 to this trial, the model is not adequate"
+            ));
+        }
+        line
     }
 }
 
@@ -124,6 +181,21 @@ pub struct SessionHeldOutShape {
     pub p_value: f64,
     /// Whether any trial's held-out residual keeps a reproducible shape.
     pub reproducible: bool,
+    /// Whether a held-out part of any trial asks for another scale of the model's moment.
+    pub scale_differs: bool,
+}
+
+impl SessionHeldOutShape {
+    /// The trials that ask for another gain, e.g. `Running1 × 0.73 (RMS 43.35 → 28.01 N·m)`.
+    #[must_use]
+    pub fn scale_text(&self) -> Option<String> {
+        let list: Vec<String> = self
+            .per_trial
+            .iter()
+            .filter_map(|t| t.check.scale_text().map(|s| format!("{} {s}", t.name)))
+            .collect();
+        (!list.is_empty()).then(|| list.join(", "))
+    }
 }
 
 /// One trial's check in [`SessionHeldOutShape`].
@@ -139,9 +211,9 @@ pub struct TrialHeldOutShape {
 
 impl Diagnosis {
     /// Records the trial's held-out shape test; a trial whose held-out residual keeps a
-    /// reproducible shape is not adequate.
+    /// reproducible shape, or that asks for another gain, is not adequate.
     pub fn judge_held_out_shape(&mut self, check: HeldOutShapeCheck) {
-        if check.reproducible {
+        if check.not_adequate() {
             self.verdict = Verdict::Deficient;
         }
         self.held_out_shape = Some(check);
@@ -150,11 +222,13 @@ impl Diagnosis {
 
 impl SessionDiagnosis {
     /// Records every trial's held-out shape test (`(trial name, check)`); the session is not
-    /// adequate when any trial's held-out residual keeps a reproducible shape.
+    /// adequate when any trial's held-out residual keeps a reproducible shape or asks for
+    /// another gain.
     pub fn judge_held_out_shape(&mut self, per_trial: Vec<(String, HeldOutShapeCheck)>) {
         let p_value = bonferroni(per_trial.iter().map(|(_, c)| c.p_value));
         let reproducible = per_trial.iter().any(|(_, c)| c.reproducible);
-        if reproducible {
+        let scale_differs = per_trial.iter().any(|(_, c)| c.scale_differs);
+        if reproducible || scale_differs {
             self.verdict = Verdict::Deficient;
         }
         self.held_out_shape = Some(SessionHeldOutShape {
@@ -164,6 +238,7 @@ impl SessionDiagnosis {
                 .collect(),
             p_value,
             reproducible,
+            scale_differs,
         });
     }
 }
@@ -186,5 +261,25 @@ mod tests {
         let none = HeldOutShapeCheck::of_parts(Vec::new());
         assert_eq!(none.p_value, 1.0);
         assert!(!none.reproducible);
+    }
+
+    #[test]
+    fn a_trial_that_asks_for_another_gain_is_not_adequate_whatever_its_shape() {
+        let predicted: Vec<f64> = (0..300).map(|i| 30.0 * (i as f64 * 0.06).sin()).collect();
+        let w = vec![1.0; 300];
+        let scaled = |g: f64| {
+            let y: Vec<f64> = predicted.iter().map(|p| g * p).collect();
+            validate::moment_scale(&y, &predicted, &w, std::slice::from_ref(&(0..300)))
+        };
+        let check = HeldOutShapeCheck::of_parts(vec![part(0.5).with_scale(scaled(0.7))]);
+        assert!(!check.reproducible && check.scale_differs && check.not_adequate());
+        assert!(
+            check.summary_line().contains("× 0.70"),
+            "{}",
+            check.summary_line()
+        );
+        let same = HeldOutShapeCheck::of_parts(vec![part(0.5).with_scale(scaled(1.0))]);
+        assert!(!same.not_adequate());
+        assert!(!same.summary_line().contains("held-out gain"));
     }
 }

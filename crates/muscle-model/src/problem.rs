@@ -328,6 +328,18 @@ impl Problem {
         }
         base_params.validate()?;
         base_effects.validate()?;
+        // every evaluation would fail: say so once, here, rather than at each start
+        let antagonist = base_effects.antagonist_coactivation.is_some()
+            || free
+                .iter()
+                .any(|p| matches!(p, ParamId::Effect(EffectKind::AntagonistCoactivation, _)));
+        if antagonist && inputs.envelope_ta().is_none() {
+            return Err(ModelError::input(
+                "env_ta",
+                "the antagonist_coactivation effect needs the tibialis anterior's envelope \
+                 (an emg_ta channel), which this trial does not have",
+            ));
+        }
         for (i, p) in free.iter().enumerate() {
             if free[..i].contains(p) {
                 return Err(ModelError::invalid(

@@ -17,12 +17,15 @@
 //! recording checks flagged it, and the part's residual is tested for a reproducible shape
 //! ([`HeldOutShape`]: the same miss in every held-out stride, or the miss the calibration left
 //! in its training data coming back), against the scatter of the data rather than a fitted
-//! noise model.
+//! noise model. Each held-out part also reports the scale of the model's moment it asks for
+//! ([`MomentScale`]), cross-validated within the part: a trial whose EMG reaches the moment
+//! with another gain is told apart from one whose shape is wrong.
 
 mod baseline;
 mod error;
 mod folds;
 mod run;
+mod scale;
 mod score;
 mod shape;
 mod strides;
@@ -34,6 +37,7 @@ pub use run::{
     validate, FoldResult, HeldOutScore, Peer, SchemeSummary, ValidateSettings, Validation,
     ValidationTrial,
 };
+pub use scale::{moment_scale, MomentScale, SCALE_BLOCKS, SCALE_MIN_GAIN_PCT};
 pub use score::FitScore;
 pub use shape::{HeldOutShape, MIN_STRIDES, SHAPE_BINS, SHAPE_EVIDENCE};
 pub use strides::StrideScore;

@@ -14,6 +14,7 @@ use serde::Serialize;
 
 use crate::baseline::LinearBaseline;
 use crate::folds::{folds, Fold, FoldScheme, TrialPart};
+use crate::scale::{moment_scale, MomentScale};
 use crate::score::FitScore;
 use crate::shape::{held_out_shape, HeldOutShape, PartResidual};
 use crate::strides::{stride_scores, stride_spans, StrideScore};
@@ -106,6 +107,9 @@ pub struct HeldOutScore {
     pub strides: Vec<StrideScore>,
     /// Whether the held-out residual keeps a reproducible shape ([`HeldOutShape`]).
     pub shape: HeldOutShape,
+    /// The scale of the model's moment the part asks for, cross-validated within it
+    /// ([`MomentScale`]; `None` when it cannot be cut in two).
+    pub scale: Option<MomentScale>,
     /// The held-out samples (indices into the trial).
     #[serde(skip)]
     pub samples_range: std::ops::Range<usize>,
@@ -376,12 +380,14 @@ fn run_fold(
             &linear_nm,
             &peer_nm,
         );
+        let segments = part_segments(&trials[part.trial], &part.samples);
+        let scale = moment_scale(y, predicted, &w, &segments);
         let shape = held_out_shape(
             &PartResidual {
                 measured: y,
                 predicted,
                 weights: &w,
-                segments: part_segments(&trials[part.trial], &part.samples),
+                segments,
             },
             &training,
         );
@@ -397,6 +403,7 @@ fn run_fold(
             peers,
             strides,
             shape,
+            scale,
             samples_range: part.samples.clone(),
             model_nm: predicted[part.samples.clone()].to_vec(),
             linear_nm: linear_nm[part.samples.clone()].to_vec(),

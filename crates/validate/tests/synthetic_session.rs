@@ -28,20 +28,22 @@ mod rand_distr_free {
     }
 }
 
-#[test]
-fn held_out_errors_are_at_the_noise_level_on_a_session_with_a_known_truth() {
-    let seed = 2026;
+const NAMES: [&str; 4] = ["knee0_30", "knee90_30", "knee0_60", "knee90_60"];
+const PROTOCOLS: [(&str, &str); 4] = [
+    ("knee0@30", "slow"),
+    ("knee90@30", "slow"),
+    ("knee0@60", "fast"),
+    ("knee90@60", "fast"),
+];
+
+/// The session's truth and its four trials' problems, the measured moment of trial `k` times
+/// `gains[k]` (1: as simulated).
+fn session(seed: u64, gains: [f64; 4]) -> (ModelParams, Vec<Problem>) {
     let truth = random_params(
         &mut ChaCha8Rng::seed_from_u64(seed),
         &ModelParams::nominal(),
     );
-    let protocols = [
-        ("knee0@30", "slow"),
-        ("knee90@30", "slow"),
-        ("knee0@60", "fast"),
-        ("knee90@60", "fast"),
-    ];
-    let configs: Vec<_> = protocols
+    let configs: Vec<_> = PROTOCOLS
         .iter()
         .enumerate()
         .map(|(k, (p, _))| {
@@ -53,20 +55,24 @@ fn held_out_errors_are_at_the_noise_level_on_a_session_with_a_known_truth() {
     let mut rng = ChaCha8Rng::seed_from_u64(seed + 1);
     let problems: Vec<Problem> = syn
         .iter()
-        .map(|s| {
+        .zip(gains)
+        .map(|(s, g)| {
             let measured = s
                 .model_torque
                 .iter()
-                .map(|t| t + SIGMA_NM * normal(&mut rng))
+                .map(|t| g * t + SIGMA_NM * normal(&mut rng))
                 .collect();
             Problem::standard(s.inputs.clone(), measured).unwrap()
         })
         .collect();
-    let names = ["knee0_30", "knee90_30", "knee0_60", "knee90_60"];
-    let trials: Vec<ValidationTrial<'_>> = problems
+    (truth, problems)
+}
+
+fn trials(problems: &[Problem]) -> Vec<ValidationTrial<'_>> {
+    problems
         .iter()
-        .zip(names)
-        .zip(protocols)
+        .zip(NAMES)
+        .zip(PROTOCOLS)
         .map(|((p, name), (_, condition))| ValidationTrial {
             name,
             condition: Some(condition),
@@ -75,7 +81,14 @@ fn held_out_errors_are_at_the_noise_level_on_a_session_with_a_known_truth() {
             stride_ends: None,
             stride_flagged: None,
         })
-        .collect();
+        .collect()
+}
+
+#[test]
+fn held_out_errors_are_at_the_noise_level_on_a_session_with_a_known_truth() {
+    let seed = 2026;
+    let (truth, problems) = session(seed, [1.0; 4]);
+    let trials = trials(&problems);
     let mut settings = ValidateSettings::default();
     settings.sa = settings.sa.with_chains(2).with_chain_evaluations(2500);
     let peers = [Peer {
@@ -127,6 +140,40 @@ fn held_out_errors_are_at_the_noise_level_on_a_session_with_a_known_truth() {
     for h in &later.held_out {
         assert!(h.span_s.0 > 0.0 && h.span_s.1 > h.span_s.0, "{h:?}");
     }
+    // the calibration's gain is right everywhere: no held-out part asks for another
+    for f in &v.folds {
+        for h in &f.held_out {
+            let k = h.scale.expect("every part can be cut in two");
+            assert!(!k.differs, "{} in {}: {k:?}", h.trial, f.name);
+            assert!(
+                (k.factor - 1.0).abs() < 0.03,
+                "{} in {}: {k:?}",
+                h.trial,
+                f.name
+            );
+        }
+    }
+}
+
+#[test]
+fn a_trial_whose_moment_comes_at_another_gain_is_told_when_held_out() {
+    // the last trial's moment at 0.75 times the others' (an EMG-to-moment gain that changed)
+    let (_, problems) = session(2026, [1.0, 1.0, 1.0, 0.75]);
+    let trials = trials(&problems);
+    let mut settings = ValidateSettings::default();
+    settings.sa = settings.sa.with_chains(2).with_chain_evaluations(2500);
+    let v = validate(&trials, &[FoldScheme::LeaveOneTrialOut], &[], &settings).unwrap();
+    let part = |name: &str| {
+        v.folds
+            .iter()
+            .flat_map(|f| &f.held_out)
+            .find(|h| h.trial == name)
+            .unwrap()
+    };
+    let k = part("knee90_60").scale.unwrap();
+    assert!(k.differs, "{k:?}");
+    assert!((k.factor - 0.75).abs() < 0.05, "{k:?}");
+    assert!(k.cross_validated_rms_nm < 0.5 * k.rms_nm, "{k:?}");
 }
 
 #[test]

@@ -445,6 +445,19 @@ fn summary_lines(doc: &ValidationReport) -> Vec<String> {
                     "no reproducible shape"
                 }
             ));
+            if let Some(k) = h.scale.filter(|k| k.differs) {
+                lines.push(format!(
+                    "  {:24} {}: the model's moment × {:.2} predicts half of it from the other \
+                     {:.1} % better (RMS {:.2} → {:.2} N·m): the EMG reaches the moment with another \
+                     gain here",
+                    f.name,
+                    h.trial,
+                    k.factor,
+                    k.cross_validated_gain_pct,
+                    k.rms_nm,
+                    k.cross_validated_rms_nm
+                ));
+            }
         }
     }
     if let Some(e) = &doc.extensions {

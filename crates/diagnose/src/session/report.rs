@@ -286,6 +286,12 @@ impl SessionDiagnosis {
                     "held-out shape   reproducible in {kept}: the model is not adequate; not in {not_kept}"
                 ),
             });
+            if let Some(t) = h.scale_text() {
+                l.push(format!(
+                    "held-out gain    the model's moment scaled in {t}: the calibration's gain does \
+                     not carry to these trials"
+                ));
+            }
         }
         let scheme = match self.heldout.scheme {
             HeldoutScheme::LeaveOneTrialOut => "leaving one trial out",

@@ -113,10 +113,21 @@ pub(crate) fn select(
                 None => reports.push(rep),
             }
         }
+        // without unloaded runs every candidate reaching the threshold is refitted and the
+        // held-out RMS ranks them (the single trial's `selection::leaders` says why)
+        let rms_decides = joint
+            .members
+            .iter()
+            .any(|m| m.ctx.noise.source == crate::noise::NoiseModelSource::TrialResidual);
+        let most = if rms_decides {
+            usize::MAX
+        } else {
+            settings.refits_per_round
+        };
         let leaders: Vec<&Scored> = scores
             .iter()
             .filter(|s| s.lm >= settings.min_score_lm)
-            .take(settings.refits_per_round)
+            .take(most)
             .collect();
         if leaders.is_empty() {
             break;
@@ -145,10 +156,6 @@ pub(crate) fn select(
             }
         }
         let mut rechecked = false;
-        let rms_decides = joint
-            .members
-            .iter()
-            .any(|m| m.ctx.noise.source == crate::noise::NoiseModelSource::TrialResidual);
         let best = loop {
             let mut passing: Vec<(usize, f64)> = Vec::new();
             for (i, (f, s)) in fits.iter().enumerate() {
@@ -175,7 +182,11 @@ pub(crate) fn select(
                     rms_falls && dev_gain.is_none_or(|dg| dg >= settings.min_heldout_dev_gain);
                 let clear = s.cos <= settings.confound_cos || significance(f, n) >= 3.0;
                 if d < settings.max_delta_bic && generalises && clear {
-                    passing.push((i, d));
+                    let rank = match &f.heldout {
+                        Some(h) if rms_decides => h.rms,
+                        _ => d,
+                    };
+                    passing.push((i, rank));
                 }
             }
             passing.sort_by(|a, b| a.1.total_cmp(&b.1));

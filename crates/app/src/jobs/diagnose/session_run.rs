@@ -402,6 +402,7 @@ fn judge_held_out_shape(
                             h.model.r2,
                             h.shape.p_value,
                         )
+                        .with_scale(h.scale)
                     })
             })
             .collect();

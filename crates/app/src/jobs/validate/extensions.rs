@@ -36,7 +36,7 @@ struct ExtensionCandidate {
     flip_emg: bool,
 }
 
-const CANDIDATES: [ExtensionCandidate; 4] = [
+const CANDIDATES: [ExtensionCandidate; 5] = [
     ExtensionCandidate {
         name: "tendon_compliance",
         description: "the triceps' shared tendon strain at F0 (curves.e0t) calibrated",
@@ -53,6 +53,13 @@ const CANDIDATES: [ExtensionCandidate; 4] = [
         name: "activation_dynamics",
         description: "the activation and deactivation time constants calibrated",
         added: &["activation.tau_act_s", "activation.tau_deact_s"],
+        flip_emg: false,
+    },
+    ExtensionCandidate {
+        name: "antagonist",
+        description: "the tibialis anterior's moment against the triceps: its activation from \
+                      the TA envelope times a calibrated gain (antagonist_coactivation.gain_nm)",
+        added: &["antagonist_coactivation.gain_nm"],
         flip_emg: false,
     },
     ExtensionCandidate {
@@ -98,8 +105,8 @@ pub struct ExtensionStudy {
 #[derive(Debug, Clone, Serialize)]
 #[non_exhaustive]
 pub struct ExtensionResult {
-    /// `tendon_compliance`, `eccentric_plateau`, `activation_dynamics`, `emg_normalisation`
-    /// or `combined`.
+    /// `tendon_compliance`, `eccentric_plateau`, `activation_dynamics`, `antagonist`,
+    /// `emg_normalisation` or `combined`.
     pub name: String,
     /// What it adds.
     pub description: String,
@@ -247,6 +254,12 @@ fn run_one(
         result.skipped = Some(format!("{a} is calibrated already"));
         return Ok(result);
     }
+    if added.contains(&ANTAGONIST_GAIN) {
+        if let Some(why) = no_antagonist_envelope(inputs.plain) {
+            result.skipped = Some(why);
+            return Ok(result);
+        }
+    }
     if flip_emg && !inputs.plain.manifest.mvc.is_empty() {
         result.skipped = Some("the session's EMG is normalised by its MVC trials".into());
         return Ok(result);
@@ -322,6 +335,30 @@ fn run_one(
     }
     result.wall_s = t0.elapsed().as_secs_f64();
     Ok(result)
+}
+
+/// The antagonist's parameter.
+const ANTAGONIST_GAIN: &str = "antagonist_coactivation.gain_nm";
+
+/// Why the antagonist cannot be added to `session`: a trial without the TA's envelope, or
+/// whose TA is a muscle of the model already (a CEINMS folder drives `tibant_r` with the
+/// subject file's parameters, so a second TA term would count it twice).
+fn no_antagonist_envelope(session: &LoadedSession) -> Option<String> {
+    session.trials.iter().find_map(|t| {
+        let inputs = t.problem.inputs();
+        if inputs.envelope_ta().is_some() {
+            return None;
+        }
+        Some(if inputs.geometry("tibant_r").is_some() {
+            format!(
+                "trial {}: the tibialis anterior is a muscle of the model already (tibant_r, \
+                 with the subject file's parameters)",
+                t.name
+            )
+        } else {
+            format!("trial {} has no TA envelope (emg_ta)", t.name)
+        })
+    })
 }
 
 /// The study's summary lines.
