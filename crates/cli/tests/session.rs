@@ -78,6 +78,36 @@ fn ceinms_folders_are_predicted_and_identified() {
         let rms = t["rms_nm"].as_f64().unwrap();
         assert!(rms < 0.5, "{t}");
         assert!(t["r2"].as_f64().unwrap() > 0.999, "{t}");
+        // the truth's gain fits: no other scale of its moment is asked for
+        let k = &t["scale"];
+        assert!((k["factor"].as_f64().unwrap() - 1.0).abs() < 0.01, "{t}");
+        assert_eq!(k["differs"], false, "{t}");
+    }
+    // the triceps at 0.7 times their forces: the trials ask for about 1/0.7 of the moment
+    let mut weak = truth;
+    for m in Muscle::ALL {
+        weak.muscle_mut(m).fom_n *= 0.7;
+    }
+    std::fs::write(d.join("subject_weak.xml"), subject_xml(&weak)).unwrap();
+    std::fs::write(d.join("weak.json"), manifest("subject_weak.xml")).unwrap();
+    let o = surae(
+        &["simulate", "--session", "weak.json", "--out", "sim_weak"],
+        d,
+    );
+    ok(&o);
+    assert!(
+        String::from_utf8_lossy(&o.stdout).contains("EMG-to-moment gain does not fit"),
+        "{}",
+        String::from_utf8_lossy(&o.stdout)
+    );
+    for t in json(&d.join("sim_weak/simulate.json"))["trials"]
+        .as_array()
+        .unwrap()
+    {
+        let k = &t["scale"];
+        let f = k["factor"].as_f64().unwrap();
+        assert!((1.3..1.5).contains(&f), "{t}");
+        assert_eq!(k["differs"], true, "{t}");
     }
     assert!(d.join("sim_true/a.csv").exists() && d.join("sim_true/b.csv").exists());
     ok(&surae(

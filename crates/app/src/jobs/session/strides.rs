@@ -43,6 +43,40 @@ impl SessionTrial {
             .map(|s| s.strides.iter().map(|x| x.start).collect()))
     }
 
+    /// The scale of `prediction` (the model's moment on the trial's grid) that the trial asks
+    /// for, judged by predicting one half of it from the other (`validate`'s
+    /// [`validate::MomentScale`]): its unflagged strides dealt into the halves, or ten blocks
+    /// of a trial without strides; the trial's own weights judge.
+    pub fn moment_scale(&self, prediction: &[f64]) -> AppResult<Option<validate::MomentScale>> {
+        let n = self.problem.inputs().len();
+        let segments: Vec<std::ops::Range<usize>> = match self.strides()? {
+            Some(s) => {
+                let flags = self.stride_flags(&s);
+                s.strides
+                    .iter()
+                    .zip(flags)
+                    .filter(|(x, flagged)| !flagged && x.start < x.end && x.end <= n)
+                    .map(|(x, _)| x.start..x.end)
+                    .collect()
+            }
+            None => std::iter::once(0..n).collect(),
+        };
+        let ones;
+        let weights = match self.problem.weights() {
+            Some(w) => w,
+            None => {
+                ones = vec![1.0; n];
+                &ones
+            }
+        };
+        Ok(validate::moment_scale(
+            self.problem.measured(),
+            prediction,
+            weights,
+            &segments,
+        ))
+    }
+
     /// Which of `strides` (this trial's) the recording checks flagged, matched by time: the
     /// checks find their strides in the trial as recorded.
     pub fn stride_flags(&self, strides: &experiment::Strides) -> Vec<bool> {

@@ -55,6 +55,7 @@ pub(super) fn run(args: &SimulateJob, session_path: &Path, rep: &Reporter) -> Ap
             source: t.source.clone(),
             rms_nm: rms,
             r2,
+            scale: t.moment_scale(&sim.torque)?,
         });
         let mut text = String::with_capacity(inputs.len() * 60);
         text.push_str("time_s,torque_nm,measured_nm,weight\n");
@@ -96,9 +97,25 @@ pub(super) fn run(args: &SimulateJob, session_path: &Path, rep: &Reporter) -> Ap
     for l in session.emg.summary_lines() {
         rep.say(&l);
     }
-    rep.say("  trial                     RMS (N·m)     R²");
+    rep.say("  trial                     RMS (N·m)     R²   moment × k̂ (RMS, half from half)");
     for r in &doc.trials {
-        rep.say(&format!("  {:<24} {:>9.2} {:>8.3}", r.name, r.rms_nm, r.r2));
+        let scale = r.scale.map_or_else(String::new, |k| {
+            format!(
+                "   × {:.2} ({:.2} → {:.2}){}",
+                k.factor,
+                k.rms_nm,
+                k.cross_validated_rms_nm,
+                if k.differs {
+                    ": the parameters' EMG-to-moment gain does not fit this trial"
+                } else {
+                    ""
+                }
+            )
+        });
+        rep.say(&format!(
+            "  {:<24} {:>9.2} {:>8.3}{scale}",
+            r.name, r.rms_nm, r.r2
+        ));
     }
     rep.say(&format!(
         "  mean                     {:>9.2} {:>8.3}",
@@ -140,4 +157,8 @@ pub struct SimulatedTrialReport {
     pub rms_nm: f64,
     /// R² where the trial is judged.
     pub r2: f64,
+    /// The scale of the model's moment the trial asks for, judged by predicting one half of
+    /// it from the other (`validate`'s `MomentScale`; `null` when it cannot be cut in two):
+    /// `differs` when the parameters' EMG-to-moment gain does not fit the trial.
+    pub scale: Option<validate::MomentScale>,
 }
