@@ -104,6 +104,67 @@ fn a_ceinms_folder_with_a_hidden_delay_names_it_and_one_without_is_adequate() {
     angle_effects_not_testable(&one, &row);
 }
 
+#[test]
+fn a_calibration_whose_gain_does_not_carry_to_the_trial_is_told() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let truth = truth_with_tibialis();
+    std::fs::write(d.join("subject.xml"), subject_xml(&truth)).unwrap();
+    // the same subject, its triceps reaching the moment with 0.7 times the gain
+    let mut weak = truth;
+    for m in muscle_model::Muscle::ALL {
+        weak.muscle_mut(m).fom_n *= 0.7;
+    }
+    let none = Effects::none();
+    let folder = |truth| CeinmsFolder {
+        seed: 33,
+        seconds: 8.0,
+        truth,
+        effects: &none,
+        noise: true,
+        lead_in_s: 0.13,
+    };
+    ceinms_folder(&d.join("walk_same"), &folder(&truth));
+    ceinms_folder(&d.join("walk_weak"), &folder(&weak));
+    // `subject.xml` is the calibration carried to each folder
+    let run = |name: &str| {
+        let manifest = format!(r#"{{"trials": [{{"name": "walk", "recording": "{name}"}}]}}"#);
+        std::fs::write(d.join(format!("{name}.json")), manifest).unwrap();
+        let out = format!("out_{name}");
+        let o = surae(
+            &[
+                "diagnose",
+                "--session",
+                &format!("{name}.json"),
+                "--params",
+                "subject.xml",
+                "--out",
+                &out,
+            ],
+            d,
+        );
+        ok(&o);
+        (
+            String::from_utf8_lossy(&o.stdout).into_owned(),
+            json(&d.join(&out).join("walk/diagnosis.json")),
+            json(&d.join(&out).join("diagnosis_session.json")),
+        )
+    };
+    let (_, one, all) = run("walk_same");
+    let k = &one["given_params"]["scale"];
+    assert!((k["factor"].as_f64().unwrap() - 1.0).abs() < 0.02, "{k}");
+    assert_eq!(k["differs"], false, "{k}");
+    assert_eq!(all["given_params"][0]["name"], "walk");
+    let (text, one, all) = run("walk_weak");
+    let k = &one["given_params"]["scale"];
+    let f = k["factor"].as_f64().unwrap();
+    assert!((0.6..0.8).contains(&f), "{k}");
+    assert_eq!(k["differs"], true, "{k}");
+    assert_eq!(one["verdict"], "deficient");
+    assert_eq!(all["verdict"], "deficient");
+    assert!(text.contains("EMG-to-moment gain does not carry"), "{text}");
+}
+
 /// The repository's seed fixture (trial and unloaded run).
 fn fixture(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))

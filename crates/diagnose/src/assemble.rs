@@ -97,6 +97,7 @@ pub(crate) fn diagnosis(
         emg_crosstalk: Vec::new(),
         emg_correction: None,
         held_out_shape: None,
+        given_params: None,
     }
 }
 

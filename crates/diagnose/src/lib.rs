@@ -99,6 +99,7 @@ mod error;
 mod estimates;
 mod fit;
 pub mod flexible;
+mod given_params;
 mod held_out_shape;
 pub mod lm;
 pub mod noise;
@@ -130,6 +131,7 @@ pub use flexible::{
     FlexibleExtension, FlexibleTerm, Replacement, SearchedValue, StateVariable, Unexplained,
     VariableGain,
 };
+pub use given_params::{GivenParamsFit, TrialGivenParamsFit};
 pub use held_out_shape::{
     HeldOutShapeCheck, HeldOutShapePart, SessionHeldOutShape, TrialHeldOutShape,
     HELD_OUT_SHAPE_EVIDENCE,

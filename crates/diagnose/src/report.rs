@@ -259,6 +259,10 @@ pub struct Diagnosis {
     /// an unloaded run, diagnosed in a session).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub held_out_shape: Option<crate::HeldOutShapeCheck>,
+    /// How the parameters given to `diagnose --session --params` predict the trial as they
+    /// are, and the scale of their moment it asks for ([`Diagnosis::judge_given_params`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub given_params: Option<crate::GivenParamsFit>,
 }
 
 /// Why a candidate effect is not tested on a recording.
@@ -468,6 +472,9 @@ impl Diagnosis {
         }
         if let Some(h) = &self.held_out_shape {
             l.push(h.summary_line());
+        }
+        if let Some(g) = &self.given_params {
+            l.push(g.summary_line());
         }
         if !self.not_testable.is_empty() {
             let names: Vec<&str> = self

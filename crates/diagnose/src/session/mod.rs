@@ -279,5 +279,6 @@ fn assemble(
         evaluations: 0,
         wall_s: 0.0,
         held_out_shape: None,
+        given_params: Vec::new(),
     }
 }

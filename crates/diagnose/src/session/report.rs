@@ -141,6 +141,10 @@ pub struct SessionDiagnosis {
     /// run).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub held_out_shape: Option<crate::SessionHeldOutShape>,
+    /// Per trial, how the parameters given to `diagnose --session --params` predict it as they
+    /// are ([`SessionDiagnosis::judge_given_params`]; empty without `--params`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub given_params: Vec<crate::TrialGivenParamsFit>,
 }
 
 /// `100·(1 − after/before)`.
@@ -227,6 +231,7 @@ impl SessionDiagnosis {
             evaluations: 0,
             wall_s: 0.0,
             held_out_shape: None,
+            given_params: Vec::new(),
         }
     }
 
@@ -293,6 +298,7 @@ impl SessionDiagnosis {
                 ));
             }
         }
+        l.extend(self.given_params_line());
         let scheme = match self.heldout.scheme {
             HeldoutScheme::LeaveOneTrialOut => "leaving one trial out",
             HeldoutScheme::WithinTrial => "within the trial",

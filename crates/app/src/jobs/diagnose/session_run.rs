@@ -22,8 +22,8 @@ use crate::error::{AppError, AppResult};
 use crate::output::OutDir;
 use crate::Reporter;
 use diagnose::{
-    DiagnoseSettings, Diagnosis, DiagnosisRecording, HeldOutShapeCheck, HeldOutShapePart,
-    SessionDiagnosis, SessionMember,
+    DiagnoseSettings, Diagnosis, DiagnosisRecording, GivenParamsFit, HeldOutShapeCheck,
+    HeldOutShapePart, SessionDiagnosis, SessionMember,
 };
 use muscle_model::TrialInputs;
 use std::ops::Range;
@@ -81,6 +81,9 @@ pub(super) fn run(args: &DiagnoseJob, session_path: &Path, rep: &Reporter) -> Ap
     }
     let mut joint = diagnose_jointly(&session, &done, rep)?;
     judge_held_out_shape(&session, &mut done, &mut joint, rep)?;
+    if args.params.is_some() || args.params_data.is_some() {
+        judge_given_params(&session, &mut done, &mut joint)?;
+    }
 
     // every trial's report ends with the command that identifies the session with the causes
     // of its joint diagnosis
@@ -414,6 +417,32 @@ fn judge_held_out_shape(
         per_trial.push((t.name.clone(), check));
     }
     joint.judge_held_out_shape(per_trial);
+    Ok(())
+}
+
+/// How the parameters given (`--params`: a calibration made elsewhere) predict every trial as
+/// they are, and the scale of their moment each asks for (`diagnose`'s `given_params`
+/// module): a trial to which the calibration's gain does not carry is not adequate.
+fn judge_given_params(
+    session: &LoadedSession,
+    done: &mut [Diagnosed],
+    joint: &mut SessionDiagnosis,
+) -> AppResult {
+    let mut per_trial = Vec::with_capacity(done.len());
+    for (t, r) in session.trials.iter().zip(done.iter_mut()) {
+        let sim = muscle_model::simulate(
+            t.problem.inputs(),
+            &session.params,
+            &session.effects,
+            &muscle_model::SimSettings::default(),
+        )
+        .map_err(|e| AppError::bad(format!("{}: simulation failed: {e}", t.source)))?;
+        let (rms, r2) = t.fit_of(&sim.torque)?;
+        let fit = GivenParamsFit::new(rms, r2, t.moment_scale(&sim.torque)?);
+        r.d.judge_given_params(fit);
+        per_trial.push((t.name.clone(), fit));
+    }
+    joint.judge_given_params(per_trial);
     Ok(())
 }
 
