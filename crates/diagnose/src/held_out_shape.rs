@@ -17,7 +17,7 @@
 //! `p = min(1, T·min_t p_t)` over its `T` trials is reported beside.
 //!
 //! Each part also carries the scale of the model's moment it asks for (`validate`'s
-//! `MomentScale`: `k̂ = Σ y ŷ / Σ ŷ²`, judged by predicting one half of the part from the
+//! `MomentScale`: `k̂ = Σ w y ŷ / Σ w ŷ²`, judged by predicting one half of the part from the
 //! other). A trial with a part that asks for another scale is not adequate either: the
 //! calibration's EMG-to-moment gain does not carry to it, whatever its shape.
 
@@ -122,7 +122,8 @@ impl HeldOutShapeCheck {
         self.reproducible || self.scale_differs
     }
 
-    /// The parts that ask for another gain, e.g. `× 0.73 (−35.4 % held out within the part)`.
+    /// The parts that ask for another gain, e.g. `× 0.69 (RMS 49.40 → 27.18 N·m, one half
+    /// predicted from the other)`.
     fn scale_text(&self) -> Option<String> {
         let list: Vec<String> = self
             .parts
@@ -138,9 +139,10 @@ impl HeldOutShapeCheck {
         (!list.is_empty()).then(|| list.join("; "))
     }
 
-    /// The terminal line of the check.
+    /// The terminal lines of the check: the shape test, and the gain when a part asks for
+    /// another.
     #[must_use]
-    pub fn summary_line(&self) -> String {
+    pub fn summary_lines(&self) -> Vec<String> {
         let parts: Vec<String> = self
             .parts
             .iter()
@@ -151,7 +153,7 @@ impl HeldOutShapeCheck {
                 )
             })
             .collect();
-        let mut line = format!(
+        let mut lines = vec![format!(
             "held out     residual shape p = {:.1e} ({}): {}",
             self.p_value,
             parts.join("; "),
@@ -160,14 +162,14 @@ impl HeldOutShapeCheck {
             } else {
                 "no reproducible shape"
             }
-        );
+        )];
         if let Some(t) = self.scale_text() {
-            line.push_str(&format!(
-                "\nheld-out gain the model's moment {t}: the calibration's gain does not carry \
+            lines.push(format!(
+                "held-out gain the model's moment {t}: the calibration's gain does not carry \
                  to this trial, the model is not adequate"
             ));
         }
-        line
+        lines
     }
 }
 
@@ -274,12 +276,12 @@ mod tests {
         let check = HeldOutShapeCheck::of_parts(vec![part(0.5).with_scale(scaled(0.7))]);
         assert!(!check.reproducible && check.scale_differs && check.not_adequate());
         assert!(
-            check.summary_line().contains("× 0.70"),
+            check.summary_lines().concat().contains("× 0.70"),
             "{}",
-            check.summary_line()
+            check.summary_lines().concat()
         );
         let same = HeldOutShapeCheck::of_parts(vec![part(0.5).with_scale(scaled(1.0))]);
         assert!(!same.not_adequate());
-        assert!(!same.summary_line().contains("held-out gain"));
+        assert_eq!(same.summary_lines().len(), 1);
     }
 }

@@ -471,7 +471,7 @@ impl Diagnosis {
             l.extend(u.summary_lines());
         }
         if let Some(h) = &self.held_out_shape {
-            l.push(h.summary_line());
+            l.extend(h.summary_lines());
         }
         if let Some(g) = &self.given_params {
             l.push(g.summary_line());

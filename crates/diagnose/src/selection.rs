@@ -251,7 +251,8 @@ fn passing<'a>(
         passing.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
     }
     // Parsimony: a passing candidate with fewer parameters that the data cannot tell
-    // from the best one leads instead (the fewest parameters, then the lowest BIC).
+    // from the best one leads instead (the fewest parameters, then the first in the ranking
+    // above).
     if let Some(first) = passing.first().copied() {
         if let Some(i) = (1..passing.len())
             .filter(|&i| simpler_tie(passing[i].fit, first.fit, settings, nobs))

@@ -15,7 +15,8 @@ pub struct DiagnoseSettings {
     pub candidates: Vec<EffectKind>,
     /// Most effects added.
     pub max_effects: usize,
-    /// Candidates refitted per round (best evidence first).
+    /// Candidates refitted per round (best evidence first); without an unloaded run every
+    /// candidate reaching [`DiagnoseSettings::min_score_lm`] is refitted instead.
     pub refits_per_round: usize,
     /// After the forward rounds, with two or more causes: try replacing each cause by another
     /// effect (drop it, refit, one more forward round) and keep a replacement that lowers the

@@ -106,7 +106,12 @@ pub fn moment_scale(
     }
     let rms = (ss / sw).sqrt();
     let scaled = (ss_scaled / sw).sqrt();
-    let gain = 100.0 * (rms - scaled) / rms;
+    // a prediction without error leaves nothing for a scale to gain
+    let gain = if rms > 0.0 {
+        100.0 * (rms - scaled) / rms
+    } else {
+        0.0
+    };
     Some(MomentScale {
         factor,
         rms_nm: rms,
@@ -171,5 +176,14 @@ mod tests {
         let s = moment_scale(&y, &p, &w, std::slice::from_ref(&(0..200))).unwrap();
         assert!((s.factor - 0.8).abs() < 1e-12, "{s:?}");
         assert!(moment_scale(&y, &p, &[0.0; 200], std::slice::from_ref(&(0..200))).is_none());
+    }
+
+    #[test]
+    fn a_prediction_without_error_gains_nothing_from_a_scale() {
+        let p = wave(100);
+        let s = moment_scale(&p, &p, &[1.0; 100], std::slice::from_ref(&(0..100))).unwrap();
+        assert_eq!(s.factor, 1.0);
+        assert_eq!(s.cross_validated_gain_pct, 0.0);
+        assert!(!s.differs);
     }
 }

@@ -438,7 +438,7 @@ fn judge_given_params(
         )
         .map_err(|e| AppError::bad(format!("{}: simulation failed: {e}", t.source)))?;
         let (rms, r2) = t.fit_of(&sim.torque)?;
-        let fit = GivenParamsFit::new(rms, r2, t.moment_scale(&sim.torque)?);
+        let fit = GivenParamsFit::new(rms, r2, t.moment_scale(&sim.torque));
         r.d.judge_given_params(fit);
         per_trial.push((t.name.clone(), fit));
     }

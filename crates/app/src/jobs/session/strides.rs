@@ -46,11 +46,13 @@ impl SessionTrial {
     /// The scale of `prediction` (the model's moment on the trial's grid) that the trial asks
     /// for, judged by predicting one half of it from the other (`validate`'s
     /// [`validate::MomentScale`]): its unflagged strides dealt into the halves, or ten blocks
-    /// of a trial without strides; the trial's own weights judge.
-    pub fn moment_scale(&self, prediction: &[f64]) -> AppResult<Option<validate::MomentScale>> {
+    /// of a trial without usable strides; the trial's own weights judge.
+    pub fn moment_scale(&self, prediction: &[f64]) -> Option<validate::MomentScale> {
         let n = self.problem.inputs().len();
-        let segments: Vec<std::ops::Range<usize>> = match self.strides()? {
-            Some(s) => {
+        // a ground force that makes no usable stride leaves the whole trial, cut into blocks:
+        // the scale is a report, and the strides' own errors belong to the jobs that use them
+        let mut segments: Vec<std::ops::Range<usize>> = match self.strides() {
+            Ok(Some(s)) => {
                 let flags = self.stride_flags(&s);
                 s.strides
                     .iter()
@@ -59,8 +61,11 @@ impl SessionTrial {
                     .map(|(x, _)| x.start..x.end)
                     .collect()
             }
-            None => std::iter::once(0..n).collect(),
+            Ok(None) | Err(_) => Vec::new(),
         };
+        if segments.is_empty() {
+            segments.push(0..n);
+        }
         let ones;
         let weights = match self.problem.weights() {
             Some(w) => w,
@@ -69,12 +74,7 @@ impl SessionTrial {
                 &ones
             }
         };
-        Ok(validate::moment_scale(
-            self.problem.measured(),
-            prediction,
-            weights,
-            &segments,
-        ))
+        validate::moment_scale(self.problem.measured(), prediction, weights, &segments)
     }
 
     /// Which of `strides` (this trial's) the recording checks flagged, matched by time: the

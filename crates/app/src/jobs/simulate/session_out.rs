@@ -55,7 +55,7 @@ pub(super) fn run(args: &SimulateJob, session_path: &Path, rep: &Reporter) -> Ap
             source: t.source.clone(),
             rms_nm: rms,
             r2,
-            scale: t.moment_scale(&sim.torque)?,
+            scale: t.moment_scale(&sim.torque),
         });
         let mut text = String::with_capacity(inputs.len() * 60);
         text.push_str("time_s,torque_nm,measured_nm,weight\n");

@@ -346,18 +346,17 @@ const ANTAGONIST_GAIN: &str = "antagonist_coactivation.gain_nm";
 fn no_antagonist_envelope(session: &LoadedSession) -> Option<String> {
     session.trials.iter().find_map(|t| {
         let inputs = t.problem.inputs();
-        if inputs.envelope_ta().is_some() {
-            return None;
-        }
-        Some(if inputs.geometry("tibant_r").is_some() {
-            format!(
+        if inputs.geometry("tibant_r").is_some() {
+            Some(format!(
                 "trial {}: the tibialis anterior is a muscle of the model already (tibant_r, \
                  with the subject file's parameters)",
                 t.name
-            )
+            ))
+        } else if inputs.envelope_ta().is_none() {
+            Some(format!("trial {} has no TA envelope (emg_ta)", t.name))
         } else {
-            format!("trial {} has no TA envelope (emg_ta)", t.name)
-        })
+            None
+        }
     })
 }
 
