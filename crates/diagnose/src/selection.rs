@@ -429,28 +429,16 @@ fn exchange(
 }
 
 /// The leaders of a ranking sorted by evidence: the candidates whose score statistic reaches
-/// [`DiagnoseSettings::min_score_lm`], at most [`DiagnoseSettings::refits_per_round`] of them
-/// unless `rms_decides`.
-///
-/// Where the noise model is fitted to the trial's own residual (no unloaded run) the score
-/// test's ranking says little about the error a user measures held out, so every candidate
-/// that reaches the threshold is refitted and judged by it. On walk36 the passive moment led
-/// the score ranking (evidence 44.5) and raised the held-out RMS from 10.5 to 12.9 N·m, while
-/// the antagonist, fifth (8.3), was never refitted.
+/// [`DiagnoseSettings::min_score_lm`], as many as [`DiagnoseSettings::refits`] allows.
 fn leaders<'s>(
     scores: &'s [score::Score],
     settings: &DiagnoseSettings,
     rms_decides: bool,
 ) -> Vec<&'s score::Score> {
-    let most = if rms_decides {
-        usize::MAX
-    } else {
-        settings.refits_per_round
-    };
     scores
         .iter()
         .filter(|s| s.lm >= settings.min_score_lm)
-        .take(most)
+        .take(settings.refits(rms_decides))
         .collect()
 }
 

@@ -85,6 +85,18 @@ impl SessionTrial {
         }
     }
 
+    /// The model's moment on the trial's grid at `params` and `effects` (default settings).
+    pub fn simulate_at(&self, params: &ModelParams, effects: &Effects) -> AppResult<Vec<f64>> {
+        muscle_model::simulate(
+            self.problem.inputs(),
+            params,
+            effects,
+            &muscle_model::SimSettings::default(),
+        )
+        .map(|s| s.torque)
+        .map_err(|e| AppError::bad(format!("{}: simulation failed: {e}", self.source)))
+    }
+
     /// RMS error (N·m) and R² of `prediction` where the fit is judged.
     pub fn fit_of(&self, prediction: &[f64]) -> AppResult<(f64, f64)> {
         let (m, p) = self.judged(prediction)?;

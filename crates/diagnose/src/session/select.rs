@@ -84,6 +84,13 @@ pub(crate) fn select(
     *evaluations += baseline.evaluations;
     let mut current = baseline.clone();
     let mut reports: Vec<TermReport> = Vec::new();
+    // a trial without an unloaded run has its noise model fitted to its own residual: then
+    // every candidate reaching the threshold is refitted and the pooled held-out RMS ranks
+    // them (`DiagnoseSettings::refits`)
+    let rms_decides = joint
+        .members
+        .iter()
+        .any(|m| m.ctx.noise.source == crate::noise::NoiseModelSource::TrialResidual);
     for round in 0..settings.max_effects + joint.members.len() {
         notify(
             observer,
@@ -113,21 +120,10 @@ pub(crate) fn select(
                 None => reports.push(rep),
             }
         }
-        // without unloaded runs every candidate reaching the threshold is refitted and the
-        // held-out RMS ranks them (the single trial's `selection::leaders` says why)
-        let rms_decides = joint
-            .members
-            .iter()
-            .any(|m| m.ctx.noise.source == crate::noise::NoiseModelSource::TrialResidual);
-        let most = if rms_decides {
-            usize::MAX
-        } else {
-            settings.refits_per_round
-        };
         let leaders: Vec<&Scored> = scores
             .iter()
             .filter(|s| s.lm >= settings.min_score_lm)
-            .take(most)
+            .take(settings.refits(rms_decides))
             .collect();
         if leaders.is_empty() {
             break;

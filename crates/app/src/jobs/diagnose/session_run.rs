@@ -430,15 +430,9 @@ fn judge_given_params(
 ) -> AppResult {
     let mut per_trial = Vec::with_capacity(done.len());
     for (t, r) in session.trials.iter().zip(done.iter_mut()) {
-        let sim = muscle_model::simulate(
-            t.problem.inputs(),
-            &session.params,
-            &session.effects,
-            &muscle_model::SimSettings::default(),
-        )
-        .map_err(|e| AppError::bad(format!("{}: simulation failed: {e}", t.source)))?;
-        let (rms, r2) = t.fit_of(&sim.torque)?;
-        let fit = GivenParamsFit::new(rms, r2, t.moment_scale(&sim.torque));
+        let torque = t.simulate_at(&session.params, &session.effects)?;
+        let (rms, r2) = t.fit_of(&torque)?;
+        let fit = GivenParamsFit::new(rms, r2, t.moment_scale(&torque));
         r.d.judge_given_params(fit);
         per_trial.push((t.name.clone(), fit));
     }

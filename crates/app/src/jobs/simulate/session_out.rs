@@ -8,7 +8,6 @@ use super::SimulateJob;
 use crate::error::{AppError, AppResult};
 use crate::output::OutDir;
 use crate::Reporter;
-use muscle_model::{simulate, SimSettings};
 use std::path::Path;
 
 /// Runs `simulate --session`.
@@ -42,20 +41,14 @@ pub(super) fn run(args: &SimulateJob, session_path: &Path, rep: &Reporter) -> Ap
     let mut texts = Vec::with_capacity(session.trials.len());
     for t in &session.trials {
         let inputs = t.problem.inputs();
-        let sim = simulate(
-            inputs,
-            &session.params,
-            &session.effects,
-            &SimSettings::default(),
-        )
-        .map_err(|e| AppError::bad(format!("{}: simulation failed: {e}", t.source)))?;
-        let (rms, r2) = t.fit_of(&sim.torque)?;
+        let torque = t.simulate_at(&session.params, &session.effects)?;
+        let (rms, r2) = t.fit_of(&torque)?;
         rows.push(SimulatedTrialReport {
             name: t.name.clone(),
             source: t.source.clone(),
             rms_nm: rms,
             r2,
-            scale: t.moment_scale(&sim.torque),
+            scale: t.moment_scale(&torque),
         });
         let mut text = String::with_capacity(inputs.len() * 60);
         text.push_str("time_s,torque_nm,measured_nm,weight\n");
@@ -63,7 +56,7 @@ pub(super) fn run(args: &SimulateJob, session_path: &Path, rep: &Reporter) -> Ap
         for i in 0..inputs.len() {
             experiment::write_f64(&mut text, inputs.times()[i]);
             text.push(',');
-            experiment::write_f64(&mut text, sim.torque[i]);
+            experiment::write_f64(&mut text, torque[i]);
             text.push(',');
             experiment::write_f64(&mut text, t.problem.measured()[i]);
             text.push(',');
