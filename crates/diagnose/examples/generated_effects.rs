@@ -6,12 +6,18 @@
 //! * **misnamed**: a catalogued cause was named (none is hidden: every name is a false story);
 //! * **flagged**: the verdict is not `adequate`;
 //! * **depends_on right**: of the flagged trials with `unexplained`, those whose `depends_on`
-//!   is led by a variable the effect lives in.
+//!   is led by a variable the effect lives in;
+//! * **failed**: the diagnosis returned an error (such a trial is in no other count).
 //!
-//! `cargo run --release -p diagnose --example generated_effects -- TRIALS BASE`
+//! `cargo run --release -p diagnose --example generated_effects -- TRIALS BASE [--at-detection F,…]`
 //! (trial `i` has seed `BASE + i`; draw BASE afresh for a measurement).
+//!
+//! With `--at-detection F,…` each torque disturbance is diagnosed at each factor `F` times its
+//! detection size (one table per factor), and the EMG-gain trials are skipped. The detection size is
+//! that of the catalogued limits for a term of exactly the disturbance's shape, in the same
+//! subject and noise without it ([`disturbance_detection_size`]).
 
-use diagnose::power::wilson_interval;
+use diagnose::power::{disturbance_detection_size, wilson_interval};
 use diagnose::scenarios::generated_trial;
 use diagnose::{no_observer, DiagnoseSettings, Verdict};
 use std::collections::BTreeMap;
@@ -23,6 +29,7 @@ struct Tally {
     flagged: usize,
     with_unexplained: usize,
     depends_right: usize,
+    failed: usize,
 }
 
 fn rate(k: usize, n: usize) -> String {
@@ -42,58 +49,127 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let trials: u64 = args.first().map_or(Ok(20), |s| s.parse())?;
     let base: u64 = args.get(1).map_or(Ok(9_100_000), |s| s.parse())?;
+    // the sizes diagnosed: as drawn (`None`), or these multiples of the detection size
+    let factors: Vec<Option<f64>> = match args.get(2).map(String::as_str) {
+        None => vec![None],
+        Some("--at-detection") => args
+            .get(3)
+            .ok_or("--at-detection needs factors, such as 2 or 2,4,8")?
+            .split(',')
+            .map(|f| f.parse().map(Some))
+            .collect::<Result<_, _>>()?,
+        Some(other) => return Err(format!("unknown argument {other}").into()),
+    };
     let settings = DiagnoseSettings::default();
-    let mut all = Tally::default();
-    let mut by_family: BTreeMap<String, Tally> = BTreeMap::new();
+    let mut tallies: Vec<(Tally, BTreeMap<String, Tally>)> = factors
+        .iter()
+        .map(|_| (Tally::default(), BTreeMap::new()))
+        .collect();
     for i in 0..trials {
         let seed = base + i;
-        let t = generated_trial(seed)?;
-        let s = &t.hidden.synthetic;
-        let d = diagnose::run(&s.trial, Some(&s.unloaded), &settings, &mut no_observer)?;
-        let flagged = d.verdict != Verdict::Adequate;
-        let depends: Vec<&str> = d
-            .unexplained
-            .as_ref()
-            .map(|u| u.depends_on.iter().map(|v| v.name()).collect())
-            .unwrap_or_default();
-        let right = d
-            .unexplained
-            .as_ref()
-            .and_then(|u| u.depends_on.first())
-            .is_some_and(|v| t.effect.lives_in(*v));
-        println!(
-            "{seed} {:<22} {:<52} {:<10} causes {:?} depends_on {:?}{}",
-            t.effect.family(),
-            t.description,
-            format!("{:?}", d.verdict),
-            d.causes,
-            depends,
-            if d.unexplained.is_some() && !right {
-                " (wrong variable)"
-            } else {
-                ""
+        let drawn = generated_trial(seed)?;
+        // the detection size in the same subject and noise without the disturbance
+        let mut without = drawn.hidden.synthetic.trial.clone();
+        let detection = match (&factors[0], &drawn.disturbance_nm) {
+            (None, _) => None,
+            (Some(_), None) => continue,
+            (Some(_), Some(d)) => {
+                for (y, a) in without.torque_nm.iter_mut().zip(d) {
+                    *y -= a;
+                }
+                Some(disturbance_detection_size(
+                    &without,
+                    Some(&drawn.hidden.synthetic.unloaded),
+                    d,
+                    &settings,
+                )?)
             }
-        );
-        let family = t.effect.family();
-        for tally in [&mut all, by_family.entry(family).or_default()] {
-            tally.trials += 1;
-            tally.misnamed += usize::from(!d.causes.is_empty());
-            tally.flagged += usize::from(flagged);
-            if flagged && d.unexplained.is_some() {
-                tally.with_unexplained += 1;
-                tally.depends_right += usize::from(right);
+        };
+        for (factor, (all, by_family)) in factors.iter().zip(tallies.iter_mut()) {
+            let mut trial = drawn.hidden.synthetic.trial.clone();
+            let mut scaled = String::new();
+            if let (Some(f), Some(det), Some(d)) = (factor, detection, &drawn.disturbance_nm) {
+                let ratio = f * det / drawn.size.abs();
+                trial.torque_nm = without
+                    .torque_nm
+                    .iter()
+                    .zip(d)
+                    .map(|(y, a)| y + a * ratio)
+                    .collect();
+                scaled = format!(" [detection {det:.2} N·m, ×{f} = {:.2}]", f * det);
+            }
+            let t = &drawn;
+            // a diagnosis that fails is a result of the study, not the end of it
+            let d = match diagnose::run(
+                &trial,
+                Some(&t.hidden.synthetic.unloaded),
+                &settings,
+                &mut no_observer,
+            ) {
+                Ok(d) => d,
+                Err(e) => {
+                    println!(
+                        "{seed} {:<22} {:<52}{scaled} FAILED: {e}",
+                        t.effect.family(),
+                        t.description
+                    );
+                    all.failed += 1;
+                    by_family.entry(t.effect.family()).or_default().failed += 1;
+                    continue;
+                }
+            };
+            let flagged = d.verdict != Verdict::Adequate;
+            let depends: Vec<&str> = d
+                .unexplained
+                .as_ref()
+                .map(|u| u.depends_on.iter().map(|v| v.name()).collect())
+                .unwrap_or_default();
+            let right = d
+                .unexplained
+                .as_ref()
+                .and_then(|u| u.depends_on.first())
+                .is_some_and(|v| t.effect.lives_in(*v));
+            println!(
+                "{seed} {:<22} {:<52}{scaled} {:<10} causes {:?} depends_on {:?}{}",
+                t.effect.family(),
+                t.description,
+                format!("{:?}", d.verdict),
+                d.causes,
+                depends,
+                if d.unexplained.is_some() && !right {
+                    " (wrong variable)"
+                } else {
+                    ""
+                }
+            );
+            let family = t.effect.family();
+            for tally in [&mut *all, by_family.entry(family).or_default()] {
+                tally.trials += 1;
+                tally.misnamed += usize::from(!d.causes.is_empty());
+                tally.flagged += usize::from(flagged);
+                if flagged && d.unexplained.is_some() {
+                    tally.with_unexplained += 1;
+                    tally.depends_right += usize::from(right);
+                }
             }
         }
     }
-    println!("\nfamily | trials | misnamed | flagged | depends_on right");
-    for (name, t) in by_family.iter().chain([(&"all".to_string(), &all)]) {
-        println!(
-            "{name} | {} | {} | {} | {}",
-            t.trials,
-            rate(t.misnamed, t.trials),
-            rate(t.flagged, t.trials),
-            rate(t.depends_right, t.with_unexplained)
-        );
+    for (factor, (all, by_family)) in factors.iter().zip(&tallies) {
+        match factor {
+            Some(f) => println!("\nat {f} × the detection size"),
+            None => println!("\nat the drawn sizes"),
+        }
+        println!("family | trials | misnamed | flagged | depends_on right | failed");
+        for (name, t) in by_family.iter().chain([(&"all".to_string(), all)]) {
+            println!(
+                "{name} | {} | {} | {} | {} | {}",
+                t.trials,
+                rate(t.misnamed, t.trials),
+                rate(t.flagged, t.trials),
+                rate(t.depends_right, t.with_unexplained),
+                t.failed
+            );
+        }
     }
     Ok(())
 }

@@ -406,9 +406,19 @@ where
     let mut lin_bounds = bounds.to_vec();
     lin_bounds[g.phase] = bounds[g.moment];
     let z0 = g.to_linear(x0);
-    let lin = |z: &[f64]| f(&g.to_polar(z));
+    // the box of (A, B) reaches √2 times the moment's bound in its corners: the moment is
+    // held at its bound there, so that a start on the edge of the disc (a moment of 29.99
+    // against a bound of 30, generated trial 79 261 213) keeps its difference steps
+    // evaluable
+    let (lo, hi) = bounds[g.moment];
+    let polar = |z: &[f64]| {
+        let mut x = g.to_polar(z);
+        x[g.moment] = x[g.moment].clamp(lo, hi);
+        x
+    };
+    let lin = |z: &[f64]| f(&polar(z));
     let mut out = minimise(&lin, &z0, &lin_bounds, lm)?;
-    out.x = g.to_polar(&out.x);
+    out.x = polar(&out.x);
     g.jacobian_to_polar(&out.x, &mut out.jacobian);
     Some(out)
 }
@@ -650,6 +660,31 @@ mod tests {
             "the polar fit crossed the bound: {:?}",
             polar.x
         );
+    }
+
+    #[test]
+    fn a_gravity_fit_starts_on_the_edge_of_its_moments_bound() {
+        // a residual function that, like the model, cannot be evaluated beyond the bounds
+        let bounds = [(-1.0, 1.0), (-30.0, 30.0), (-180.0, 180.0)];
+        let truth = [0.0, 12.0, -35.0];
+        let f = |x: &[f64]| -> Option<Vec<f64>> {
+            if x.iter().zip(&bounds).any(|(v, (lo, hi))| v < lo || v > hi) {
+                return None;
+            }
+            Some(
+                ANGLES
+                    .iter()
+                    .map(|&q| gravity_torque(x, q) - gravity_torque(&truth, q) + 0.1 * x[0])
+                    .collect(),
+            )
+        };
+        // a moment just inside its bound: a forward step in A or B would leave it
+        let x0 = [0.2, 29.99, 68.8];
+        let lm = LevenbergMarquardtSettings::default();
+        let ours = minimise_model(&free(), &f, &x0, &bounds, &lm).expect("a fit from the edge");
+        assert!(ours.cost < 1e-10, "cost {}", ours.cost);
+        assert!((ours.x[1] - 12.0).abs() < 1e-4 && (ours.x[2] + 35.0).abs() < 1e-3);
+        assert!(ours.x[1].abs() <= 30.0);
     }
 
     #[test]

@@ -152,6 +152,77 @@ pub fn noncentrality(
     })
 }
 
+/// The detection size of a torque disturbance of any shape in `trial` (which must not hold
+/// it), as the detection limits of the catalogued effects are defined
+/// (docs/studies/limit-calibration.md): the peak size `θ` at which a one-parameter term of
+/// exactly the disturbance's shape would be named by the ΔBIC rule in 95 % of trials,
+/// `λ(θ) = λ₉₅`.
+///
+/// The trial is prepared and its noise model estimated as the diagnosis does (with its
+/// unloaded run when given), and the baseline fitted. `λ(θ)` is the whitened sum of squares
+/// left when the baseline is refitted to its own prediction plus the disturbance scaled to
+/// peak `θ`: what the muscle parameters cannot absorb. From the given peak `θ₀`,
+/// `θ₁ = θ₀·√(λ₉₅/λ(θ₀))`, refitted once more at `θ₁` (the muscle parameters absorb a larger
+/// share of a larger disturbance, so `λ ∝ θ²` holds only to first order).
+///
+/// # Errors
+/// Invalid settings or trial, a disturbance of another length than the trial, not finite or
+/// all zero, a baseline that cannot be simulated, or a refit that cannot be done.
+pub fn disturbance_detection_size(
+    trial: &Trial,
+    unloaded: Option<&experiment::Unloaded>,
+    disturbance_nm: &[f64],
+    settings: &DiagnoseSettings,
+) -> Result<f64, DiagnoseError> {
+    settings.validate()?;
+    let prepared = settings.prepare(trial, unloaded)?;
+    let inputs = prepared.inputs.clone();
+    let n = inputs.len();
+    let peak = disturbance_nm.iter().fold(0.0_f64, |m, a| m.max(a.abs()));
+    if disturbance_nm.len() != n || disturbance_nm.iter().any(|v| !v.is_finite()) || peak == 0.0 {
+        return Err(DiagnoseError::Settings {
+            name: "disturbance_nm",
+            reason: format!(
+                "needs {n} finite values, not all zero (one per sample of the trial), got {}",
+                disturbance_nm.len()
+            ),
+        });
+    }
+    let seg = segment_motion(&inputs)?;
+    let target = crate::context::Target {
+        torque_nm: prepared.raw_torque(),
+        observed: None,
+        params: muscle_model::ModelParams::nominal(),
+        effects: muscle_model::Effects::none(),
+        emg: crate::crosstalk::EmgInputs {
+            checks: prepared.crosstalk.clone(),
+            uncorrected: None,
+        },
+    };
+    let (ctx, _) =
+        crate::context::trial_context(target, prepared.unloaded.as_ref(), inputs, seg, settings)?;
+    let baseline = crate::baseline::fit_baseline(&ctx, settings)?;
+    let pred = ctx.problem(&[])?.predict(&baseline.x)?;
+    let lambda_95 = crate::score::lambda_95(1, ctx.plan.n_obs(), settings.max_delta_bic);
+    let mut size = peak;
+    for _ in 0..2 {
+        let target: Vec<f64> = pred
+            .iter()
+            .zip(disturbance_nm)
+            .map(|(p, d)| p + d * size / peak)
+            .collect();
+        let lambda = crate::score::refit_absorbs(&ctx, &baseline, target, false)
+            .map(|(l, _)| l)
+            .filter(|l| *l > 0.0 && l.is_finite())
+            .ok_or_else(|| DiagnoseError::Settings {
+                name: "disturbance_nm",
+                reason: format!("the baseline absorbs a disturbance of {size} N·m entirely"),
+            })?;
+        size *= (lambda_95 / lambda).sqrt();
+    }
+    Ok(size)
+}
+
 /// The random part of the simulated dynamometer error (docs/dynamometer.md) at `fs` Hz, as [`noncentrality`] wants
 /// it: AR(1) with `φ = exp(−1/(fs·τc))` and SD `σ_ar`, plus white noise whose variance
 /// includes the ADC's quantisation, `σ_w² + step²/12`.

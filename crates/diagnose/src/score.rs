@@ -576,6 +576,17 @@ fn absorbed(
     let mut x = fit.x.clone();
     x.extend_from_slice(&values[..kind.params().len()]);
     let target = with.predict(&x).ok()?;
+    refit_absorbs(ctx, fit, target, multi)
+}
+
+/// `λ` of [`absorbed`] for any noise-free `target` (one value per sample): the whitened sum
+/// of squares left when `fit`'s model is refitted to it, and the simulations used.
+pub(crate) fn refit_absorbs(
+    ctx: &Context,
+    fit: &Fit,
+    target: Vec<f64>,
+    multi: bool,
+) -> Option<(f64, usize)> {
     let clean = Context {
         inputs: ctx.inputs.clone(),
         y: target,

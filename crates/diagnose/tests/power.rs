@@ -272,3 +272,67 @@ fn gravity_and_passive_limits_hold_for_their_worst_shape() {
         assert!(of.iter().any(|pw| *pw <= 0.999), "{}: {of:?}", kind.name());
     }
 }
+
+/// A disturbance of a catalogued shape has that effect's detection limit: viscous damping's
+/// torque is `b·q̇`, so the velocity column's detection size (peak N·m) over the largest
+/// `|q̇|` is the damping's limit in N·m·s/rad that the diagnosis of the same no-effect trial
+/// reports. Both refit the baseline to its own prediction plus the shape; the limit refits
+/// once, the detection size twice (its second refit moves the size by what the curvature of
+/// `λ(θ)` adds), so they agree to a few per cent, not exactly.
+#[test]
+fn a_disturbance_of_a_catalogued_shape_has_that_effects_detection_limit() {
+    use diagnose::power::disturbance_detection_size;
+    let settings = DiagnoseSettings::default();
+    let t = hidden_trial(&[], false, 4243).expect("trial");
+    let (trial, unloaded) = (&t.synthetic.trial, &t.synthetic.unloaded);
+    let d = diagnose::run(trial, Some(unloaded), &settings, &mut diagnose::no_observer)
+        .expect("diagnosis");
+    assert!(
+        d.causes.is_empty(),
+        "a no-effect trial named {:?}",
+        d.causes
+    );
+    let limit = d
+        .candidates
+        .iter()
+        .find(|c| c.effect == EffectKind::ViscousDamping.name())
+        .and_then(|c| c.detection_limit)
+        .expect("a damping limit");
+    let velocity = settings
+        .prepare(trial, Some(unloaded))
+        .expect("prepared")
+        .inputs
+        .velocity()
+        .to_vec();
+    let peak = velocity.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    let size = disturbance_detection_size(trial, Some(unloaded), &velocity, &settings)
+        .expect("a detection size");
+    let b = size / peak;
+    assert!(
+        (b - limit).abs() < 0.05 * limit,
+        "detection size {size:.3} N·m = b {b:.4} N·m·s/rad against the reported limit {limit:.4}"
+    );
+}
+
+#[test]
+fn a_disturbance_of_the_wrong_length_or_none_is_refused() {
+    use diagnose::power::disturbance_detection_size;
+    let settings = DiagnoseSettings::default();
+    let t = hidden_trial(&[], false, 4244).expect("trial");
+    let (trial, unloaded) = (&t.synthetic.trial, &t.synthetic.unloaded);
+    let n = trial.torque_nm.len();
+    for bad in [vec![1.0; n - 1], vec![0.0; n], vec![f64::NAN; n]] {
+        let e = disturbance_detection_size(trial, Some(unloaded), &bad, &settings)
+            .expect_err("refused");
+        assert!(
+            matches!(
+                e,
+                DiagnoseError::Settings {
+                    name: "disturbance_nm",
+                    ..
+                }
+            ),
+            "{e}"
+        );
+    }
+}

@@ -1,5 +1,5 @@
 //! The searched forms of a flexible term: time with a step `1{t ≥ τ}` at the residual's most
-//! likely change point, direction as `tanh(q̇/w)` with its transition width searched on the
+//! likely change point or with a sinusoid at its strongest frequency, direction as `tanh(q̇/w)` with its transition width searched on the
 //! residual, and the simplest shape in time (a ramp) for the review of a cause in time. A
 //! searched value counts as one parameter in the BIC.
 
@@ -298,10 +298,99 @@ pub(super) fn with_width(ctx: &Context, b: FlexBasis, residual: &[f64]) -> FlexB
     out
 }
 
-/// `b`, and also `b` with its searched form when it has one (time: with its step,
-/// [`with_step`]; direction: with its transition width, [`with_width`]): both are fitted,
-/// and the better one (held-out gain in the ranking, BIC in the review) stands for the
-/// variable.
+/// Lowest frequency of the periodic form in time, in periods over the compared span: slower
+/// changes are what the time hats and the ramp describe.
+const PERIOD_MIN_CYCLES: f64 = 2.0;
+
+/// Highest frequency (Hz) of the periodic form in time: a mains hum or a motor's ripple
+/// above it is the noise model's, and the torque of a triceps does not follow it.
+const PERIOD_MAX_HZ: f64 = 5.0;
+
+/// Frequencies scanned per unit of the Fourier resolution `1/span`.
+const PERIOD_OVERSAMPLING: f64 = 4.0;
+
+/// The time basis `b` with a sinusoid `sin(2πft)`, `cos(2πft)` added at the frequency `f`
+/// that explains most of the whitened `residual` (`y − τ̂` of the model the term will extend,
+/// N·m): the largest `r̃ᵀP_f r̃` over a grid from [`PERIOD_MIN_CYCLES`] periods in the
+/// compared span to [`PERIOD_MAX_HZ`] at a quarter of the Fourier resolution, `P_f` the
+/// projection onto the whitened pair, `r̃` the whitened residual.
+///
+/// A disturbance periodic in time but not locked to the motion (a fan, a treadmill belt's
+/// joint, a strap that creaks at its own rate) has no term in the hats every 2 s, which only
+/// follow changes slower than a period of 4 s; the characterisation then put such a term on
+/// the velocity or on no variable at all (docs/studies/uncatalogued.md). The frequency is a
+/// searched value (one parameter in the BIC), the pair two coefficients; the shape is
+/// reported at the knots. Any other basis is returned unchanged.
+pub(crate) fn with_period(ctx: &Context, b: FlexBasis, residual: &[f64]) -> FlexBasis {
+    let t = ctx.inputs.times();
+    let n = t.len();
+    if b.variable != StateVariable::Time || residual.len() != n {
+        return b;
+    }
+    let Some((t0, t1)) = observed_range(ctx, t) else {
+        return b;
+    };
+    let span = t1 - t0;
+    let (f_lo, f_hi) = (
+        PERIOD_MIN_CYCLES / span,
+        PERIOD_MAX_HZ.min(0.5 * ctx.inputs.fs()),
+    );
+    if !(span > 0.0 && f_lo < f_hi) {
+        return b;
+    }
+    let mut wr = vec![0.0; n];
+    ctx.plan.whiten(residual, &mut wr);
+    let (mut ws, mut wc) = (vec![0.0; n], vec![0.0; n]);
+    let (mut sin, mut cos) = (vec![0.0; n], vec![0.0; n]);
+    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
+    let step = 1.0 / (PERIOD_OVERSAMPLING * span);
+    let mut best: Option<(f64, f64)> = None;
+    let mut f = f_lo;
+    while f <= f_hi {
+        let w = std::f64::consts::TAU * f;
+        for (i, &ti) in t.iter().enumerate() {
+            (sin[i], cos[i]) = (w * (ti - t0)).sin_cos();
+        }
+        ctx.plan.whiten(&sin, &mut ws);
+        ctx.plan.whiten(&cos, &mut wc);
+        // r̃ᵀP r̃ for the pair: (g⁻¹ of the 2×2 Gram) applied to the products with r̃
+        let (ss, sc, cc) = (dot(&ws, &ws), dot(&ws, &wc), dot(&wc, &wc));
+        let (rs, rc) = (dot(&ws, &wr), dot(&wc, &wr));
+        let det = ss * cc - sc * sc;
+        if det > 1e-12 * ss * cc {
+            let score = (cc * rs * rs - 2.0 * sc * rs * rc + ss * rc * rc) / det;
+            if best.is_none_or(|(_, s)| score > s) {
+                best = Some((f, score));
+            }
+        }
+        f += step;
+    }
+    let Some((f, _)) = best else {
+        return b;
+    };
+    let w = std::f64::consts::TAU * f;
+    let mut out = b;
+    out.cols
+        .push(t.iter().map(|&x| (w * (x - t0)).sin()).collect());
+    out.cols
+        .push(t.iter().map(|&x| (w * (x - t0)).cos()).collect());
+    for (p, row) in out.points.iter().zip(out.rows.iter_mut()) {
+        let (s, c) = (w * (p - t0)).sin_cos();
+        row.push(s);
+        row.push(c);
+    }
+    out.searched.push(SearchedValue {
+        name: "frequency".into(),
+        value: f,
+        unit: "Hz".into(),
+    });
+    out
+}
+
+/// `b`, and also `b` with its searched forms when it has them (time: with its step,
+/// [`with_step`], and with a sinusoid, [`with_period`]; direction: with its transition width,
+/// [`with_width`]): all are fitted, and the best one (held-out gain in the ranking, BIC in
+/// the review) stands for the variable.
 ///
 /// A step is placed by the scan of [`change_point`] beside the parameters of the model that
 /// left `residual` (`jac`, its whitened Jacobian) in the characterisation, by the cumulative
@@ -316,8 +405,88 @@ pub(super) fn with_searched_forms(
         return vec![b];
     }
     match b.variable {
-        StateVariable::Time => vec![b.clone(), with_step(ctx, b, residual, jac)],
+        StateVariable::Time => vec![
+            b.clone(),
+            with_period(ctx, b.clone(), residual),
+            with_step(ctx, b, residual, jac),
+        ],
         StateVariable::Direction => vec![b.clone(), with_width(ctx, b, residual)],
         _ => vec![b],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{with_period, FlexBasis};
+    use crate::context::{segment_motion, trial_context, Target};
+    use crate::flexible::StateVariable;
+    use crate::DiagnoseSettings;
+
+    /// The bundled trial's context (its unloaded run's noise model).
+    fn seed_context() -> crate::fit::Context {
+        let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/seed");
+        let trial = experiment::read_trial(format!("{root}/trial.csv")).unwrap();
+        let unloaded = experiment::read_unloaded(format!("{root}/unloaded.csv")).unwrap();
+        let settings = DiagnoseSettings::default();
+        let prepared = settings.prepare(&trial, Some(&unloaded)).unwrap();
+        let seg = segment_motion(&prepared.inputs).unwrap();
+        let target = Target {
+            torque_nm: prepared.raw_torque(),
+            observed: None,
+            params: muscle_model::ModelParams::nominal(),
+            effects: muscle_model::Effects::none(),
+            emg: crate::crosstalk::EmgInputs {
+                checks: Vec::new(),
+                uncorrected: None,
+            },
+        };
+        let unloaded = prepared.unloaded.as_ref();
+        trial_context(target, unloaded, prepared.inputs.clone(), seg, &settings)
+            .unwrap()
+            .0
+    }
+
+    fn empty_time_basis() -> FlexBasis {
+        FlexBasis {
+            variable: StateVariable::Time,
+            points: vec![0.0, 1.0],
+            rows: vec![vec![], vec![]],
+            cols: Vec::new(),
+            searched: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn the_periodic_form_finds_the_frequency_of_a_sinusoid_in_the_residual() {
+        let ctx = seed_context();
+        let t = ctx.inputs.times().to_vec();
+        let span = t[t.len() - 1] - t[0];
+        for f_true in [0.61, 1.37, 3.9] {
+            // 2 N·m at f_true over a slow drift the hats would take, and a ramp
+            let residual: Vec<f64> = t
+                .iter()
+                .map(|x| 2.0 * (std::f64::consts::TAU * f_true * x + 0.4).sin() + 0.3 * x / span)
+                .collect();
+            let b = with_period(&ctx, empty_time_basis(), &residual);
+            assert_eq!(b.cols.len(), 2, "a sine and a cosine column");
+            assert_eq!(b.rows.iter().map(Vec::len).collect::<Vec<_>>(), vec![2, 2]);
+            let found = b.searched.last().expect("a searched frequency");
+            assert_eq!(found.name, "frequency");
+            assert!(
+                (found.value - f_true).abs() <= 0.5 / span,
+                "found {} Hz for {f_true} Hz (trial of {span:.1} s)",
+                found.value
+            );
+        }
+    }
+
+    #[test]
+    fn the_periodic_form_leaves_other_variables_alone() {
+        let ctx = seed_context();
+        let mut b = empty_time_basis();
+        b.variable = StateVariable::Angle;
+        let residual = vec![1.0; ctx.inputs.len()];
+        let out = with_period(&ctx, b, &residual);
+        assert!(out.cols.is_empty() && out.searched.is_empty());
     }
 }

@@ -10,10 +10,11 @@
 //! with piecewise-linear hat functions `h_j` on knots spread uniformly over the observed range
 //! of `v` (five; four for the TA; about every 2 s in time), or, for `direction`, the single
 //! column `sign(q̇)` (0 while the joint is still). Time is also tried with a step `1{t ≥ τ}`
-//! added at the residual's most likely change point (`with_step`), and direction as
+//! added at the residual's most likely change point (`with_step`) and with a sinusoid
+//! `sin, cos(2πft)` at the residual's strongest frequency (`with_period`), and direction as
 //! `tanh(q̇/w)` with the transition width `w` searched on the residual (`with_width`); the
-//! better of the two forms (held-out gain in the ranking, BIC in the review) stands for the
-//! variable, a searched value counting as one parameter in the BIC. Columns are centred on
+//! best of a variable's forms (held-out gain in the ranking, BIC in the review) stands for
+//! the variable, a searched value counting as one parameter in the BIC. Columns are centred on
 //! their mean over the trial except in time (a constant is a function of time only). The vocabulary: `angle` (°),
 //! `velocity` (°/s), `direction`, `acceleration` (°/s²), `time` (s), `activation` (the mean
 //! normalised triceps surae envelope) and `activation_ta` (the normalised tibialis anterior

@@ -38,8 +38,8 @@ pub struct FlexibleTerm {
     /// Half-width of the 95 % band at each point (N·m; NaN when not computed).
     pub band_nm: Vec<f64>,
     /// The term's values searched on the data rather than fitted: a step's `change_point`
-    /// (s) in time, the `transition_width` (°/s) of `tanh(q̇/w)` in direction, the speed at
-    /// which the term reaches 76 % of its level.
+    /// (s) or a sinusoid's `frequency` (Hz) in time, the `transition_width` (°/s) of
+    /// `tanh(q̇/w)` in direction, the speed at which the term reaches 76 % of its level.
     pub searched: Vec<SearchedValue>,
 }
 
@@ -48,7 +48,7 @@ pub struct FlexibleTerm {
 #[derive(Clone, Debug, PartialEq, Serialize)]
 #[non_exhaustive]
 pub struct SearchedValue {
-    /// `change_point` or `transition_width`.
+    /// `change_point`, `frequency` or `transition_width`.
     pub name: String,
     /// The value found.
     pub value: f64,

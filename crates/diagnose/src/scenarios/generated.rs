@@ -122,6 +122,9 @@ pub struct GeneratedTrial {
     pub size: f64,
     /// The effect, its size and parameters in words.
     pub description: String,
+    /// The torque added to the trial at every sample (N·m), peaking at `|size|`; `None` for
+    /// the EMG gain, which changes the EMG instead.
+    pub disturbance_nm: Option<Vec<f64>>,
 }
 
 /// The trial quantile `q` (0–1) of `x`, by sorting a copy.
@@ -283,14 +286,16 @@ pub fn generated_trial(seed: u64) -> Result<GeneratedTrial, DiagnoseError> {
         GeneratedEffect::EmgGain { gain, .. } => *gain,
         _ => size,
     };
-    if let Some(torque) = added {
-        // scaled so that `size` is the disturbance's peak, whatever its shape
+    // scaled so that `size` is the disturbance's peak, whatever its shape
+    let disturbance_nm = added.map(|torque| {
         let peak = torque.iter().fold(0.0_f64, |m, a| m.max(a.abs()));
         let scale = if peak > 0.0 { size.abs() / peak } else { 0.0 };
-        for (y, a) in synthetic.trial.torque_nm.iter_mut().zip(torque) {
-            *y += a * scale;
+        let scaled: Vec<f64> = torque.iter().map(|a| a * scale).collect();
+        for (y, a) in synthetic.trial.torque_nm.iter_mut().zip(&scaled) {
+            *y += a;
         }
-    }
+        scaled
+    });
     Ok(GeneratedTrial {
         hidden: HiddenTrial {
             synthetic,
@@ -301,6 +306,7 @@ pub fn generated_trial(seed: u64) -> Result<GeneratedTrial, DiagnoseError> {
         effect,
         size,
         description,
+        disturbance_nm,
     })
 }
 
@@ -328,6 +334,15 @@ mod tests {
                 }
                 GeneratedEffect::EmgGain { .. } => 2,
             });
+            // the torque added peaks at the size; the EMG gain adds none
+            match (&t.effect, &t.disturbance_nm) {
+                (GeneratedEffect::EmgGain { .. }, d) => assert!(d.is_none(), "seed {seed}"),
+                (_, Some(d)) => {
+                    let peak = d.iter().fold(0.0_f64, |m, a| m.max(a.abs()));
+                    assert!((peak - t.size.abs()).abs() < 1e-9, "seed {seed}: {peak}");
+                }
+                (_, None) => panic!("seed {seed}: a torque effect without its torque"),
+            }
         }
         assert_eq!(kinds.len(), 3);
     }

@@ -396,6 +396,11 @@ fn beyond_the_catalogue(
                     "The term in time steps at {:.2} {} (searched on the residual).",
                     v.value, v.unit
                 ),
+                "frequency" => format!(
+                    "The term in time oscillates at {:.2} {} (a sinusoid in time, its frequency \
+                     searched on the residual).",
+                    v.value, v.unit
+                ),
                 "transition_width" => format!(
                     "The term in direction changes sign over ±{:.2} {} of joint speed \
                      (tanh(q̇/w), w searched on the residual).",
