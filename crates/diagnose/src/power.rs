@@ -211,13 +211,19 @@ pub fn disturbance_detection_size(
             .zip(disturbance_nm)
             .map(|(p, d)| p + d * size / peak)
             .collect();
-        let lambda = crate::score::refit_absorbs(&ctx, &baseline, target, false)
-            .map(|(l, _)| l)
-            .filter(|l| *l > 0.0 && l.is_finite())
-            .ok_or_else(|| DiagnoseError::Settings {
+        let (lambda, _) =
+            crate::score::refit_absorbs(&ctx, &baseline, target, false).ok_or_else(|| {
+                DiagnoseError::Fit {
+                    model: "baseline".into(),
+                    reason: format!("cannot be refitted to the disturbance at {size} N·m"),
+                }
+            })?;
+        if !(lambda > 0.0 && lambda.is_finite()) {
+            return Err(DiagnoseError::Settings {
                 name: "disturbance_nm",
                 reason: format!("the baseline absorbs a disturbance of {size} N·m entirely"),
-            })?;
+            });
+        }
         size *= (lambda_95 / lambda).sqrt();
     }
     Ok(size)
