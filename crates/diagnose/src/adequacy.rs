@@ -82,23 +82,8 @@ pub fn adequacy(
     settings: &DiagnoseSettings,
 ) -> Result<Adequacy, DiagnoseError> {
     settings.validate()?;
-    let inputs = prepared.inputs.clone();
-    let seg = context::segment_motion(&inputs)?;
-    let target = Target {
-        torque_nm: prepared.raw_torque(),
-        observed: None,
-        params: *params,
-        effects: *effects,
-        emg: Default::default(),
-    };
-    test_at(
-        target,
-        prepared.unloaded.as_ref(),
-        inputs,
-        seg,
-        free,
-        settings,
-    )
+    let (ctx, _) = context::prepared_context(prepared, *params, *effects, settings)?;
+    test_ctx(&ctx, free, settings)
 }
 
 /// [`adequacy`] of a prepared recording (a session's trial, a CEINMS trial) at its model
@@ -135,6 +120,15 @@ fn test_at(
     settings: &DiagnoseSettings,
 ) -> Result<Adequacy, DiagnoseError> {
     let (ctx, _) = context::trial_context(target, unloaded, inputs, seg, settings)?;
+    test_ctx(&ctx, free, settings)
+}
+
+/// The structure test of `ctx`'s base model with the parameters `free` projected out.
+fn test_ctx(
+    ctx: &crate::fit::Context,
+    free: &[ParamId],
+    settings: &DiagnoseSettings,
+) -> Result<Adequacy, DiagnoseError> {
     let problem = Problem::new(
         ctx.inputs.clone(),
         ctx.y.clone(),
@@ -151,7 +145,7 @@ fn test_at(
         .ok_or_else(|| fail("the model cannot be simulated at the identified point"))?;
     // the bounds only set the difference step (a range's 10⁻³); a point on a bound steps inward
     let bounds = problem.bounds().to_vec();
-    let jac = whitened_jacobian(&ctx, &problem, &x, &white, &bounds, &ctx.lm)
+    let jac = whitened_jacobian(ctx, &problem, &x, &white, &bounds, &ctx.lm)
         .ok_or_else(|| fail("the model cannot be simulated near the identified point"))?;
     let white_ss = white.iter().map(|v| v * v).sum();
     let fit = Fit {
@@ -168,7 +162,7 @@ fn test_at(
         heldout_dev: f64::NAN,
         evaluations: 0,
     };
-    let t = structure_test(&ctx, &fit);
+    let t = structure_test(ctx, &fit);
     Ok(Adequacy {
         structure_p: t.p_value,
         structure_evidence: -t.p_value.max(1e-300).log10(),

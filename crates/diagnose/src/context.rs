@@ -56,6 +56,27 @@ pub(crate) struct Target<'a> {
     pub emg: crate::crosstalk::EmgInputs,
 }
 
+/// The fitting context of a trial CSV prepared by [`DiagnoseSettings::prepare`] (every sample
+/// compared, its unloaded run's correction when it has one) at the base model `params` +
+/// `effects`, with the simulations spent ([`trial_context`]).
+pub(crate) fn prepared_context(
+    prepared: &experiment::PreparedTrial,
+    params: ModelParams,
+    effects: Effects,
+    settings: &DiagnoseSettings,
+) -> Result<(Context, usize), DiagnoseError> {
+    let inputs = prepared.inputs.clone();
+    let seg = segment_motion(&inputs)?;
+    let target = Target {
+        torque_nm: prepared.raw_torque(),
+        observed: None,
+        params,
+        effects,
+        emg: Default::default(),
+    };
+    trial_context(target, prepared.unloaded.as_ref(), inputs, seg, settings)
+}
+
 /// The fitting context of the trial: the torque with the dynamometer's systematic part
 /// subtracted, the noise model that whitens it and the cross-validation folds, with the
 /// simulations spent.

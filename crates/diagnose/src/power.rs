@@ -176,8 +176,7 @@ pub fn disturbance_detection_size(
 ) -> Result<f64, DiagnoseError> {
     settings.validate()?;
     let prepared = settings.prepare(trial, unloaded)?;
-    let inputs = prepared.inputs.clone();
-    let n = inputs.len();
+    let n = prepared.inputs.len();
     let peak = disturbance_nm.iter().fold(0.0_f64, |m, a| m.max(a.abs()));
     if disturbance_nm.len() != n || disturbance_nm.iter().any(|v| !v.is_finite()) || peak == 0.0 {
         return Err(DiagnoseError::Settings {
@@ -188,19 +187,12 @@ pub fn disturbance_detection_size(
             ),
         });
     }
-    let seg = segment_motion(&inputs)?;
-    let target = crate::context::Target {
-        torque_nm: prepared.raw_torque(),
-        observed: None,
-        params: muscle_model::ModelParams::nominal(),
-        effects: muscle_model::Effects::none(),
-        emg: crate::crosstalk::EmgInputs {
-            checks: prepared.crosstalk.clone(),
-            uncorrected: None,
-        },
-    };
-    let (ctx, _) =
-        crate::context::trial_context(target, prepared.unloaded.as_ref(), inputs, seg, settings)?;
+    let (ctx, _) = crate::context::prepared_context(
+        &prepared,
+        muscle_model::ModelParams::nominal(),
+        muscle_model::Effects::none(),
+        settings,
+    )?;
     let baseline = crate::baseline::fit_baseline(&ctx, settings)?;
     let pred = ctx.problem(&[])?.predict(&baseline.x)?;
     let lambda_95 = crate::score::lambda_95(1, ctx.plan.n_obs(), settings.max_delta_bic);

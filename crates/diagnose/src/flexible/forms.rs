@@ -1,7 +1,8 @@
 //! The searched forms of a flexible term: time with a step `1{t ≥ τ}` at the residual's most
-//! likely change point or with a sinusoid at its strongest frequency, direction as `tanh(q̇/w)` with its transition width searched on the
-//! residual, and the simplest shape in time (a ramp) for the review of a cause in time. A
-//! searched value counts as one parameter in the BIC.
+//! likely change point or with a sinusoid at its strongest frequency, direction as
+//! `tanh(q̇/w)` with its transition width searched on the residual, and the simplest shape in
+//! time (a ramp) for the review of a cause in time. A searched value counts as one parameter
+//! in the BIC.
 
 use nalgebra::{DMatrix, DVector};
 
@@ -321,7 +322,7 @@ const PERIOD_OVERSAMPLING: f64 = 4.0;
 /// the velocity or on no variable at all (docs/studies/uncatalogued.md). The frequency is a
 /// searched value (one parameter in the BIC), the pair two coefficients; the shape is
 /// reported at the knots. Any other basis is returned unchanged.
-pub(crate) fn with_period(ctx: &Context, b: FlexBasis, residual: &[f64]) -> FlexBasis {
+pub(super) fn with_period(ctx: &Context, b: FlexBasis, residual: &[f64]) -> FlexBasis {
     let t = ctx.inputs.times();
     let n = t.len();
     if b.variable != StateVariable::Time || residual.len() != n {
@@ -418,7 +419,7 @@ pub(super) fn with_searched_forms(
 #[cfg(test)]
 mod tests {
     use super::{with_period, FlexBasis};
-    use crate::context::{segment_motion, trial_context, Target};
+    use crate::context::prepared_context;
     use crate::flexible::StateVariable;
     use crate::DiagnoseSettings;
 
@@ -429,19 +430,11 @@ mod tests {
         let unloaded = experiment::read_unloaded(format!("{root}/unloaded.csv")).unwrap();
         let settings = DiagnoseSettings::default();
         let prepared = settings.prepare(&trial, Some(&unloaded)).unwrap();
-        let seg = segment_motion(&prepared.inputs).unwrap();
-        let target = Target {
-            torque_nm: prepared.raw_torque(),
-            observed: None,
-            params: muscle_model::ModelParams::nominal(),
-            effects: muscle_model::Effects::none(),
-            emg: crate::crosstalk::EmgInputs {
-                checks: Vec::new(),
-                uncorrected: None,
-            },
-        };
-        let unloaded = prepared.unloaded.as_ref();
-        trial_context(target, unloaded, prepared.inputs.clone(), seg, &settings)
+        let (nominal, none) = (
+            muscle_model::ModelParams::nominal(),
+            muscle_model::Effects::none(),
+        );
+        prepared_context(&prepared, nominal, none, &settings)
             .unwrap()
             .0
     }
@@ -462,7 +455,7 @@ mod tests {
         let t = ctx.inputs.times().to_vec();
         let span = t[t.len() - 1] - t[0];
         for f_true in [0.61, 1.37, 3.9] {
-            // 2 N·m at f_true over a slow drift the hats would take, and a ramp
+            // 2 N·m at f_true beside a ramp of 0.3 N·m over the trial
             let residual: Vec<f64> = t
                 .iter()
                 .map(|x| 2.0 * (std::f64::consts::TAU * f_true * x + 0.4).sin() + 0.3 * x / span)
