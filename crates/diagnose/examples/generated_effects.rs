@@ -12,6 +12,9 @@
 //! `cargo run --release -p diagnose --example generated_effects -- TRIALS BASE [--at-detection F,…]`
 //! (trial `i` has seed `BASE + i`; draw BASE afresh for a measurement).
 //!
+//! `SURAE_SHOW_RANKING=1` prints, under each trial, the flexible terms' ranking behind
+//! `depends_on` (held-out RMS and its fall, held-out deviance gain, ΔBIC, coefficients).
+//!
 //! With `--at-detection F,…` each torque disturbance is diagnosed at each factor `F` times its
 //! detection size (one table per factor), and the EMG-gain trials are skipped. The detection size is
 //! that of the catalogued limits for a term of exactly the disturbance's shape, in the same
@@ -142,6 +145,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     ""
                 }
             );
+            // SURAE_SHOW_RANKING=1: the vocabulary's ranking behind `depends_on`
+            if std::env::var_os("SURAE_SHOW_RANKING").is_some() {
+                for g in d.unexplained.iter().flat_map(|u| &u.ranking) {
+                    println!(
+                        "    {:<12} held-out RMS {:.3} N·m (−{:>5.1} %)  deviance gain {:>8.1}  ΔBIC {:>8.1}  {} coefficients",
+                        g.variable.name(),
+                        g.heldout_rms_nm,
+                        g.heldout_rms_reduction_pct,
+                        g.heldout_deviance_gain,
+                        g.delta_bic,
+                        g.parameters
+                    );
+                }
+            }
             let family = t.effect.family();
             for tally in [&mut *all, by_family.entry(family).or_default()] {
                 tally.trials += 1;

@@ -12,10 +12,14 @@ pub struct VariableGain {
     /// State variable.
     pub variable: StateVariable,
     /// Held-out deviance of the final model minus that of the model with the term (χ² units;
-    /// positive: the term predicts held-out data better).
+    /// positive: the term predicts held-out data better), both cross-validated on 0.5 s
+    /// blocks. The ranking's order.
     pub heldout_deviance_gain: f64,
-    /// Pooled held-out RMS with the term (N·m).
+    /// Pooled held-out RMS with the term on the blocks (N·m).
     pub heldout_rms_nm: f64,
+    /// Fall of the pooled held-out RMS against the final model's on the blocks (%):
+    /// `100 (1 − RMS_with / RMS_final)`.
+    pub heldout_rms_reduction_pct: f64,
     /// BIC with the term minus the final model's.
     pub delta_bic: f64,
     /// Independent coefficients of the term.
@@ -125,7 +129,7 @@ impl Replacement {
 pub struct Unexplained {
     /// The best one or two variables (empty: none of the vocabulary explains it).
     pub depends_on: Vec<StateVariable>,
-    /// Every variable's term added to the final model, best held-out gain first.
+    /// Every variable's term added to the final model, best held-out deviance gain first.
     pub ranking: Vec<VariableGain>,
     /// The model extended with the terms of `depends_on`.
     pub extension: Option<FlexibleExtension>,
