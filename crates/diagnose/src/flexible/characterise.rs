@@ -13,12 +13,12 @@
 //! the trial's own folds), so that its held-out RMS is the error `validate` measures.
 //!
 //! Every term is ranked on the blocks because a term in time has to be: a whole cycle held out
-//! can only be extrapolated into by hats in time. With the other terms on the trial's folds
-//! their gains were measured against a different reference (the final model's held-out
-//! deviance is larger on the blocks), and a term in time came first while predicting worse
-//! than the term in the variable the structure lives in (a function of the velocity: `G` 1 043
-//! for time on the blocks at a held-out RMS of 2.32 N·m, 993 for the velocity on the cycles at
-//! 1.64 N·m; on the blocks the velocity gains 1 333). The deviance, not the RMS, orders them:
+//! can only be extrapolated into by hats in time. Ranked on the trial's folds, the other terms'
+//! gains would be measured against a different reference (the final model's held-out deviance
+//! is larger on the blocks), and a term in time can then come first while predicting worse
+//! than the term in the variable the structure lives in (generated trial 63 717 492, a
+//! function of the velocity: `G` 1 043 for time on the blocks at a held-out RMS of 2.32 N·m,
+//! 993 for the velocity on the cycles at 1.64 N·m; on the blocks the velocity gains 1 333). The deviance, not the RMS, orders them:
 //! a function of the velocity that lives in the ramps is a small part of the RMS and a large
 //! part of the whitened residual.
 
