@@ -18,9 +18,9 @@
 //! is larger on the blocks), and a term in time can then come first while predicting worse
 //! than the term in the variable the structure lives in (generated trial 63 717 492, a
 //! function of the velocity: `G` 1 043 for time on the blocks at a held-out RMS of 2.32 N·m,
-//! 993 for the velocity on the cycles at 1.64 N·m; on the blocks the velocity gains 1 333). The deviance, not the RMS, orders them:
-//! a function of the velocity that lives in the ramps is a small part of the RMS and a large
-//! part of the whitened residual.
+//! 993 for the velocity on the cycles at 1.64 N·m; on the blocks the velocity gains 1 333).
+//! The deviance, not the RMS, orders them: a function of the velocity that lives in the ramps
+//! is a small part of the RMS and a large part of the whitened residual.
 
 use muscle_model::EffectKind;
 use rayon::prelude::*;
@@ -182,11 +182,16 @@ impl Reference<'_> {
     /// The fall of the held-out RMS that a ranked fit `f` brings, as a fraction of the final
     /// model's on the blocks.
     fn ranked_rms_fall(&self, f: &FlexFit) -> f64 {
-        if self.block_rms > 0.0 {
-            1.0 - f.model.heldout_rms / self.block_rms
-        } else {
-            0.0
-        }
+        rms_fall(f.model.heldout_rms, self.block_rms)
+    }
+}
+
+/// `1 − with/without`, the fall of a held-out RMS (0 when there was none to lower).
+fn rms_fall(with: f64, without: f64) -> f64 {
+    if without > 0.0 {
+        1.0 - with / without
+    } else {
+        0.0
     }
 }
 
@@ -337,7 +342,7 @@ fn extension_of(reference: &Reference<'_>, ff: &FlexFit, nobs: usize) -> Flexibl
         variables: ff.variables(),
         heldout_rms_nm: ff.model.heldout_rms,
         heldout_rms_reduction_pct: 100.0
-            * (1.0 - ff.model.heldout_rms / reference.errors(&ff.bases).0),
+            * rms_fall(ff.model.heldout_rms, reference.errors(&ff.bases).0),
         heldout_deviance_gain: reference.gain(ff),
         rms_nm: ff.model.rms,
         delta_bic: ff.bic(nobs) - reference.fin.bic(nobs),
