@@ -337,3 +337,37 @@ fn a_function_of_the_velocity_is_put_on_the_velocity_when_ranked_on_one_set_of_f
         time.heldout_rms_reduction_pct
     );
 }
+
+/// A smooth step in the angle (generated trial 38 631 530) that gravity's sine follows in
+/// part: the BIC held `gravity` against a term in the angle (two parameters against five),
+/// while the term predicted the held-out cycles better. The contest now lets the held-out
+/// samples decide in the cause's own variable (other than time), so the structure is reported
+/// in `angle` with gravity among the replaced, and no cause is named.
+#[test]
+fn a_smooth_step_in_the_angle_is_not_told_as_gravity() {
+    let seed = 38_631_530;
+    let t = diagnose::scenarios::generated_trial(seed)
+        .unwrap_or_else(|e| panic!("seed {seed}: synthesis failed: {e}"));
+    let (d, ctx) = diagnosed_hidden(&t.hidden, &t.description, seed);
+    assert!(d.causes.is_empty(), "{:?}; {ctx}", d.causes);
+    let u = depends_first(&d, StateVariable::Angle, &ctx);
+    let gravity = u
+        .replaced
+        .iter()
+        .find(|r| r.effect == "gravity")
+        .unwrap_or_else(|| panic!("gravity not among the replaced {:?}; {ctx}", u.replaced));
+    assert_eq!(gravity.variable, StateVariable::Angle, "{ctx}");
+    // replaced held out although the BIC held it
+    let gain = gravity
+        .heldout_deviance_gain
+        .unwrap_or_else(|| panic!("replaced by the BIC review, not held out; {ctx}"));
+    assert!(
+        gain > DiagnoseSettings::default().min_flexible_gain,
+        "{gain}; {ctx}"
+    );
+    assert!(
+        gravity.delta_bic <= -DiagnoseSettings::default().flexible_margin_bic,
+        "the BIC would have replaced it too: {}; {ctx}",
+        gravity.delta_bic
+    );
+}

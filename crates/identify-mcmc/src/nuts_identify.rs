@@ -251,29 +251,80 @@ fn starts_near_the_optimum(corrected: &[Problem], nuts: &NutsSettings) -> (Vec<V
 #[cfg(test)]
 mod curvature_study {
     //! Why a sampler with one fixed metric needs short steps on the bundled trial: the local
-    //! curvature of the posterior, measured in the metric of the posterior's own covariance.
+    //! curvature of the posterior, measured in the metric of the posterior's own covariance,
+    //! in the coordinates NUTS samples and in the random walk's (F0 integrated out).
 
     use super::*;
-    use crate::{identify_session, GradLogDensity, LogisticBox, NoiseKind, NoiseSpec};
+    use crate::sampling_coordinates::Conditional;
+    use crate::{identify_session, GradLogDensity, LogDensity, LogisticBox, NoiseKind, NoiseSpec};
+    use muscle_model::SimSettings;
+    use nalgebra::DMatrix;
 
-    #[test]
-    #[ignore = "a study: about 15 s; run by .ci/statistical"]
-    fn the_bundled_posterior_is_a_thin_curved_ridge() {
+    /// The bundled trial's problem and noise model.
+    fn bundled() -> (Problem, NoiseSpec) {
         let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/seed");
         let trial = experiment::read_trial(format!("{root}/trial.csv")).unwrap();
         let unloaded = experiment::read_unloaded(format!("{root}/unloaded.csv")).unwrap();
         let inputs = experiment::model_inputs(&trial, &Default::default()).unwrap();
         let problem = Problem::standard(inputs, trial.torque_nm.clone()).unwrap();
         let noise = NoiseSpec::from_unloaded(&trial, &unloaded, NoiseKind::Ar1White).unwrap();
+        (problem, noise)
+    }
+
+    /// The random walk's kept draws (seed 42), pooled over the chains, as model vectors.
+    fn random_walk_draws(trials: &[SessionTrialLikelihood<'_>]) -> Vec<Vec<f64>> {
+        let settings = McmcIdentifySettings::default();
+        let rw =
+            identify_session(trials, &settings, |_| std::ops::ControlFlow::Continue(())).unwrap();
+        assert!(rw.converged);
+        let draws = &rw.run.draws;
+        let d = draws.len();
+        (0..draws[0].len())
+            .flat_map(|c| (0..draws[0][c].len()).map(move |i| (c, i)))
+            .map(|(c, i)| (0..d).map(|k| draws[k][c][i]).collect())
+            .collect()
+    }
+
+    /// The lower Cholesky factor of the sample covariance of `points`.
+    fn covariance_factor(points: &[Vec<f64>]) -> DMatrix<f64> {
+        let d = points[0].len();
+        let n = points.len() as f64;
+        let mean: Vec<f64> = (0..d)
+            .map(|k| points.iter().map(|u| u[k]).sum::<f64>() / n)
+            .collect();
+        let cov = DMatrix::from_fn(d, d, |a, b| {
+            points
+                .iter()
+                .map(|u| (u[a] - mean[a]) * (u[b] - mean[b]))
+                .sum::<f64>()
+                / (n - 1.0)
+        });
+        cov.cholesky().unwrap().l()
+    }
+
+    /// Largest and smallest eigenvalue of `−∇² log p` (symmetrised) in the metric `L Lᵀ`.
+    fn extreme_curvatures(hess: &DMatrix<f64>, l: &DMatrix<f64>) -> (f64, f64) {
+        let sym = (hess + hess.transpose()) * 0.5;
+        let eig = (l.transpose() * sym * l).symmetric_eigenvalues();
+        (eig.max(), eig.min())
+    }
+
+    /// `(smallest, median, largest)` of `v`.
+    fn spread(mut v: Vec<f64>) -> (f64, f64, f64) {
+        v.sort_by(f64::total_cmp);
+        (v[0], v[v.len() / 2], v[v.len() - 1])
+    }
+
+    #[test]
+    #[ignore = "a study: about 15 s; run by .ci/statistical"]
+    fn the_bundled_posterior_is_a_thin_curved_ridge() {
+        let (problem, noise) = bundled();
         let trials = [SessionTrialLikelihood {
             problem: &problem,
             noise: &noise,
         }];
         let settings = McmcIdentifySettings::default();
-        // posterior draws from the random walk (seed 42), then the posterior itself
-        let rw =
-            identify_session(&trials, &settings, |_| std::ops::ControlFlow::Continue(())).unwrap();
-        assert!(rw.converged);
+        let pooled_x = random_walk_draws(&trials);
         let corrected: Vec<Problem> = trials
             .iter()
             .map(corrected_problem)
@@ -285,29 +336,16 @@ mod curvature_study {
         let bounds = sampled_bounds(&corrected[0]);
         let box_map = LogisticBox::new(&bounds);
         let d = bounds.len();
-        // the kept draws on the unconstrained coordinates, pooled over the chains
-        let draws = &rw.run.draws;
-        let pooled: Vec<Vec<f64>> = (0..draws[0].len())
-            .flat_map(|c| (0..draws[0][c].len()).map(move |i| (c, i)))
-            .map(|(c, i)| {
-                let x: Vec<f64> = (0..d).map(|k| draws[k][c][i]).collect();
+        // the kept draws on the unconstrained coordinates
+        let pooled: Vec<Vec<f64>> = pooled_x
+            .iter()
+            .map(|x| {
                 let mut u = vec![0.0; d];
-                box_map.to_unconstrained(&x, &mut u);
+                box_map.to_unconstrained(x, &mut u);
                 u
             })
             .collect();
-        let n = pooled.len() as f64;
-        let mean: Vec<f64> = (0..d)
-            .map(|k| pooled.iter().map(|u| u[k]).sum::<f64>() / n)
-            .collect();
-        let cov = nalgebra::DMatrix::from_fn(d, d, |a, b| {
-            pooled
-                .iter()
-                .map(|u| (u[a] - mean[a]) * (u[b] - mean[b]))
-                .sum::<f64>()
-                / (n - 1.0)
-        });
-        let l = cov.clone().cholesky().unwrap().l();
+        let l = covariance_factor(&pooled);
         // ∇ log p(u), the density on u with the transform's Jacobian
         let grad_u = |u: &[f64]| {
             let mut x = vec![0.0; d];
@@ -323,7 +361,7 @@ mod curvature_study {
             // −∇² log p by central differences of the exact gradient (h = 0.01 on u: below
             // 10⁻³ the integrator's jitter in the gradient dominates)
             let h = 1e-2;
-            let mut hess = nalgebra::DMatrix::zeros(d, d);
+            let mut hess = DMatrix::zeros(d, d);
             for k in 0..d {
                 let mut a = u.clone();
                 a[k] += h;
@@ -334,22 +372,12 @@ mod curvature_study {
                     hess[(j, k)] = -(ga[j] - gb[j]) / (2.0 * h);
                 }
             }
-            let sym = (&hess + hess.transpose()) * 0.5;
-            let whitened = l.transpose() * sym * &l;
-            let eig = whitened.symmetric_eigenvalues();
-            largest.push(eig.max());
-            smallest.push(eig.min());
+            let (big, small) = extreme_curvatures(&hess, &l);
+            largest.push(big);
+            smallest.push(small);
         }
-        let median = |v: &mut Vec<f64>| {
-            v.sort_by(f64::total_cmp);
-            v[v.len() / 2]
-        };
-        let (lo_max, hi_max) = (
-            largest.iter().cloned().fold(f64::INFINITY, f64::min),
-            largest.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
-        );
-        let med_max = median(&mut largest);
-        let med_min = median(&mut smallest);
+        let (lo_max, med_max, hi_max) = spread(largest);
+        let (_, med_min, _) = spread(smallest);
         println!(
             "curvature in the metric of the posterior covariance, 40 draws: largest eigenvalue \
              {lo_max:.1}–{hi_max:.1} (median {med_max:.1}), smallest: median {med_min:.2} \
@@ -359,5 +387,102 @@ mod curvature_study {
         // posterior's spread: leapfrog steps in that metric are stable only below about
         // 2/√λ, so a fixed-metric sampler must take many steps to cross the posterior.
         assert!(med_max > 10.0, "median largest curvature {med_max}");
+    }
+
+    /// The same measure in the random walk's coordinates: F0 integrated out (its exact
+    /// Gaussian conditional), the other parameters on the logit scale whitened by the Laplace
+    /// factor at the posterior mean. A sampler on the collapsed posterior of θ alone (NUTS in
+    /// these coordinates, F0 drawn from its conditional after each draw) would see this
+    /// curvature.
+    #[test]
+    #[ignore = "a study: about 40 s; run by .ci/statistical"]
+    fn integrating_f0_out_leaves_a_ridge() {
+        let (problem, noise) = bundled();
+        let trials = [SessionTrialLikelihood {
+            problem: &problem,
+            noise: &noise,
+        }];
+        let settings = McmcIdentifySettings::default();
+        let pooled = random_walk_draws(&trials);
+        // the log density itself is differenced twice: at rtol 10⁻¹⁰ its jitter is far below
+        // what a step of 0.05 moves it by
+        let tight = SimSettings {
+            rtol: 1e-10,
+            atol: 1e-12,
+            ..SimSettings::default()
+        };
+        let corrected: Vec<Problem> = trials
+            .iter()
+            .map(|t| corrected_problem(t).unwrap().with_settings(tight))
+            .collect();
+        let (noise_params, _, _) = noise_models(&trials, &corrected, &settings).unwrap();
+        let models = trial_models(&trials, &corrected, &noise_params).unwrap();
+        let d = pooled[0].len();
+        let n = pooled.len() as f64;
+        let mean: Vec<f64> = (0..d)
+            .map(|k| pooled.iter().map(|x| x[k]).sum::<f64>() / n)
+            .collect();
+        let (laplace, _) = Conditional::new(&models, &mean, 20.0);
+        let target = Conditional::with_chol_logit(&models, &mean, laplace.chol_nl(), 20.0);
+        let nl = target.nl().to_vec();
+        let m = nl.len();
+        let zs: Vec<Vec<f64>> = pooled.iter().map(|x| target.z_of(x)).collect();
+        let l = covariance_factor(&zs);
+        let spread_of_z: Vec<String> = nl
+            .iter()
+            .enumerate()
+            .map(|(a, &i)| format!("{} {:.2}", problem.names()[i], l.row(a).norm()))
+            .collect();
+        // log π(z, u = 0): the F0 coordinates u enter only through the box's truncation
+        let f = |z: &[f64]| {
+            let mut v = vec![0.0; d];
+            for (a, &i) in nl.iter().enumerate() {
+                v[i] = z[a];
+            }
+            target.log_density(&v).unwrap()
+        };
+        let h = 0.05;
+        let (mut largest, mut smallest) = (Vec::new(), Vec::new());
+        let every = zs.len() / 30;
+        for z in zs.iter().step_by(every).take(30) {
+            let f0 = f(z);
+            let at = |moves: &[(usize, f64)]| {
+                let mut q = z.clone();
+                for &(k, s) in moves {
+                    q[k] += s * h;
+                }
+                f(&q)
+            };
+            let mut hess = DMatrix::zeros(m, m);
+            for a in 0..m {
+                hess[(a, a)] = -(at(&[(a, 1.0)]) - 2.0 * f0 + at(&[(a, -1.0)])) / (h * h);
+                for b in a + 1..m {
+                    let v = -(at(&[(a, 1.0), (b, 1.0)])
+                        - at(&[(a, 1.0), (b, -1.0)])
+                        - at(&[(a, -1.0), (b, 1.0)])
+                        + at(&[(a, -1.0), (b, -1.0)]))
+                        / (4.0 * h * h);
+                    hess[(a, b)] = v;
+                    hess[(b, a)] = v;
+                }
+            }
+            let (big, small) = extreme_curvatures(&hess, &l);
+            largest.push(big);
+            smallest.push(small);
+        }
+        let (lo_max, med_max, hi_max) = spread(largest);
+        let (lo_min, med_min, _) = spread(smallest);
+        println!(
+            "collapsed posterior of θ = (LST, α0) in the random walk's whitened coordinates, \
+             30 draws: posterior sd of z {spread_of_z:?} (1 if the Laplace factor were the \
+             posterior's); curvature in the metric of the draws' covariance: largest eigenvalue \
+             {lo_max:.1}–{hi_max:.1} (median {med_max:.1}), smallest {lo_min:.2} (median \
+             {med_min:.2})"
+        );
+        // Integrating F0 out removes the F0 part of the ridge but not the ridge: the
+        // gastrocnemii's LST and α0 still trade against each other more tightly than the
+        // posterior's spread, and in some draws the log density is convex in a direction.
+        assert!(med_max > 3.0, "median largest curvature {med_max}");
+        assert!(lo_min < 0.0, "smallest curvature {lo_min}");
     }
 }

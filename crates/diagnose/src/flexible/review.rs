@@ -198,16 +198,20 @@ pub(crate) fn heldout_contest(
         for (gain, f) in better {
             let variable = f.bases[0].variable;
             let delta_bic = model.bic(nobs) - f.bic(nobs);
-            let replaces = if own.contains(&variable) {
-                // a term in the cause's own variable spans its shape (and in time the
-                // offset): it replaces the cause only when the BIC agrees, or the cause
-                // would lose to the slow part of the noise that the term also fits (a true
-                // offset lost to a term in time by 15 held out, while the BIC held it by 45)
+            let replaces = if own.contains(&variable) && variable == StateVariable::Time {
+                // a term in time, the cause's own variable, spans the offset and the slow
+                // part of the noise alike: it replaces the cause only when the BIC agrees
+                // too (a true offset lost to a term in time by 15 held out, while the BIC
+                // held it by 45)
                 delta_bic > -margin_bic
             } else {
-                // a term in another variable replaces the cause only when the cause, added
-                // to it, no longer predicts the held-out samples better by the margin: both
-                // can be there (a true gravity beside a misfit in activation)
+                // any other term replaces the cause only when the cause, added to it, no
+                // longer predicts the held-out samples better by the margin: both can be
+                // there (a true gravity beside a misfit in activation). In the cause's own
+                // variable the held-out samples decide without the BIC: a smooth step in the
+                // angle that gravity's sine follows in part kept the name gravity on the BIC
+                // (two parameters against the term's five) while the term predicted it
+                // better out of sample
                 let x0 = with_effect_from(model, kind, &f.model.x);
                 let folds = folds_for(variable);
                 match fit_flexible(ctx, &model.kinds, &x0, &f.bases, Some(folds), false) {
