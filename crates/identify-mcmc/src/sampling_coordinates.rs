@@ -230,12 +230,11 @@ impl<'a> Conditional<'a> {
         z
     }
 
-    /// Cholesky factor of θ's block of `(Jᵀ_w J_w + diag(12/w²))⁻¹` at `x` (a model vector): `J_w` the
-    /// whitened Jacobian of the predicted torque, the trials' whitened columns stacked (the
-    /// model's exact Jacobian where it has one; otherwise central differences of step `10⁻³·w`,
-    /// one-sided at a bound), `diag(12/w²)` the
-    /// precision of a Gaussian with the uniform prior's variance. The prior's diagonal if a
-    /// simulation or a factorisation fails.
+    /// Cholesky factor of θ's block of `(Jᵀ_w J_w + diag(12/w²))⁻¹` at `x` (a model vector):
+    /// `J_w` the whitened Jacobian of the predicted torque, the trials' whitened columns
+    /// stacked (the model's exact Jacobian where it has one; otherwise central differences of
+    /// step `10⁻³·w`, one-sided at a bound), `diag(12/w²)` the precision of a Gaussian with the
+    /// uniform prior's variance. The prior's diagonal if a simulation or a factorisation fails.
     pub fn laplace_at(&self, x: &[f64]) -> (Vec<f64>, u64) {
         let x = &x.to_vec();
         let d = x.len();
