@@ -70,6 +70,16 @@ fn diagnosed_hidden(
     (d, ctx)
 }
 
+/// The diagnosis of generated trial `seed` (an effect outside the catalogue) and its context,
+/// asserting that no catalogued cause is named.
+fn diagnosed_generated_without_a_cause(seed: u64) -> (diagnose::Diagnosis, String) {
+    let t = diagnose::scenarios::generated_trial(seed)
+        .unwrap_or_else(|e| panic!("seed {seed}: synthesis failed: {e}"));
+    let (d, ctx) = diagnosed_hidden(&t.hidden, &t.description, seed);
+    assert!(d.causes.is_empty(), "{:?}; {ctx}", d.causes);
+    (d, ctx)
+}
+
 /// `d.unexplained`, asserting that `depends_on` starts with `v`.
 fn depends_first<'a>(
     d: &'a diagnose::Diagnosis,
@@ -308,11 +318,7 @@ fn a_delay_beside_a_slip_is_not_named() {
 /// put on `time`.
 #[test]
 fn a_function_of_the_velocity_is_put_on_the_velocity_when_ranked_on_one_set_of_folds() {
-    let seed = 63_717_492;
-    let t = diagnose::scenarios::generated_trial(seed)
-        .unwrap_or_else(|e| panic!("seed {seed}: synthesis failed: {e}"));
-    let (d, ctx) = diagnosed_hidden(&t.hidden, &t.description, seed);
-    assert!(d.causes.is_empty(), "{:?}; {ctx}", d.causes);
+    let (d, ctx) = diagnosed_generated_without_a_cause(63_717_492);
     let u = depends_first(&d, StateVariable::Velocity, &ctx);
     let gains: Vec<f64> = u.ranking.iter().map(|r| r.heldout_deviance_gain).collect();
     assert!(
@@ -345,11 +351,7 @@ fn a_function_of_the_velocity_is_put_on_the_velocity_when_ranked_on_one_set_of_f
 /// in `angle` with gravity among the replaced, and no cause is named.
 #[test]
 fn a_smooth_step_in_the_angle_is_not_told_as_gravity() {
-    let seed = 38_631_530;
-    let t = diagnose::scenarios::generated_trial(seed)
-        .unwrap_or_else(|e| panic!("seed {seed}: synthesis failed: {e}"));
-    let (d, ctx) = diagnosed_hidden(&t.hidden, &t.description, seed);
-    assert!(d.causes.is_empty(), "{:?}; {ctx}", d.causes);
+    let (d, ctx) = diagnosed_generated_without_a_cause(38_631_530);
     let u = depends_first(&d, StateVariable::Angle, &ctx);
     let gravity = u
         .replaced

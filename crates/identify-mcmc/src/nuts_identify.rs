@@ -256,7 +256,10 @@ mod curvature_study {
 
     use super::*;
     use crate::sampling_coordinates::Conditional;
-    use crate::{identify_session, GradLogDensity, LogDensity, LogisticBox, NoiseKind, NoiseSpec};
+    use crate::{
+        identify_session, GradLogDensity, LogDensity, LogisticBox, NoiseKind, NoiseParams,
+        NoiseSpec,
+    };
     use muscle_model::SimSettings;
     use nalgebra::DMatrix;
 
@@ -283,6 +286,27 @@ mod curvature_study {
             .flat_map(|c| (0..draws[0][c].len()).map(move |i| (c, i)))
             .map(|(c, i)| (0..d).map(|k| draws[k][c][i]).collect())
             .collect()
+    }
+
+    /// The trials' problems corrected by their dynamometer error (simulated with `sim`, or
+    /// their own settings) and their noise models, as the samplers build them.
+    fn corrected_with_noise(
+        trials: &[SessionTrialLikelihood<'_>],
+        sim: Option<SimSettings>,
+    ) -> (Vec<Problem>, Vec<NoiseParams>) {
+        let corrected: Vec<Problem> = trials
+            .iter()
+            .map(|t| {
+                let p = corrected_problem(t).unwrap();
+                match sim {
+                    Some(s) => p.with_settings(s),
+                    None => p,
+                }
+            })
+            .collect();
+        let (noise_params, _, _) =
+            noise_models(trials, &corrected, &McmcIdentifySettings::default()).unwrap();
+        (corrected, noise_params)
     }
 
     /// The lower Cholesky factor of the sample covariance of `points`.
@@ -323,14 +347,8 @@ mod curvature_study {
             problem: &problem,
             noise: &noise,
         }];
-        let settings = McmcIdentifySettings::default();
         let pooled_x = random_walk_draws(&trials);
-        let corrected: Vec<Problem> = trials
-            .iter()
-            .map(corrected_problem)
-            .collect::<Result<_, _>>()
-            .unwrap();
-        let (noise_params, _, _) = noise_models(&trials, &corrected, &settings).unwrap();
+        let (corrected, noise_params) = corrected_with_noise(&trials, None);
         let models = trial_models(&trials, &corrected, &noise_params).unwrap();
         let target = FullPosterior::new(&models);
         let bounds = sampled_bounds(&corrected[0]);
@@ -402,7 +420,6 @@ mod curvature_study {
             problem: &problem,
             noise: &noise,
         }];
-        let settings = McmcIdentifySettings::default();
         let pooled = random_walk_draws(&trials);
         // the log density itself is differenced twice: at rtol 10⁻¹⁰ its jitter is far below
         // what a step of 0.05 moves it by
@@ -411,11 +428,7 @@ mod curvature_study {
             atol: 1e-12,
             ..SimSettings::default()
         };
-        let corrected: Vec<Problem> = trials
-            .iter()
-            .map(|t| corrected_problem(t).unwrap().with_settings(tight))
-            .collect();
-        let (noise_params, _, _) = noise_models(&trials, &corrected, &settings).unwrap();
+        let (corrected, noise_params) = corrected_with_noise(&trials, Some(tight));
         let models = trial_models(&trials, &corrected, &noise_params).unwrap();
         let d = pooled[0].len();
         let n = pooled.len() as f64;
