@@ -1,5 +1,7 @@
 //! Diagnoses one synthetic trial (relaxed+2 unless `--protocol NAME`):
-//! `diag_one SEED [EFFECTS_JSON] [--ta] [--hidden kind+kind] [--protocol seed]`.
+//! `diag_one SEED [EFFECTS_JSON] [--ta] [--hidden kind+kind [--above-limits]] [--protocol seed]`
+//! (`--above-limits`: the hidden effects drawn at or above their documented detection limits,
+//! as `confusion --above-limits` draws them).
 //!
 //! `SURAE_LM_ITERS=N` changes the Levenberg–Marquardt iteration cap; `SURAE_SHOW_FITS=1` prints
 //! the baseline and extended fits (parameters, uncertainties) as JSON; `SURAE_CANDIDATES=a,b`
@@ -36,7 +38,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .split('+')
             .filter_map(muscle_model::EffectKind::from_name)
             .collect();
-        let t = diagnose::scenarios::hidden_trial(&kinds, cfg.emg.include_ta, seed)?;
+        let ta = cfg.emg.include_ta;
+        let t = if args.iter().any(|a| a == "--above-limits") {
+            diagnose::scenarios::hidden_trial_above_limits(&kinds, ta, seed)?
+        } else {
+            diagnose::scenarios::hidden_trial(&kinds, ta, seed)?
+        };
         println!("hidden: {}", serde_json::to_string(&t.effects)?);
         t.synthetic
     } else {

@@ -115,11 +115,23 @@ pub fn hidden_trial_on(
     seed: u64,
     protocol: Protocol,
 ) -> Result<HiddenTrial, DiagnoseError> {
+    hidden_trial_drawn(kinds, with_ta, seed, protocol, draw_effect)
+}
+
+/// A trial of `protocol` hiding `kinds`, each drawn by `draw` after the true muscle parameters
+/// from the seed's generator.
+fn hidden_trial_drawn(
+    kinds: &[EffectKind],
+    with_ta: bool,
+    seed: u64,
+    protocol: Protocol,
+    draw: impl Fn(EffectKind, &mut ChaCha8Rng) -> [f64; 2],
+) -> Result<HiddenTrial, DiagnoseError> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let params = random_params(&mut rng, &ModelParams::nominal());
     let mut effects = Effects::none();
     for k in kinds {
-        effects.set_values(*k, draw_effect(*k, &mut rng));
+        effects.set_values(*k, draw(*k, &mut rng));
     }
     effects.validate()?;
     let mut cfg = SynthConfig::new(protocol, seed)
@@ -138,18 +150,7 @@ pub fn hidden_trial_on(
 /// Draws an effect like [`draw_effect`] but with its size set to `size`: `|offset|`, passive
 /// torque at +15°, `|moment|`, delay (ms), rate (/s), gain (N·m), `Flen − 1.4`, `|b|`, `I`.
 pub fn draw_effect_sized(kind: EffectKind, size: f64, rng: &mut impl Rng) -> [f64; 2] {
-    let mut v = draw_effect(kind, rng);
-    match kind {
-        EffectKind::PassiveJointTorque => {
-            v[0] = size / ((v[1] * PASSIVE_REFERENCE_RAD).exp() - 1.0)
-        }
-        EffectKind::EccentricEnhancement => v[0] = 1.4 + size,
-        EffectKind::TorqueOffset | EffectKind::Gravity | EffectKind::ViscousDamping => {
-            v[0] = v[0].signum() * size
-        }
-        _ => v[0] = size,
-    }
-    v
+    sized_like(kind, draw_effect(kind, rng), size)
 }
 
 /// The sizes ([`draw_effect_sized`]) of the detection-limit study of docs/diagnosis.md, per
@@ -172,6 +173,98 @@ pub fn limit_sizes() -> Vec<(EffectKind, Vec<f64>)> {
         (EffectKind::ViscousDamping, vec![0.5, 1.0, 2.0, 4.0]),
         (EffectKind::Inertia, vec![0.01, 0.02, 0.05, 0.1, 0.2, 0.3]),
     ]
+}
+
+/// The measured detection limit of each effect on `relaxed+2`, in the units of
+/// [`draw_effect_sized`]: the smallest size of [`limit_sizes`] named alone in at least 19 of 20
+/// trials (the table "Measured detection limits on relaxed+2" of docs/diagnosis.md, where the
+/// study that measured them is named).
+pub fn documented_limit(kind: EffectKind) -> f64 {
+    match kind {
+        EffectKind::TorqueOffset => 2.0,
+        EffectKind::PassiveJointTorque => 5.0,
+        EffectKind::Gravity => 8.0,
+        EffectKind::ElectromechanicalDelay => 10.0,
+        EffectKind::Fatigue => 0.01,
+        EffectKind::AntagonistCoactivation => 8.0,
+        EffectKind::EccentricEnhancement => 0.2,
+        EffectKind::ViscousDamping => 4.0,
+        EffectKind::Inertia => 0.2,
+    }
+}
+
+/// The largest size [`draw_effect`] draws, in the units of [`draw_effect_sized`] (the module
+/// table).
+fn largest_drawn(kind: EffectKind) -> f64 {
+    match kind {
+        EffectKind::TorqueOffset | EffectKind::Gravity | EffectKind::AntagonistCoactivation => 10.0,
+        EffectKind::PassiveJointTorque => 20.0,
+        EffectKind::ElectromechanicalDelay => 80.0,
+        EffectKind::Fatigue => 0.05,
+        EffectKind::EccentricEnhancement => 0.5,
+        EffectKind::ViscousDamping => 8.0,
+        EffectKind::Inertia => 0.3,
+    }
+}
+
+/// The size of an effect's parameters `v` in the units of [`draw_effect_sized`]: `|offset|`,
+/// passive torque at +15°, `|moment|`, delay (ms), rate (/s), gain (N·m), `Flen − 1.4`, `|b|`,
+/// `I`.
+pub fn effect_size(kind: EffectKind, v: [f64; 2]) -> f64 {
+    match kind {
+        EffectKind::PassiveJointTorque => v[0] * ((v[1] * PASSIVE_REFERENCE_RAD).exp() - 1.0),
+        EffectKind::EccentricEnhancement => v[0] - 1.4,
+        _ => v[0].abs(),
+    }
+}
+
+/// Draws an effect like [`draw_effect`] (its shape: sign, phase, stiffness) with its size
+/// uniform between its documented detection limit ([`documented_limit`]) and the top of its
+/// realistic range, or over the whole range where the limit lies below it: the trials on
+/// which the diagnosis claims to name the effect.
+pub fn draw_effect_above_limit(kind: EffectKind, rng: &mut impl Rng) -> [f64; 2] {
+    let v = draw_effect(kind, rng);
+    let limit = documented_limit(kind);
+    if effect_size(kind, v) >= limit {
+        return v;
+    }
+    let top = largest_drawn(kind);
+    let size = limit + (top - limit) * rng.random::<f64>();
+    sized_like(kind, v, size)
+}
+
+/// `v` with its size set to `size` and its shape kept ([`draw_effect_sized`]'s units).
+fn sized_like(kind: EffectKind, mut v: [f64; 2], size: f64) -> [f64; 2] {
+    match kind {
+        EffectKind::PassiveJointTorque => {
+            v[0] = size / ((v[1] * PASSIVE_REFERENCE_RAD).exp() - 1.0)
+        }
+        EffectKind::EccentricEnhancement => v[0] = 1.4 + size,
+        EffectKind::TorqueOffset | EffectKind::Gravity | EffectKind::ViscousDamping => {
+            v[0] = v[0].signum() * size
+        }
+        _ => v[0] = size,
+    }
+    v
+}
+
+/// Like [`hidden_trial`] (`relaxed+2`) with every effect at or above its documented detection
+/// limit ([`draw_effect_above_limit`]).
+///
+/// # Errors
+/// A failed synthesis.
+pub fn hidden_trial_above_limits(
+    kinds: &[EffectKind],
+    with_ta: bool,
+    seed: u64,
+) -> Result<HiddenTrial, DiagnoseError> {
+    hidden_trial_drawn(
+        kinds,
+        with_ta,
+        seed,
+        "relaxed+2".parse()?,
+        draw_effect_above_limit,
+    )
 }
 
 /// Like [`hidden_trial`] with one effect of a given size ([`draw_effect_sized`]).
@@ -218,6 +311,39 @@ pub fn hidden_trial_sized_on(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn effects_drawn_above_their_limits_lie_between_the_limit_and_the_range_top() {
+        let mut rng = ChaCha8Rng::seed_from_u64(4);
+        for kind in EffectKind::ALL {
+            let mut below_limit_in_range = 0;
+            for _ in 0..200 {
+                let plain = effect_size(kind, draw_effect(kind, &mut rng.clone()));
+                below_limit_in_range += usize::from(plain < documented_limit(kind));
+                let v = draw_effect_above_limit(kind, &mut rng);
+                let size = effect_size(kind, v);
+                assert!(
+                    size >= documented_limit(kind) - 1e-12 && size <= largest_drawn(kind) + 1e-12,
+                    "{}: size {size}",
+                    kind.name()
+                );
+                // the shape is kept: the sized value has the size asked for
+                let again = sized_like(kind, v, size);
+                assert!((effect_size(kind, again) - size).abs() < 1e-9 * size.max(1.0));
+            }
+            // gravity and the antagonist are drawn below their limits most of the time
+            if matches!(
+                kind,
+                EffectKind::Gravity | EffectKind::AntagonistCoactivation
+            ) {
+                assert!(
+                    below_limit_in_range > 100,
+                    "{}: {below_limit_in_range}",
+                    kind.name()
+                );
+            }
+        }
+    }
 
     #[test]
     fn a_longer_protocol_hides_the_same_effect_in_the_same_subject() {
