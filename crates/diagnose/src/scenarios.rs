@@ -212,7 +212,7 @@ fn largest_drawn(kind: EffectKind) -> f64 {
 /// `I`.
 pub fn effect_size(kind: EffectKind, v: [f64; 2]) -> f64 {
     match kind {
-        EffectKind::PassiveJointTorque => v[0] * ((v[1] * PASSIVE_REFERENCE_RAD).exp() - 1.0),
+        EffectKind::PassiveJointTorque => headline(kind, v),
         EffectKind::EccentricEnhancement => v[0] - 1.4,
         _ => v[0].abs(),
     }
@@ -313,34 +313,43 @@ mod tests {
     use super::*;
 
     #[test]
-    fn effects_drawn_above_their_limits_lie_between_the_limit_and_the_range_top() {
+    fn effects_drawn_above_their_limits_keep_their_shape_between_the_limit_and_the_range_top() {
         let mut rng = ChaCha8Rng::seed_from_u64(4);
         for kind in EffectKind::ALL {
-            let mut below_limit_in_range = 0;
+            let (mut below_limit, mut largest) = (0, 0.0f64);
             for _ in 0..200 {
-                let plain = effect_size(kind, draw_effect(kind, &mut rng.clone()));
-                below_limit_in_range += usize::from(plain < documented_limit(kind));
+                let plain = draw_effect(kind, &mut rng.clone());
                 let v = draw_effect_above_limit(kind, &mut rng);
-                let size = effect_size(kind, v);
+                let size = effect_size(kind, plain);
+                below_limit += usize::from(size < documented_limit(kind));
+                largest = largest.max(size);
+                // the plain draw's size where it reaches the limit, its shape (the second
+                // parameter, the sign of the first) always
+                let above = effect_size(kind, v);
                 assert!(
-                    size >= documented_limit(kind) - 1e-12 && size <= largest_drawn(kind) + 1e-12,
-                    "{}: size {size}",
+                    above >= documented_limit(kind) - 1e-12 && above <= largest_drawn(kind) + 1e-12,
+                    "{}: size {above}",
                     kind.name()
                 );
-                // the shape is kept: the sized value has the size asked for
-                let again = sized_like(kind, v, size);
-                assert!((effect_size(kind, again) - size).abs() < 1e-9 * size.max(1.0));
+                if size >= documented_limit(kind) {
+                    assert_eq!(v, plain, "{}", kind.name());
+                }
+                assert_eq!(v[1], plain[1], "{}", kind.name());
+                assert_eq!(v[0].signum(), plain[0].signum(), "{}", kind.name());
             }
+            // `largest_drawn` is the top of `draw_effect`'s range
+            let top = largest_drawn(kind);
+            assert!(
+                largest <= top + 1e-12 && largest > 0.9 * top,
+                "{}: {largest}",
+                kind.name()
+            );
             // gravity and the antagonist are drawn below their limits most of the time
             if matches!(
                 kind,
                 EffectKind::Gravity | EffectKind::AntagonistCoactivation
             ) {
-                assert!(
-                    below_limit_in_range > 100,
-                    "{}: {below_limit_in_range}",
-                    kind.name()
-                );
+                assert!(below_limit > 100, "{}: {below_limit}", kind.name());
             }
         }
     }
