@@ -55,6 +55,9 @@ fn assert_adequacy_fields(a: &Value) {
         "motion_df",
         "time_lm",
         "time_df",
+        "vocabulary_lm",
+        "vocabulary_df",
+        "vocabulary_variable",
         "warning",
     ] {
         assert!(a.get(k).is_some(), "adequacy.{k} missing in {a}");

@@ -11,8 +11,9 @@
 //! LM = rᵀP⊥B(BᵀP⊥B)⁻¹BᵀP⊥r / s²,   P⊥ = I − J(JᵀJ)⁻¹Jᵀ,   s² = ‖r‖²/(n − k)
 //! ```
 //!
-//! against the step functions of the motion and of time; the p-value is the Bonferroni
-//! minimum of the two tails, and the model *leaves structure* when `−log10 p` exceeds the
+//! against the step functions of the motion and of time and each state variable's flexible
+//! basis (module [`analysis`](crate::analysis)); the p-value is the Bonferroni minimum of the
+//! three tests' tails, and the model *leaves structure* when `−log10 p` exceeds the
 //! diagnosis's threshold (3: a false alarm in 10⁻³ correct models).
 //!
 //! The identified point need not be the whitened least-squares optimum (SA minimises the
@@ -32,7 +33,7 @@ use crate::{DiagnoseError, DiagnoseSettings, DiagnosisRecording};
 #[derive(Clone, Debug, PartialEq, Serialize)]
 #[non_exhaustive]
 pub struct Adequacy {
-    /// Bonferroni p-value of the motion and time structure tests.
+    /// Bonferroni p-value of the motion, time and vocabulary structure tests.
     pub structure_p: f64,
     /// `−log10 structure_p`.
     pub structure_evidence: f64,
@@ -46,6 +47,13 @@ pub struct Adequacy {
     pub time_lm: f64,
     /// Degrees of freedom of `time_lm`.
     pub time_df: usize,
+    /// The vocabulary test: the largest score statistic against one state variable's
+    /// flexible basis (`null` when no variable could be tested).
+    pub vocabulary_lm: f64,
+    /// Degrees of freedom of `vocabulary_lm`.
+    pub vocabulary_df: usize,
+    /// The variable of `vocabulary_lm`.
+    pub vocabulary_variable: Option<crate::StateVariable>,
 }
 
 impl Adequacy {
@@ -171,5 +179,8 @@ fn test_ctx(
         motion_df: t.motion_df,
         time_lm: t.time_lm,
         time_df: t.time_df,
+        vocabulary_lm: t.vocabulary_lm,
+        vocabulary_df: t.vocabulary_df,
+        vocabulary_variable: t.vocabulary_variable,
     })
 }

@@ -1,10 +1,15 @@
 //! Residual analysis: the residual against time, angle, velocity, acceleration, phase, activation and its rate, TA EMG; its autocorrelation against the noise model's; and the test for structure left unexplained.
 //!
 //! Structure tests: the whitened residual is regressed, after projecting out the fitted
-//! model's Jacobian, on two generic bases: (a) step functions of the motion (one per cycle ×
-//! sweep direction × 5° angle bin, and one per half of every hold) and (b) step functions of
-//! time (blocks of [`TIME_BLOCK_S`]); `LM = rᵀP⊥B(BᵀP⊥B)⁻¹BᵀP⊥r/s²` is χ²(df) when the
-//! model and the noise model are right (df = rank of `P⊥B`).
+//! model's Jacobian, on generic bases: (a) step functions of the motion (one per cycle ×
+//! sweep direction × 5° angle bin, and one per half of every hold), (b) step functions of
+//! time (blocks of [`TIME_BLOCK_S`]) and (c) the vocabulary: each state variable's flexible
+//! basis on its own (five hats over the angle, velocity, acceleration or activation, four over
+//! the TA's envelope, `sign(q̇)`, hats about every 2 s in time); `LM = rᵀP⊥B(BᵀP⊥B)⁻¹BᵀP⊥r/s²`
+//! is χ²(df) when the model and the noise model are right (df = rank of `P⊥B`). The motion
+//! and time bases have many columns and see any shape at any place; the vocabulary's have a
+//! few and see a smooth function of one variable with a fraction of their noise, which the
+//! wide bases spread over tens of degrees of freedom.
 //!
 //! The motion test's p-value is the χ²(df) tail. The time blocks see the noise below about
 //! 1 Hz, where its spectrum is the noise model's low-frequency level
@@ -13,7 +18,10 @@
 //! effective degrees of freedom ([`TrialNoiseModel::level_dof`](crate::TrialNoiseModel::level_dof), a
 //! parametric bootstrap of the estimator), the time statistic is `df·F(df, ν)` rather than
 //! `χ²(df)`, and its p-value is `P(F(df, ν) > LM/df)` ([`f_survival`]; the χ² tail when
-//! `ν = ∞`). The structure p-value is the Bonferroni minimum `min(1, 2·min(p_motion, p_time))`;
+//! `ν = ∞`). The vocabulary's bases are slow functions of the record too and take the same
+//! `F(df, ν)` reference; `p_vocabulary` is the smallest of their p-values times the number of
+//! variables tested. The structure p-value is the Bonferroni minimum
+//! `min(1, 3·min(p_motion, p_time, p_vocabulary))`;
 //! the structure evidence is `−log10 p`, and structure is *unexplained* when it exceeds the
 //! threshold (3 by default: a false-alarm rate of 10⁻³ per trial on a correct model).
 
@@ -115,7 +123,14 @@ pub struct ResidualAnalysis {
     /// Effective degrees of freedom of the noise model's low-frequency level, the `ν` of the
     /// time-block test's `F(df, ν)` reference (`null` in JSON when the level is known exactly).
     pub noise_level_dof: f64,
-    /// Bonferroni p-value of the two structure tests on the final residual.
+    /// The vocabulary test on the final residual: the largest `LM` against one state
+    /// variable's flexible basis.
+    pub vocabulary_structure_lm: f64,
+    /// Degrees of freedom of the vocabulary test's `LM`.
+    pub vocabulary_structure_df: usize,
+    /// The variable whose basis gives it (`null` when no variable could be tested).
+    pub vocabulary_structure_variable: Option<crate::StateVariable>,
+    /// Bonferroni p-value of the three structure tests on the final residual.
     pub structure_p_value: f64,
     /// `−log10` of `structure_p_value` (structure evidence; > threshold = unexplained).
     pub structure_evidence: f64,
@@ -350,34 +365,56 @@ pub(crate) fn structure_lm(ctx: &Context, fit: &Fit) -> (f64, usize) {
 /// `LM` of a fit against a basis (projected on the complement of the whitened Jacobian) and the
 /// rank of the projected basis.
 fn basis_lm(ctx: &Context, fit: &Fit, cols: &[Vec<f64>]) -> (f64, usize) {
-    // a recording whose motion has no step of the basis (a window of walking whose segments
-    // are all shorter than a step) has nothing to test
-    if cols.is_empty() {
-        return (0.0, 0);
+    Projector::new(ctx, fit).lm(ctx, cols)
+}
+
+/// What every score test of one fit shares: the orthonormal basis `Q` of its whitened
+/// Jacobian, its whitened residual and the residual's scale (one QR per fit, not per basis).
+struct Projector {
+    q: DMatrix<f64>,
+    r: DVector<f64>,
+    s2: f64,
+}
+
+impl Projector {
+    fn new(ctx: &Context, fit: &Fit) -> Self {
+        // whitened vectors have every sample (0 where unobserved); the scale counts observed ones
+        let n_obs = ctx.plan.n_obs();
+        let r = DVector::from_column_slice(&fit.white);
+        let s2 = (r.norm_squared() / n_obs.saturating_sub(fit.k()).max(1) as f64).max(1e-12);
+        Projector {
+            q: fit.jac.clone().qr().q(),
+            r,
+            s2,
+        }
     }
-    // whitened vectors have every sample (0 where unobserved); the scale counts observed ones
-    let n = fit.white.len();
-    let n_obs = ctx.plan.n_obs();
-    let q = fit.jac.clone().qr().q();
-    let r = DVector::from_column_slice(&fit.white);
-    let s2 = (r.norm_squared() / n_obs.saturating_sub(fit.k()).max(1) as f64).max(1e-12);
-    let p = cols.len();
-    let mut pc = DMatrix::zeros(n, p);
-    for (j, c) in cols.iter().enumerate() {
-        let mut w = vec![0.0; n];
-        ctx.plan.whiten(c, &mut w);
-        let v = DVector::from_vec(w);
-        let proj = &v - &q * q.tr_mul(&v);
-        pc.set_column(j, &proj);
-    }
-    let a = pc.tr_mul(&pc);
-    let b = pc.tr_mul(&r);
-    let svd = a.svd(true, true);
-    let tol = svd.singular_values.max() * 1e-10;
-    let rank = svd.singular_values.iter().filter(|s| **s > tol).count();
-    match svd.solve(&b, tol) {
-        Ok(beta) => (b.dot(&beta) / s2, rank),
-        Err(_) => (0.0, rank),
+
+    /// `LM` against `cols` and the rank of the projected basis.
+    fn lm(&self, ctx: &Context, cols: &[Vec<f64>]) -> (f64, usize) {
+        // a recording whose motion has no step of the basis (a window of walking whose
+        // segments are all shorter than a step) has nothing to test
+        if cols.is_empty() {
+            return (0.0, 0);
+        }
+        let n = self.r.len();
+        let p = cols.len();
+        let mut pc = DMatrix::zeros(n, p);
+        for (j, c) in cols.iter().enumerate() {
+            let mut w = vec![0.0; n];
+            ctx.plan.whiten(c, &mut w);
+            let v = DVector::from_vec(w);
+            let proj = &v - &self.q * self.q.tr_mul(&v);
+            pc.set_column(j, &proj);
+        }
+        let a = pc.tr_mul(&pc);
+        let b = pc.tr_mul(&self.r);
+        let svd = a.svd(true, true);
+        let tol = svd.singular_values.max() * 1e-10;
+        let rank = svd.singular_values.iter().filter(|s| **s > tol).count();
+        match svd.solve(&b, tol) {
+            Ok(beta) => (b.dot(&beta) / self.s2, rank),
+            Err(_) => (0.0, rank),
+        }
     }
 }
 
@@ -392,8 +429,43 @@ pub(crate) struct StructureTest {
     pub time_df: usize,
     /// `ν` of the time test's `F(df, ν)` reference.
     pub noise_level_dof: f64,
-    /// Bonferroni p-value `min(1, 2·min(p_motion, p_time))`.
+    /// The vocabulary test: the largest `LM` against one state variable's flexible basis, its
+    /// degrees of freedom and variable (`None` when no variable could be tested).
+    pub vocabulary_lm: f64,
+    pub vocabulary_df: usize,
+    pub vocabulary_variable: Option<crate::StateVariable>,
+    /// Bonferroni p-value of the vocabulary test over the variables tested.
+    pub vocabulary_p: f64,
+    /// Bonferroni p-value `min(1, 3·min(p_motion, p_time, p_vocabulary))`.
     pub p_value: f64,
+}
+
+/// The vocabulary test (module docs): `LM` against each state variable's flexible basis, its
+/// p-value from `F(df, ν)` as the time test's (the bases are slow functions of the record),
+/// and the Bonferroni minimum over the variables tested, with the test that gives it.
+fn vocabulary_test(
+    ctx: &Context,
+    proj: &Projector,
+) -> (f64, usize, Option<crate::StateVariable>, f64) {
+    let nu = ctx.noise.level_dof;
+    let mut tested = 0usize;
+    let mut best = (0.0, 0, None, 1.0);
+    for v in crate::StateVariable::ALL {
+        let Some(b) = crate::flexible::basis(ctx, v) else {
+            continue;
+        };
+        let (lm, df) = proj.lm(ctx, &b.cols);
+        if df == 0 {
+            continue;
+        }
+        tested += 1;
+        let p = f_survival(lm / df as f64, df, nu);
+        if p < best.3 {
+            best = (lm, df, Some(v), p);
+        }
+    }
+    let p = (tested.max(1) as f64 * best.3).min(1.0);
+    (best.0, best.1, best.2, p)
 }
 
 /// The structure tests of `fit`'s residual (module docs).
@@ -402,18 +474,25 @@ pub(crate) fn structure_test(ctx: &Context, fit: &Fit) -> StructureTest {
 }
 
 fn structure_test_with(ctx: &Context, fit: &Fit, tcols: &[Vec<f64>]) -> StructureTest {
-    let (motion_lm, motion_df) = structure_lm(ctx, fit);
-    let (time_lm, time_df) = basis_lm(ctx, fit, tcols);
+    let proj = Projector::new(ctx, fit);
+    let (motion_lm, motion_df) = proj.lm(ctx, &structure_basis(ctx));
+    let (time_lm, time_df) = proj.lm(ctx, tcols);
     let nu = ctx.noise.level_dof;
     let p_motion = chi2_survival(motion_lm, motion_df);
     let p_time = f_survival(time_lm / time_df.max(1) as f64, time_df, nu);
+    let (vocabulary_lm, vocabulary_df, vocabulary_variable, vocabulary_p) =
+        vocabulary_test(ctx, &proj);
     StructureTest {
         motion_lm,
         motion_df,
         time_lm,
         time_df,
         noise_level_dof: nu,
-        p_value: (2.0 * p_motion.min(p_time)).min(1.0),
+        vocabulary_lm,
+        vocabulary_df,
+        vocabulary_variable,
+        vocabulary_p,
+        p_value: (3.0 * p_motion.min(p_time).min(vocabulary_p)).min(1.0),
     }
 }
 
@@ -530,8 +609,12 @@ pub(crate) fn analyse(
         extended_time_structure_lm: lte,
         time_structure_df: tdf,
         noise_level_dof: nu,
+        vocabulary_structure_lm: fin_test.vocabulary_lm,
+        vocabulary_structure_df: fin_test.vocabulary_df,
+        vocabulary_structure_variable: fin_test.vocabulary_variable,
         structure_p_value: p,
-        structure_evidence: -p.max(1e-300).log10(),
+        // −log10 of p = 1 is −0
+        structure_evidence: -p.max(1e-300).log10() + 0.0,
         series: Series {
             time_s: inp.times().to_vec(),
             baseline_residual_nm: rb,

@@ -50,8 +50,9 @@
 //! 5. **Confounding**: an extension whose signature has `cos > 0.98` with the span of the
 //!    model's parameter sensitivities is reported in `confounded`, never named.
 //! 6. **Unexplained structure** ([`analysis`]): two generic step-function models (of the
-//!    motion: cycle × sweep direction × angle bin, hold halves; of time: 1 s blocks) tested
-//!    against the final residual by score tests, `LM ~ χ²(df)` under a correct model;
+//!    motion: cycle × sweep direction × angle bin, hold halves; of time: 1 s blocks) and each
+//!    state variable's flexible basis tested against the final residual by score tests,
+//!    `LM ~ χ²(df)` under a correct model;
 //!    structure is unexplained when the Bonferroni p-value is below 10⁻³. The causes named
 //!    are reviewed against flexible terms in their own variables, and structure left is traced
 //!    to the state variable it depends on ([`flexible`]).

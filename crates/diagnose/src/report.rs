@@ -451,7 +451,8 @@ impl Diagnosis {
         }
         let ra = &self.residual_analysis;
         l.push(format!(
-            "structure    {} (p = {:.1e}; motion steps LM {:.1}/{}, time blocks {:.1}/{})",
+            "structure    {} (p = {:.1e}; motion steps LM {:.1}/{}, time blocks {:.1}/{}, \
+             vocabulary {:.1}/{}{})",
             if self.unexplained_structure {
                 "UNEXPLAINED structure remains in the residual"
             } else {
@@ -461,7 +462,11 @@ impl Diagnosis {
             ra.extended_structure_lm,
             ra.structure_df,
             ra.extended_time_structure_lm,
-            ra.time_structure_df
+            ra.time_structure_df,
+            ra.vocabulary_structure_lm,
+            ra.vocabulary_structure_df,
+            ra.vocabulary_structure_variable
+                .map_or(String::new(), |v| format!(" in {}", v.name()))
         ));
         l.extend(crate::crosstalk_summary_line(
             &self.emg_crosstalk,

@@ -373,3 +373,61 @@ fn a_smooth_step_in_the_angle_is_not_told_as_gravity() {
         gravity.delta_bic
     );
 }
+
+/// A periodic function of the triceps activation (generated trial 61 813 641) at twice its
+/// detection size: the motion steps (48 columns) and the time blocks (9) spread it thin and
+/// together stay above 10⁻³; the activation's own flexible basis (four columns once centred)
+/// sees it, so the trial is not called adequate.
+#[test]
+fn a_function_of_the_activation_at_twice_its_detection_size_is_flagged_by_its_own_basis() {
+    use diagnose::analysis::{chi2_survival, f_survival};
+    let seed = 61_813_641;
+    let g = diagnose::scenarios::generated_trial(seed)
+        .unwrap_or_else(|e| panic!("seed {seed}: synthesis failed: {e}"));
+    let settings = DiagnoseSettings::default();
+    let disturbance = g.disturbance_nm.as_ref().expect("a torque disturbance");
+    let unloaded = &g.hidden.synthetic.unloaded;
+    let mut trial = g.hidden.synthetic.trial.clone();
+    for (y, a) in trial.torque_nm.iter_mut().zip(disturbance) {
+        *y -= a;
+    }
+    let detection =
+        diagnose::power::disturbance_detection_size(&trial, Some(unloaded), disturbance, &settings)
+            .unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+    let ratio = 2.0 * detection / g.size.abs();
+    for (y, a) in trial.torque_nm.iter_mut().zip(disturbance) {
+        *y += a * ratio;
+    }
+    let d = diagnose::run(
+        &trial,
+        Some(unloaded),
+        &settings,
+        &mut diagnose::no_observer,
+    )
+    .unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+    let ctx = format!(
+        "seed {seed}, {} at {:.2} N·m; summary:\n{}",
+        g.description,
+        2.0 * detection,
+        d.summary_lines().join("\n")
+    );
+    let ra = &d.residual_analysis;
+    let p_motion = chi2_survival(ra.extended_structure_lm, ra.structure_df);
+    let p_time = f_survival(
+        ra.extended_time_structure_lm / ra.time_structure_df as f64,
+        ra.time_structure_df,
+        ra.noise_level_dof,
+    );
+    assert!(
+        2.0 * p_motion.min(p_time) > 1e-3,
+        "the wide bases alone find it (p_motion {p_motion:.1e}, p_time {p_time:.1e}); {ctx}"
+    );
+    assert_eq!(
+        ra.vocabulary_structure_variable,
+        Some(StateVariable::Activation),
+        "{ctx}"
+    );
+    assert!(ra.structure_p_value < 1e-3, "{ctx}");
+    assert_ne!(d.verdict, Verdict::Adequate, "{ctx}");
+    assert!(d.causes.is_empty(), "{ctx}");
+}

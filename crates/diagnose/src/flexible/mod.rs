@@ -34,6 +34,7 @@ mod report;
 mod review;
 mod variable;
 
+pub(crate) use basis::basis;
 pub(crate) use characterise::{characterise, Characterisation};
 pub(crate) use fit::without_effects;
 pub(crate) use forms::ramp_column;

@@ -13,7 +13,11 @@
 //!   - *periodic* `s · sin(2π k u + φ)`, `k ∈ {1, 2, 3}`; in time, a frequency of 0.2–2 Hz not
 //!     locked to the motion cycle;
 //!
-//!   direction is `s · tanh(ω / ω₀)` with `ω₀` of 0.5–5 °/s whatever the shape;
+//!   direction is `s · tanh(ω / ω₀)` with `ω₀` of 0.5–5 °/s whatever the shape. The
+//!   acceleration is zero on every sweep and hold, so its quantiles coincide: it is mapped
+//!   through its full range (±600 °/s² at the reversals) instead, and its function is taken
+//!   from its value at rest, `f(u) − f(u_rest)`, which would otherwise be a constant offset
+//!   (a catalogued cause) on nine tenths of the trial;
 //! * **a product of two** such variables' centred quantiles, `s · (2u₁ − 1)(2u₂ − 1)`;
 //! * **an EMG-side disturbance**: one triceps channel's raw EMG multiplied by `1 + g` from a
 //!   drawn time on (an electrode that shifts), `g ∈ ±[0.3, 0.6]`.
@@ -135,14 +139,36 @@ fn quantile(x: &[f64], q: f64) -> f64 {
     s[i.min(s.len() - 1)]
 }
 
+/// A variable mapped to `[0, 1]`, and the value it rests at.
+struct UnitScaled {
+    u: Vec<f64>,
+    /// `u` at the variable's median, when the variable sits there most of the trial.
+    rest: Option<f64>,
+}
+
 /// `x` mapped to `[0, 1]` through its 5 % and 95 % quantiles (flat at the ends), so that a
-/// few extreme samples (the acceleration at the reversals) do not squeeze the rest.
-fn unit_scaled(x: &[f64]) -> Vec<f64> {
+/// few extreme samples do not squeeze the rest. A variable that sits at one value most of the
+/// trial (the acceleration: zero on every sweep and hold, ±600 °/s² at the reversals) has its
+/// quantiles at that value; it is mapped through its full range instead, since between equal
+/// quantiles the map would follow the sign of the rounding error.
+fn unit_scaled(x: &[f64]) -> UnitScaled {
     let (lo, hi) = (quantile(x, 0.05), quantile(x, 0.95));
-    let span = (hi - lo).max(1e-12);
-    x.iter()
-        .map(|v| ((v - lo) / span).clamp(0.0, 1.0))
-        .collect()
+    let (min, max) = x
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(*v), b.max(*v))
+        });
+    let at_rest = hi - lo < 0.01 * (max - min);
+    let (lo, span) = if at_rest {
+        (min, (max - min).max(1e-12))
+    } else {
+        (lo, (hi - lo).max(1e-12))
+    };
+    let map = |v: f64| ((v - lo) / span).clamp(0.0, 1.0);
+    UnitScaled {
+        u: x.iter().map(|v| map(*v)).collect(),
+        rest: at_rest.then(|| map(quantile(x, 0.5))),
+    }
 }
 
 /// Makes a `relaxed+2` trial from `seed` and hides one generated effect in it (module docs;
@@ -208,25 +234,27 @@ pub fn generated_trial(seed: u64) -> Result<GeneratedTrial, DiagnoseError> {
                 format!("{freq_hz:.2} Hz"),
             )
         } else {
-            let u = unit_scaled(&x);
-            match shape {
+            let scaled = unit_scaled(&x);
+            let (f, words): (Box<dyn Fn(f64) -> f64>, String) = match shape {
                 GeneratedShape::Smooth => (
-                    u.iter()
-                        .map(|u| size * (2.0 / (1.0 + (-(u - c) / w).exp()) - 1.0))
-                        .collect(),
+                    Box::new(move |u| size * (2.0 / (1.0 + (-(u - c) / w).exp()) - 1.0)),
                     format!("c {c:.2} w {w:.2}"),
                 ),
                 GeneratedShape::Stepped => (
-                    u.iter().map(|u| if *u > c { size } else { 0.0 }).collect(),
+                    Box::new(move |u| if u > c { size } else { 0.0 }),
                     format!("step at quantile {c:.2}"),
                 ),
                 GeneratedShape::Periodic => (
-                    u.iter()
-                        .map(|u| size * (std::f64::consts::TAU * f64::from(k) * u + phi).sin())
-                        .collect(),
+                    Box::new(move |u| {
+                        size * (std::f64::consts::TAU * f64::from(k) * u + phi).sin()
+                    }),
                     format!("{k} periods"),
                 ),
-            }
+            };
+            // a variable at rest most of the trial carries the effect away from rest only: its
+            // value at rest would be a constant offset, a catalogued cause
+            let at_rest = scaled.rest.map_or(0.0, &f);
+            (scaled.u.iter().map(|u| f(*u) - at_rest).collect(), words)
         };
         (
             GeneratedEffect::Single { variable, shape },
@@ -242,7 +270,7 @@ pub fn generated_trial(seed: u64) -> Result<GeneratedTrial, DiagnoseError> {
         let b = (a + 1 + draw.random_range(0..GENERATED_VARIABLES.len() - 1))
             % GENERATED_VARIABLES.len();
         let (va, vb) = (GENERATED_VARIABLES[a], GENERATED_VARIABLES[b]);
-        let (ua, ub) = (unit_scaled(&series(va)), unit_scaled(&series(vb)));
+        let (ua, ub) = (unit_scaled(&series(va)).u, unit_scaled(&series(vb)).u);
         let torque = ua
             .iter()
             .zip(&ub)
@@ -377,5 +405,82 @@ mod tests {
                 ),
             }
         }
+    }
+
+    #[test]
+    fn a_function_of_the_acceleration_lives_at_the_reversals_not_in_the_rounding() {
+        // zero to rounding error on the sweeps and holds, ±600 °/s² at the reversals
+        let x: Vec<f64> = (0..1000)
+            .map(|i| match i % 100 {
+                0..=4 => 600.0,
+                5..=9 => -600.0,
+                j if j % 2 == 0 => 1e-13,
+                _ => -1e-13,
+            })
+            .collect();
+        let s = unit_scaled(&x);
+        let rest = s.rest.expect("the variable rests at zero");
+        assert!((rest - 0.5).abs() < 1e-9, "{rest}");
+        for (u, v) in s.u.iter().zip(&x) {
+            let want = if *v > 1.0 {
+                1.0
+            } else if *v < -1.0 {
+                0.0
+            } else {
+                rest
+            };
+            assert!((u - want).abs() < 1e-9, "{v} maps to {u}");
+        }
+        // a variable that moves keeps its quantile map
+        let moving: Vec<f64> = (0..1000).map(f64::from).collect();
+        let m = unit_scaled(&moving);
+        assert!(m.rest.is_none());
+        assert_eq!(
+            (m.u[0], m.u[500], m.u[999]),
+            (0.0, (500.0 - 50.0) / 899.0, 1.0)
+        );
+
+        // every generated function of the acceleration is zero where the joint does not
+        // accelerate and reaches its size at the reversals
+        let mut seen = 0;
+        for seed in 0..60 {
+            let t = generated_trial(seed).unwrap();
+            if !matches!(
+                t.effect,
+                GeneratedEffect::Single {
+                    variable: StateVariable::Acceleration,
+                    ..
+                }
+            ) {
+                continue;
+            }
+            seen += 1;
+            let acc = StateVariable::Acceleration
+                .samples(&t.hidden.synthetic.inputs)
+                .unwrap();
+            let d = t.disturbance_nm.as_ref().unwrap();
+            let (mut at_rest, mut peak_moving) = (0.0_f64, 0.0_f64);
+            for (a, v) in acc.iter().zip(d) {
+                if a.abs() < 1e-6 {
+                    at_rest = at_rest.max(v.abs());
+                } else {
+                    peak_moving = peak_moving.max(v.abs());
+                }
+            }
+            assert!(
+                at_rest < 1e-9,
+                "seed {seed}, {}: {at_rest} at rest",
+                t.description
+            );
+            assert!(
+                (peak_moving - t.size.abs()).abs() < 1e-9,
+                "seed {seed}, {}: {peak_moving}",
+                t.description
+            );
+        }
+        assert!(
+            seen >= 3,
+            "{seen} functions of the acceleration in 60 seeds"
+        );
     }
 }

@@ -208,6 +208,12 @@ pub enum AdequacyReport {
         time_lm: f64,
         /// Their degrees of freedom.
         time_df: usize,
+        /// The largest score statistic against one state variable's flexible basis.
+        vocabulary_lm: f64,
+        /// Its degrees of freedom.
+        vocabulary_df: usize,
+        /// Its variable (`null` when no variable could be tested).
+        vocabulary_variable: Option<diagnose::StateVariable>,
         /// What the structure suggests (`null` when none is left).
         warning: Option<String>,
     },
@@ -242,6 +248,9 @@ impl AdequacyReport {
                 motion_df: a.motion_df,
                 time_lm: a.time_lm,
                 time_df: a.time_df,
+                vocabulary_lm: a.vocabulary_lm,
+                vocabulary_df: a.vocabulary_df,
+                vocabulary_variable: a.vocabulary_variable,
                 warning: a.warning(),
             },
             Err(e) => Self::Failed {
