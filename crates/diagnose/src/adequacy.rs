@@ -47,12 +47,12 @@ pub struct Adequacy {
     pub time_lm: f64,
     /// Degrees of freedom of `time_lm`.
     pub time_df: usize,
-    /// The vocabulary test: the largest score statistic against one state variable's
-    /// flexible basis (`null` when no variable could be tested).
+    /// The vocabulary test: the score statistic against the flexible basis of the state
+    /// variable with the smallest p-value.
     pub vocabulary_lm: f64,
     /// Degrees of freedom of `vocabulary_lm`.
     pub vocabulary_df: usize,
-    /// The variable of `vocabulary_lm`.
+    /// The variable of `vocabulary_lm` (`null` when no variable could be tested).
     pub vocabulary_variable: Option<crate::StateVariable>,
 }
 

@@ -123,8 +123,8 @@ pub struct ResidualAnalysis {
     /// Effective degrees of freedom of the noise model's low-frequency level, the `ν` of the
     /// time-block test's `F(df, ν)` reference (`null` in JSON when the level is known exactly).
     pub noise_level_dof: f64,
-    /// The vocabulary test on the final residual: the largest `LM` against one state
-    /// variable's flexible basis.
+    /// The vocabulary test on the final residual: `LM` against the flexible basis of the state
+    /// variable with the smallest p-value.
     pub vocabulary_structure_lm: f64,
     /// Degrees of freedom of the vocabulary test's `LM`.
     pub vocabulary_structure_df: usize,
@@ -356,18 +356,6 @@ fn time_basis(ctx: &Context) -> Vec<Vec<f64>> {
         .collect()
 }
 
-/// `LM_struct` of a fit against the motion basis (see the module docs) and its degrees of
-/// freedom.
-pub(crate) fn structure_lm(ctx: &Context, fit: &Fit) -> (f64, usize) {
-    basis_lm(ctx, fit, &structure_basis(ctx))
-}
-
-/// `LM` of a fit against a basis (projected on the complement of the whitened Jacobian) and the
-/// rank of the projected basis.
-fn basis_lm(ctx: &Context, fit: &Fit, cols: &[Vec<f64>]) -> (f64, usize) {
-    Projector::new(ctx, fit).lm(ctx, cols)
-}
-
 /// What every score test of one fit shares: the orthonormal basis `Q` of its whitened
 /// Jacobian, its whitened residual and the residual's scale (one QR per fit, not per basis).
 struct Projector {
@@ -429,8 +417,8 @@ pub(crate) struct StructureTest {
     pub time_df: usize,
     /// `ν` of the time test's `F(df, ν)` reference.
     pub noise_level_dof: f64,
-    /// The vocabulary test: the largest `LM` against one state variable's flexible basis, its
-    /// degrees of freedom and variable (`None` when no variable could be tested).
+    /// The vocabulary test: `LM` against the flexible basis of the state variable with the
+    /// smallest p-value, its degrees of freedom and variable (`None` when none could be tested).
     pub vocabulary_lm: f64,
     pub vocabulary_df: usize,
     pub vocabulary_variable: Option<crate::StateVariable>,
@@ -470,12 +458,18 @@ fn vocabulary_test(
 
 /// The structure tests of `fit`'s residual (module docs).
 pub(crate) fn structure_test(ctx: &Context, fit: &Fit) -> StructureTest {
-    structure_test_with(ctx, fit, &time_basis(ctx))
+    structure_test_with(ctx, fit, &structure_basis(ctx), &time_basis(ctx))
 }
 
-fn structure_test_with(ctx: &Context, fit: &Fit, tcols: &[Vec<f64>]) -> StructureTest {
+/// [`structure_test`] against motion and time bases already built.
+fn structure_test_with(
+    ctx: &Context,
+    fit: &Fit,
+    mcols: &[Vec<f64>],
+    tcols: &[Vec<f64>],
+) -> StructureTest {
     let proj = Projector::new(ctx, fit);
-    let (motion_lm, motion_df) = proj.lm(ctx, &structure_basis(ctx));
+    let (motion_lm, motion_df) = proj.lm(ctx, mcols);
     let (time_lm, time_df) = proj.lm(ctx, tcols);
     let nu = ctx.noise.level_dof;
     let p_motion = chi2_survival(motion_lm, motion_df);
@@ -588,10 +582,12 @@ pub(crate) fn analyse(
             }
         })
         .collect();
-    let tcols = time_basis(ctx);
-    let (lb, df) = structure_lm(ctx, baseline);
-    let (ltb, tdf) = basis_lm(ctx, baseline, &tcols);
-    let fin_test = structure_test_with(ctx, fin, &tcols);
+    // both fits are tested against the same bases; the baseline's statistics are reported only
+    let (mcols, tcols) = (structure_basis(ctx), time_basis(ctx));
+    let base_proj = Projector::new(ctx, baseline);
+    let (lb, df) = base_proj.lm(ctx, &mcols);
+    let (ltb, tdf) = base_proj.lm(ctx, &tcols);
+    let fin_test = structure_test_with(ctx, fin, &mcols, &tcols);
     let (le, lte, nu, p) = (
         fin_test.motion_lm,
         fin_test.time_lm,

@@ -208,7 +208,8 @@ pub enum AdequacyReport {
         time_lm: f64,
         /// Their degrees of freedom.
         time_df: usize,
-        /// The largest score statistic against one state variable's flexible basis.
+        /// The score statistic against the flexible basis of the state variable with the
+        /// smallest p-value.
         vocabulary_lm: f64,
         /// Its degrees of freedom.
         vocabulary_df: usize,
