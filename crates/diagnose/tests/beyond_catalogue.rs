@@ -431,3 +431,46 @@ fn a_function_of_the_activation_at_twice_its_detection_size_is_flagged_by_its_ow
     assert_ne!(d.verdict, Verdict::Adequate, "{ctx}");
     assert!(d.causes.is_empty(), "{ctx}");
 }
+
+/// A step of −3.04 N·m at one angle (generated trial 20 737 421). Five hats over the angle's
+/// range only ramp through it, and the time term, which has a searched step, took it first
+/// (`depends_on` time, angle). With a step at a searched level beside the angle's hats, the
+/// angle leads, its term reports the level it found, and no cause is named.
+#[test]
+fn a_step_in_the_angle_is_put_on_the_angle_with_its_level() {
+    let seed = 20_737_421;
+    let (d, ctx) = diagnosed_generated_without_a_cause(seed);
+    let u = depends_first(&d, StateVariable::Angle, &ctx);
+    let e = u
+        .extension
+        .as_ref()
+        .unwrap_or_else(|| panic!("no extension; {ctx}"));
+    let term = e
+        .terms
+        .iter()
+        .find(|t| t.variable == StateVariable::Angle)
+        .unwrap_or_else(|| panic!("no term in the angle; {ctx}"));
+    let level = term
+        .searched
+        .iter()
+        .find(|v| v.name == "step_level")
+        .unwrap_or_else(|| panic!("no level searched: {:?}; {ctx}", term.searched));
+    // the true level: the lowest angle the generator's disturbance is on at
+    let t = diagnose::scenarios::generated_trial(seed).unwrap();
+    let angle = StateVariable::Angle
+        .samples(&t.hidden.synthetic.inputs)
+        .unwrap();
+    let disturbance = t.disturbance_nm.as_ref().expect("a torque disturbance");
+    let truth = angle
+        .iter()
+        .zip(disturbance)
+        .filter(|(_, d)| d.abs() > 1e-9)
+        .map(|(a, _)| *a)
+        .fold(f64::INFINITY, f64::min);
+    assert!(
+        (level.value - truth).abs() < 1.0,
+        "level {:.2}° found, the step is at {truth:.2}°; {ctx}",
+        level.value
+    );
+    assert!(e.heldout_deviance_gain > 0.0, "{ctx}");
+}

@@ -47,33 +47,162 @@ pub(crate) fn with_step(
             .map(|&x| if x >= tau { 1.0 } else { 0.0 })
             .collect(),
     );
-    // the knots with the step's column, and both sides of the step
-    let hats = Functions::Hats(out.points.clone());
+    let hats = Functions::Hats(out.points.clone()).eval(tau);
+    add_step_to_shape(
+        &mut out,
+        tau,
+        Some(hats),
+        |p| if p >= tau { 1.0 } else { 0.0 },
+        SearchedValue {
+            name: "change_point".into(),
+            value: tau,
+            unit: "s".into(),
+        },
+    );
+    out
+}
+
+/// The reported shape of `out` with a step at `at` added as its last column: each point's row
+/// gains the step's value there (`step`), and two points at `at` carry the hats' row there
+/// (`hats_at`) with the step's values below and above it; `searched` records where the step
+/// was found.
+fn add_step_to_shape(
+    out: &mut FlexBasis,
+    at: f64,
+    hats_at: Option<Vec<f64>>,
+    step: impl Fn(f64) -> f64,
+    searched: SearchedValue,
+) {
     let mut shape: Vec<(f64, Vec<f64>)> = out
         .points
         .iter()
         .zip(&out.rows)
         .map(|(p, row)| {
             let mut row = row.clone();
-            row.push(if *p >= tau { 1.0 } else { 0.0 });
+            row.push(step(*p));
             (*p, row)
         })
         .collect();
-    for side in [0.0, 1.0] {
-        let mut row = hats.eval(tau);
-        row.push(side);
-        shape.push((tau, row));
+    if let Some(hats) = hats_at {
+        // the side below first: the sort below is stable
+        for side in [step(f64::NEG_INFINITY), step(f64::INFINITY)] {
+            let mut row = hats.clone();
+            row.push(side);
+            shape.push((at, row));
+        }
     }
-    // stable: the knot rows before the two sides at τ, the side before the step first
+    // stable: the knot rows before the two sides at `at`, the side below before the side above
     shape.sort_by(|a, b| a.0.total_cmp(&b.0));
     out.points = shape.iter().map(|(p, _)| *p).collect();
     out.rows = shape.into_iter().map(|(_, r)| r).collect();
-    out.searched.push(SearchedValue {
-        name: "change_point".into(),
-        value: tau,
-        unit: "s".into(),
-    });
-    out
+    out.searched.push(searched);
+}
+
+/// The score test of a step column against a residual, the column grown a sample at a time:
+/// the whitened residual `r̃` and the whitened column `c̃` projected off the columns `H` (the
+/// whitened term's columns, a constant `with_constant`, the model's whitened Jacobian), and the
+/// score `(c̃ᵀP⊥r̃)²/(c̃ᵀP⊥c̃)`. Adding sample `s` to the column adds its whitened impulse, so
+/// `c̃ᵀr̃`, `Hᵀc̃` and `c̃ᵀc̃` grow by sums over the impulse's support.
+struct StepScan {
+    h: Vec<Vec<f64>>,
+    ginv: DMatrix<f64>,
+    /// `P⊥r̃`.
+    wr: Vec<f64>,
+    /// `c̃`.
+    wc: Vec<f64>,
+    /// `c̃ᵀP⊥r̃`, `c̃ᵀc̃`, `Hᵀc̃`.
+    a: f64,
+    q: f64,
+    hc: DVector<f64>,
+    impulse: Vec<f64>,
+}
+
+impl StepScan {
+    /// `None` when `residual` or `jac` (when it has rows) is not one value per sample, or the
+    /// projection cannot be formed.
+    fn new(
+        ctx: &Context,
+        cols: &[Vec<f64>],
+        with_constant: bool,
+        jac: &DMatrix<f64>,
+        residual: &[f64],
+    ) -> Option<Self> {
+        let n = ctx.y.len();
+        if residual.len() != n {
+            return None;
+        }
+        let whiten = |x: &[f64]| {
+            let mut w = vec![0.0; n];
+            ctx.plan.whiten(x, &mut w);
+            w
+        };
+        let mut h: Vec<Vec<f64>> = cols.iter().map(|c| whiten(c)).collect();
+        if with_constant {
+            h.push(whiten(&vec![1.0; n]));
+        }
+        if jac.nrows() == n {
+            h.extend(
+                jac.column_iter()
+                    .map(|c| c.iter().copied().collect::<Vec<f64>>()),
+            );
+        }
+        let k = h.len();
+        let gram = DMatrix::from_fn(k, k, |a, b| dot(&h[a], &h[b]));
+        let svd = gram.svd(true, true);
+        // (HᵀH)⁻¹Hᵀv by the pseudo-inverse: hats over unobserved stretches, or over a range the
+        // compared samples do not fill, may be degenerate
+        let mut wr = whiten(residual);
+        let coef = svd
+            .solve(
+                &DVector::from_iterator(k, h.iter().map(|c| dot(c, &wr))),
+                1e-12,
+            )
+            .ok()?;
+        for (a, c) in coef.iter().zip(&h) {
+            for (r, x) in wr.iter_mut().zip(c) {
+                *r -= a * x;
+            }
+        }
+        let ginv = svd.pseudo_inverse(1e-12).ok()?;
+        Some(StepScan {
+            h,
+            ginv,
+            wr,
+            wc: vec![0.0; n],
+            a: 0.0,
+            q: 0.0,
+            hc: DVector::zeros(k),
+            impulse: Vec::new(),
+        })
+    }
+
+    /// Adds sample `s` to the step column.
+    fn add(&mut self, ctx: &Context, s: usize) {
+        ctx.plan.whitened_impulse(s, 1e-12, &mut self.impulse);
+        for (o, &di) in self.impulse.iter().enumerate() {
+            let i = s + o;
+            self.q += di * (2.0 * self.wc[i] + di);
+            self.a += di * self.wr[i];
+            for (hj, c) in self.hc.iter_mut().zip(&self.h) {
+                *hj += di * c[i];
+            }
+            self.wc[i] += di;
+        }
+    }
+
+    /// The score of the column as it stands (0 when the projection leaves nothing of it).
+    fn score(&self) -> f64 {
+        let rest = self.q - self.hc.dot(&(&self.ginv * &self.hc));
+        if rest > 1e-12 * self.q {
+            self.a * self.a / rest
+        } else {
+            0.0
+        }
+    }
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 /// The most likely change point (s) of `residual` (N·m, one value per sample) beside the time
@@ -103,60 +232,16 @@ pub(super) fn change_point(
         return None;
     }
     let (t0, t1) = observed_range(ctx, t)?;
-    let whiten = |x: &[f64]| {
-        let mut w = vec![0.0; n];
-        ctx.plan.whiten(x, &mut w);
-        w
-    };
-    let mut h: Vec<Vec<f64>> = cols.iter().map(|c| whiten(c)).collect();
-    if jac.nrows() == n {
-        h.extend(
-            jac.column_iter()
-                .map(|c| c.iter().copied().collect::<Vec<f64>>()),
-        );
-    }
-    let k = h.len();
-    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
-    let gram = DMatrix::from_fn(k, k, |a, b| dot(&h[a], &h[b]));
-    let svd = gram.svd(true, true);
-    // (HᵀH)⁻¹Hᵀv by the pseudo-inverse: hats over unobserved stretches may be degenerate
-    let mut wr = whiten(residual);
-    let coef = svd
-        .solve(
-            &DVector::from_iterator(k, h.iter().map(|c| dot(c, &wr))),
-            1e-12,
-        )
-        .ok()?;
-    for (a, c) in coef.iter().zip(&h) {
-        for (r, x) in wr.iter_mut().zip(c) {
-            *r -= a * x;
-        }
-    }
+    let mut scan = StepScan::new(ctx, cols, false, jac, residual)?;
     // Backwards over the onsets: the whitened step at s is the one at s + 1 plus the whitened
-    // impulse at s, so its products with the residual and the projection's columns, and its
-    // squared norm, are suffix sums over the impulse's support.
-    let ginv = svd.pseudo_inverse(1e-12).ok()?;
-    let mut wc = vec![0.0; n];
-    let (mut a, mut q) = (0.0, 0.0);
-    let mut hc = DVector::<f64>::zeros(k);
+    // impulse at s.
     let mut best: Option<(usize, f64)> = None;
-    let mut d = Vec::new();
     for s in (0..n).rev() {
-        ctx.plan.whitened_impulse(s, 1e-12, &mut d);
-        for (o, &di) in d.iter().enumerate() {
-            let i = s + o;
-            q += di * (2.0 * wc[i] + di);
-            a += di * wr[i];
-            for (hj, c) in hc.iter_mut().zip(&h) {
-                *hj += di * c[i];
-            }
-            wc[i] += di;
-        }
+        scan.add(ctx, s);
         if !(ctx.is_observed(s) && t[s] - t0 >= STEP_MARGIN_S && t1 - t[s] >= STEP_MARGIN_S) {
             continue;
         }
-        let rest = q - hc.dot(&(&ginv * &hc));
-        let score = if rest > 1e-12 * q { a * a / rest } else { 0.0 };
+        let score = scan.score();
         // ≥: of equal scores the earliest onset
         if best.is_none_or(|(_, b)| score >= b) {
             best = Some((s, score));
@@ -237,6 +322,127 @@ pub(super) fn simplest_in_time(ctx: &Context) -> Vec<FlexBasis> {
         cols: vec![ramp],
         searched: Vec::new(),
     }]
+}
+
+/// Smallest share of the compared samples on either side of a step in a hat variable: a step
+/// that a few samples carry is a spike of the noise, not a level the torque changes at.
+const LEVEL_STEP_MIN_SHARE: f64 = 0.02;
+
+/// The hat basis `b` of the angle or an activation with a step `1{v ≥ c}` added (centred, as
+/// the hats are), the level `c` searched on `residual` (`y − τ̂` of the model the term will
+/// extend, N·m) beside the hats and the parameters of that model (`jac`, its whitened
+/// Jacobian): the `c` among the variable's values between its 5 % and 95 % quantiles whose
+/// whitened step column, projected off the whitened hats, a constant and the Jacobian,
+/// explains most of the whitened residual, `(cᵀP⊥r)²/(cᵀP⊥c)` (the score test of
+/// [`change_point`] with a level in place of a time).
+///
+/// Every value is a candidate, not a grid: a whitened step is mostly the innovations at the
+/// samples where the variable crosses the level, so the score falls off within a sample or two
+/// of the true crossings (a grid of 40 levels over the seed trial's angle put a 2 N·m step at
+/// −7.75° at −3.76°). As the level falls past a value, the samples holding it enter the
+/// column, and the whitened column, its products with the residual and the projection's
+/// columns, and its squared norm grow by those samples' whitened impulses.
+///
+/// Five hats uniform over the range only ramp through a jump of the torque at one level of the
+/// variable (a contact that closes at an angle, a recruitment threshold in the activation).
+/// `None` for any other variable, when no level leaves [`LEVEL_STEP_MIN_SHARE`] of the samples
+/// on both sides, or when the projection cannot be formed.
+pub(super) fn with_level_step(
+    ctx: &Context,
+    b: &FlexBasis,
+    residual: &[f64],
+    jac: &DMatrix<f64>,
+) -> Option<FlexBasis> {
+    let hat_variables = [
+        StateVariable::Angle,
+        StateVariable::Activation,
+        StateVariable::ActivationTa,
+    ];
+    let n = ctx.y.len();
+    if !hat_variables.contains(&b.variable) || residual.len() != n || jac.nrows() != n {
+        return None;
+    }
+    let s = series(ctx, b.variable)?;
+    // every sample with a value, highest first; the shares count the compared ones
+    let mut order: Vec<usize> = (0..n).filter(|i| s[*i].is_finite()).collect();
+    order.sort_by(|a, b| s[*b].total_cmp(&s[*a]));
+    let m = order.iter().filter(|i| ctx.is_observed(**i)).count();
+    if m < 4 {
+        return None;
+    }
+    let mut sorted: Vec<f64> = order
+        .iter()
+        .filter(|i| ctx.is_observed(**i))
+        .map(|i| s[*i])
+        .collect();
+    sorted.reverse();
+    let at = |q: f64| sorted[((q * (m - 1) as f64).round() as usize).min(m - 1)];
+    let (lo, hi) = (at(0.05), at(0.95));
+    if hi <= lo {
+        return None;
+    }
+    let mut scan = StepScan::new(ctx, &b.cols, true, jac, residual)?;
+    let min_side = (LEVEL_STEP_MIN_SHARE * m as f64).ceil() as usize;
+    let mut above = 0usize;
+    let mut best: Option<(f64, f64)> = None;
+    let mut j = 0;
+    while j < order.len() {
+        // the samples holding the next value down enter the column together
+        let level = s[order[j]];
+        while j < order.len() && s[order[j]] == level {
+            above += usize::from(ctx.is_observed(order[j]));
+            scan.add(ctx, order[j]);
+            j += 1;
+        }
+        if level > hi || level < lo || above < min_side || m - above < min_side {
+            continue;
+        }
+        let score = scan.score();
+        if best.is_none_or(|(_, b)| score > b) {
+            best = Some((level, score));
+        }
+    }
+    let (level, _) = best?;
+    let share = order
+        .iter()
+        .filter(|i| ctx.is_observed(**i) && s[**i] >= level)
+        .count() as f64
+        / m as f64;
+    let step = |v: f64| if v >= level { 1.0 - share } else { -share };
+    let mut out = b.clone();
+    out.cols.push(
+        s.iter()
+            .map(|v| if v.is_finite() { step(*v) } else { 0.0 })
+            .collect(),
+    );
+    // the hats interpolated at the level (exact: the centred hats are linear between knots)
+    let hats = interpolated_row(&b.points, &b.rows, level);
+    add_step_to_shape(
+        &mut out,
+        level,
+        hats,
+        step,
+        SearchedValue {
+            name: "step_level".into(),
+            value: level,
+            unit: b.variable.unit().into(),
+        },
+    );
+    Some(out)
+}
+
+/// The hat rows `rows` (one per knot in `points`, ascending) interpolated linearly at `v`.
+fn interpolated_row(points: &[f64], rows: &[Vec<f64>], v: f64) -> Option<Vec<f64>> {
+    let j = points.windows(2).position(|w| w[0] <= v && v <= w[1])?;
+    let (a, b) = (points[j], points[j + 1]);
+    let f = if b > a { (v - a) / (b - a) } else { 0.0 };
+    Some(
+        rows[j]
+            .iter()
+            .zip(&rows[j + 1])
+            .map(|(x, y)| x + f * (y - x))
+            .collect(),
+    )
 }
 
 /// Candidate transition widths of the direction term, as fractions of the largest speed: a
@@ -412,16 +618,21 @@ pub(super) fn with_searched_forms(
             with_step(ctx, b, residual, jac),
         ],
         StateVariable::Direction => vec![b.clone(), with_width(ctx, b, residual)],
-        _ => vec![b],
+        _ => {
+            let stepped = jac.and_then(|j| with_level_step(ctx, &b, residual, j));
+            std::iter::once(b).chain(stepped).collect()
+        }
     }
 }
 
 #[cfg(test)]
 mod tests {
-    use super::{with_period, FlexBasis};
+    use super::{with_level_step, with_period, FlexBasis};
     use crate::context::prepared_context;
+    use crate::flexible::basis::{basis, series};
     use crate::flexible::StateVariable;
     use crate::DiagnoseSettings;
+    use nalgebra::DMatrix;
 
     /// The bundled trial's context (its unloaded run's noise model).
     fn seed_context() -> crate::fit::Context {
@@ -481,5 +692,45 @@ mod tests {
         let residual = vec![1.0; ctx.inputs.len()];
         let out = with_period(&ctx, b, &residual);
         assert!(out.cols.is_empty() && out.searched.is_empty());
+    }
+
+    #[test]
+    fn the_level_step_finds_a_jump_of_the_torque_at_one_angle() {
+        let ctx = seed_context();
+        let angle = series(&ctx, StateVariable::Angle).expect("the seed trial moves");
+        let (lo, hi) = angle
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                (a.min(*v), b.max(*v))
+            });
+        let hats = basis(&ctx, StateVariable::Angle).unwrap();
+        let no_model = DMatrix::<f64>::zeros(ctx.y.len(), 0);
+        for frac in [0.35, 0.5, 0.62] {
+            let level = lo + frac * (hi - lo);
+            // 2 N·m above the level, beside a smooth 1 N·m function the hats follow
+            let residual: Vec<f64> = angle
+                .iter()
+                .map(|a| 2.0 * f64::from(u8::from(*a >= level)) + ((a - lo) / (hi - lo)).powi(2))
+                .collect();
+            let b = with_level_step(&ctx, &hats, &residual, &no_model).expect("a step");
+            assert_eq!(b.cols.len(), hats.cols.len() + 1);
+            let found = b.searched.last().expect("a searched level");
+            assert_eq!(found.name, "step_level");
+            // at the level, to the angle's rounding
+            assert!(
+                (found.value - level).abs() <= 0.05,
+                "found {:.2}° for {level:.2}° (range {lo:.1}–{hi:.1}°)",
+                found.value
+            );
+            // the shape is reported on both sides of the level, in ascending order
+            assert!(b.points.windows(2).all(|w| w[0] <= w[1]));
+            assert_eq!(b.points.iter().filter(|p| **p == found.value).count(), 2);
+            assert!(b.rows.iter().all(|r| r.len() == b.cols.len()));
+        }
+        // no level step in time or direction, whose searched forms are their own
+        for v in [StateVariable::Time, StateVariable::Direction] {
+            let b = basis(&ctx, v).unwrap();
+            assert!(with_level_step(&ctx, &b, &vec![0.0; ctx.y.len()], &no_model).is_none());
+        }
     }
 }

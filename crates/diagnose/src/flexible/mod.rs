@@ -12,7 +12,9 @@
 //! column `sign(q̇)` (0 while the joint is still). Time is also tried with a step `1{t ≥ τ}`
 //! added at the residual's most likely change point (`with_step`) and with a sinusoid
 //! `sin, cos(2πft)` at the residual's strongest frequency (`with_period`), and direction as
-//! `tanh(q̇/w)` with the transition width `w` searched on the residual (`with_width`); the
+//! `tanh(q̇/w)` with the transition width `w` searched on the residual (`with_width`); in the
+//! characterisation the angle and the activations are also tried with a step `1{v ≥ c}` at
+//! the level the residual asks for (`with_level_step`). The
 //! best of a variable's forms (held-out gain in the ranking, BIC in the review) stands for
 //! the variable, a searched value counting as one parameter in the BIC. Columns are centred on
 //! their mean over the trial except in time (a constant is a function of time only). The vocabulary: `angle` (°),
@@ -21,7 +23,7 @@
 //! envelope).
 //!
 //! The stages, a file each: `variable` (the vocabulary), `basis` (a variable's columns),
-//! `forms` (the searched forms of time and direction, and the simplest shape in time), `fit`
+//! `forms` (the searched forms of time, direction and the hat variables, and the simplest shape in time), `fit`
 //! (the fit by variable projection, its cross-validation and the terms' bands), `review` (no
 //! false story), `characterise` (the ranking and the extension) and `report` (what the
 //! diagnosis reports of them).

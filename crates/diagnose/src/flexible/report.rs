@@ -43,7 +43,9 @@ pub struct FlexibleTerm {
     pub band_nm: Vec<f64>,
     /// The term's values searched on the data rather than fitted: a step's `change_point`
     /// (s) or a sinusoid's `frequency` (Hz) in time, the `transition_width` (°/s) of
-    /// `tanh(q̇/w)` in direction, the speed at which the term reaches 76 % of its level.
+    /// `tanh(q̇/w)` in direction, the speed at which the term reaches 76 % of its level, the
+    /// `step_level` (in the variable's unit) of a step beside the hats of the angle or an
+    /// activation.
     pub searched: Vec<SearchedValue>,
 }
 
@@ -52,7 +54,7 @@ pub struct FlexibleTerm {
 #[derive(Clone, Debug, PartialEq, Serialize)]
 #[non_exhaustive]
 pub struct SearchedValue {
-    /// `change_point`, `frequency` or `transition_width`.
+    /// `change_point`, `frequency`, `transition_width` or `step_level`.
     pub name: String,
     /// The value found.
     pub value: f64,

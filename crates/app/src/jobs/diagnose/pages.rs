@@ -404,6 +404,13 @@ fn beyond_the_catalogue(
                      searched on the residual).",
                     v.value, v.unit
                 ),
+                "step_level" => format!(
+                    "The term in {} steps at {:.3} {} (a step beside its hats, the level \
+                     searched on the residual).",
+                    t.variable.name(),
+                    v.value,
+                    v.unit
+                ),
                 "transition_width" => format!(
                     "The term in direction changes sign over ±{:.2} {} of joint speed \
                      (tanh(q̇/w), w searched on the residual).",
