@@ -77,14 +77,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some(other) => return Err(format!("unknown argument {other}").into()),
     };
     let settings = DiagnoseSettings::default();
-    let noise = {
-        let fs = generated_trial(base)?
-            .hidden
-            .synthetic
-            .trial
-            .sample_rate_hz();
-        true_noise(&DynamometerSettings::default(), fs)?
-    };
     let mut tallies: Vec<(Tally, BTreeMap<String, Tally>)> = factors
         .iter()
         .map(|_| (Tally::default(), BTreeMap::new()))
@@ -92,6 +84,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for i in 0..trials {
         let seed = base + i;
         let drawn = generated_trial(seed)?;
+        let noise = true_noise(
+            &DynamometerSettings::default(),
+            drawn.hidden.synthetic.trial.sample_rate_hz(),
+        )?;
         // the detection size in the same subject and noise without the disturbance
         let mut without = drawn.hidden.synthetic.trial.clone();
         let detection = match (&factors[0], &drawn.disturbance_nm) {

@@ -370,13 +370,13 @@ pub(super) fn with_level_step(
     if m < 4 {
         return None;
     }
-    let mut sorted: Vec<f64> = order
+    let descending: Vec<f64> = order
         .iter()
         .filter(|i| ctx.is_observed(**i))
         .map(|i| s[*i])
         .collect();
-    sorted.reverse();
-    let at = |q: f64| sorted[((q * (m - 1) as f64).round() as usize).min(m - 1)];
+    // the nearest-rank quantile q, counted from the top
+    let at = |q: f64| descending[m - 1 - ((q * (m - 1) as f64).round() as usize).min(m - 1)];
     let (lo, hi) = (at(0.05), at(0.95));
     if hi <= lo {
         return None;
@@ -384,7 +384,8 @@ pub(super) fn with_level_step(
     let mut scan = StepScan::new(ctx, &b.cols, true, jac, residual)?;
     let min_side = (LEVEL_STEP_MIN_SHARE * m as f64).ceil() as usize;
     let mut above = 0usize;
-    let mut best: Option<(f64, f64)> = None;
+    // (level, score, compared samples at or above it)
+    let mut best: Option<(f64, f64, usize)> = None;
     let mut j = 0;
     while j < order.len() {
         // the samples holding the next value down enter the column together
@@ -398,16 +399,12 @@ pub(super) fn with_level_step(
             continue;
         }
         let score = scan.score();
-        if best.is_none_or(|(_, b)| score > b) {
-            best = Some((level, score));
+        if best.is_none_or(|(_, b, _)| score > b) {
+            best = Some((level, score, above));
         }
     }
-    let (level, _) = best?;
-    let share = order
-        .iter()
-        .filter(|i| ctx.is_observed(**i) && s[**i] >= level)
-        .count() as f64
-        / m as f64;
+    let (level, _, above) = best?;
+    let share = above as f64 / m as f64;
     let step = |v: f64| if v >= level { 1.0 - share } else { -share };
     let mut out = b.clone();
     out.cols.push(
@@ -549,7 +546,6 @@ pub(super) fn with_period(ctx: &Context, b: FlexBasis, residual: &[f64]) -> Flex
     ctx.plan.whiten(residual, &mut wr);
     let (mut ws, mut wc) = (vec![0.0; n], vec![0.0; n]);
     let (mut sin, mut cos) = (vec![0.0; n], vec![0.0; n]);
-    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
     let step = 1.0 / (PERIOD_OVERSAMPLING * span);
     let mut best: Option<(f64, f64)> = None;
     let mut f = f_lo;
