@@ -474,3 +474,56 @@ fn a_step_in_the_angle_is_put_on_the_angle_with_its_level() {
     );
     assert!(e.heldout_deviance_gain > 0.0, "{ctx}");
 }
+
+/// A step of the torque at one level of the triceps activation (a recruitment threshold), on
+/// a trial whose activation reaches the levels near the step in one contraction only. Its
+/// held-out blocks then hold nearly all the samples of one hat, and the step beside the hats
+/// was carried into them with coefficients the training samples did not fix (held-out
+/// deviance gain −1.7·10⁷): the time term's change point took the step (`depends_on` time).
+/// Carried only along the directions the training samples fix at least half as well as the
+/// full fit fixes its least determined one, the activation leads with its level near the
+/// generator's.
+#[test]
+fn a_step_in_the_activation_is_put_on_the_activation_with_its_level() {
+    let seed = 83_242_660;
+    let (d, ctx) = diagnosed_generated_without_a_cause(seed);
+    let u = depends_first(&d, StateVariable::Activation, &ctx);
+    let ranked = &u.ranking[0];
+    assert_eq!(ranked.variable, StateVariable::Activation, "{ctx}");
+    assert!(ranked.heldout_deviance_gain > 0.0, "{ranked:?}; {ctx}");
+    let e = u
+        .extension
+        .as_ref()
+        .unwrap_or_else(|| panic!("no extension; {ctx}"));
+    let term = e
+        .terms
+        .iter()
+        .find(|t| t.variable == StateVariable::Activation)
+        .unwrap_or_else(|| panic!("no term in the activation; {ctx}"));
+    let level = term
+        .searched
+        .iter()
+        .find(|v| v.name == "step_level")
+        .unwrap_or_else(|| panic!("no level searched: {:?}; {ctx}", term.searched));
+    // the true level: the lowest activation the generator's disturbance is on at, and the
+    // highest it is off at
+    let t = diagnose::scenarios::generated_trial(seed).unwrap();
+    let act = StateVariable::Activation
+        .samples(&t.hidden.synthetic.inputs)
+        .unwrap();
+    let disturbance = t.disturbance_nm.as_ref().expect("a torque disturbance");
+    let on = act
+        .iter()
+        .zip(disturbance)
+        .filter(|(_, d)| d.abs() > 1e-9)
+        .map(|(a, _)| *a)
+        .fold(f64::INFINITY, f64::min);
+    let span = act.iter().fold(0.0_f64, |m, a| m.max(*a))
+        - act.iter().fold(f64::INFINITY, |m, a| m.min(*a));
+    assert!(
+        (level.value - on).abs() < 0.05 * span,
+        "level {:.4} found, the step is at {on:.4} (range {span:.4}); {ctx}",
+        level.value
+    );
+    assert!(e.heldout_deviance_gain > 0.0, "{ctx}");
+}
