@@ -99,6 +99,46 @@ fn depends_first<'a>(
     u
 }
 
+/// `u`'s extension and the level its term in `v` searched for a step.
+fn searched_step_level<'a>(
+    u: &'a diagnose::Unexplained,
+    v: StateVariable,
+    ctx: &str,
+) -> (&'a diagnose::FlexibleExtension, &'a diagnose::SearchedValue) {
+    let e = u
+        .extension
+        .as_ref()
+        .unwrap_or_else(|| panic!("no extension; {ctx}"));
+    let term = e
+        .terms
+        .iter()
+        .find(|t| t.variable == v)
+        .unwrap_or_else(|| panic!("no term in {v:?}; {ctx}"));
+    let level = term
+        .searched
+        .iter()
+        .find(|s| s.name == "step_level")
+        .unwrap_or_else(|| panic!("no level searched: {:?}; {ctx}", term.searched));
+    (e, level)
+}
+
+/// The lowest value of `v` at which generated trial `seed`'s disturbance is on (the step's
+/// true level), and the range `v` spans in the trial.
+fn lowest_on(seed: u64, v: StateVariable) -> (f64, f64) {
+    let t = diagnose::scenarios::generated_trial(seed).unwrap();
+    let x = v.samples(&t.hidden.synthetic.inputs).unwrap();
+    let disturbance = t.disturbance_nm.as_ref().expect("a torque disturbance");
+    let on = x
+        .iter()
+        .zip(disturbance)
+        .filter(|(_, d)| d.abs() > 1e-9)
+        .map(|(a, _)| *a)
+        .fold(f64::INFINITY, f64::min);
+    let span = x.iter().fold(f64::NEG_INFINITY, |m, a| m.max(*a))
+        - x.iter().fold(f64::INFINITY, |m, a| m.min(*a));
+    (on, span)
+}
+
 fn check(kind: Uncatalogued) {
     let (d, ctx, t) = diagnosed(kind);
     assert!(
@@ -441,32 +481,8 @@ fn a_step_in_the_angle_is_put_on_the_angle_with_its_level() {
     let seed = 20_737_421;
     let (d, ctx) = diagnosed_generated_without_a_cause(seed);
     let u = depends_first(&d, StateVariable::Angle, &ctx);
-    let e = u
-        .extension
-        .as_ref()
-        .unwrap_or_else(|| panic!("no extension; {ctx}"));
-    let term = e
-        .terms
-        .iter()
-        .find(|t| t.variable == StateVariable::Angle)
-        .unwrap_or_else(|| panic!("no term in the angle; {ctx}"));
-    let level = term
-        .searched
-        .iter()
-        .find(|v| v.name == "step_level")
-        .unwrap_or_else(|| panic!("no level searched: {:?}; {ctx}", term.searched));
-    // the true level: the lowest angle the generator's disturbance is on at
-    let t = diagnose::scenarios::generated_trial(seed).unwrap();
-    let angle = StateVariable::Angle
-        .samples(&t.hidden.synthetic.inputs)
-        .unwrap();
-    let disturbance = t.disturbance_nm.as_ref().expect("a torque disturbance");
-    let truth = angle
-        .iter()
-        .zip(disturbance)
-        .filter(|(_, d)| d.abs() > 1e-9)
-        .map(|(a, _)| *a)
-        .fold(f64::INFINITY, f64::min);
+    let (e, level) = searched_step_level(u, StateVariable::Angle, &ctx);
+    let (truth, _) = lowest_on(seed, StateVariable::Angle);
     assert!(
         (level.value - truth).abs() < 1.0,
         "level {:.2}° found, the step is at {truth:.2}°; {ctx}",
@@ -491,35 +507,8 @@ fn a_step_in_the_activation_is_put_on_the_activation_with_its_level() {
     let ranked = &u.ranking[0];
     assert_eq!(ranked.variable, StateVariable::Activation, "{ctx}");
     assert!(ranked.heldout_deviance_gain > 0.0, "{ranked:?}; {ctx}");
-    let e = u
-        .extension
-        .as_ref()
-        .unwrap_or_else(|| panic!("no extension; {ctx}"));
-    let term = e
-        .terms
-        .iter()
-        .find(|t| t.variable == StateVariable::Activation)
-        .unwrap_or_else(|| panic!("no term in the activation; {ctx}"));
-    let level = term
-        .searched
-        .iter()
-        .find(|v| v.name == "step_level")
-        .unwrap_or_else(|| panic!("no level searched: {:?}; {ctx}", term.searched));
-    // the true level: the lowest activation the generator's disturbance is on at, and the
-    // highest it is off at
-    let t = diagnose::scenarios::generated_trial(seed).unwrap();
-    let act = StateVariable::Activation
-        .samples(&t.hidden.synthetic.inputs)
-        .unwrap();
-    let disturbance = t.disturbance_nm.as_ref().expect("a torque disturbance");
-    let on = act
-        .iter()
-        .zip(disturbance)
-        .filter(|(_, d)| d.abs() > 1e-9)
-        .map(|(a, _)| *a)
-        .fold(f64::INFINITY, f64::min);
-    let span = act.iter().fold(0.0_f64, |m, a| m.max(*a))
-        - act.iter().fold(f64::INFINITY, |m, a| m.min(*a));
+    let (e, level) = searched_step_level(u, StateVariable::Activation, &ctx);
+    let (on, span) = lowest_on(seed, StateVariable::Activation);
     assert!(
         (level.value - on).abs() < 0.05 * span,
         "level {:.4} found, the step is at {on:.4} (range {span:.4}); {ctx}",

@@ -433,6 +433,7 @@ fn identify_report(
         &point_params,
         &point_effects,
         prep.problem.free(),
+        prep.problem.bounds(),
         &extended::settings(prep.prepared.options),
     )
     .map_err(|e| e.to_string());

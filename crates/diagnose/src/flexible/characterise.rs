@@ -64,7 +64,7 @@ pub(crate) fn characterise(
         .collect();
     let blocks = time_folds(ctx);
     let problem = ctx.problem(&fin.kinds)?;
-    let (block_rms, block_dev, ev) = cross_validate(ctx, &blocks, &problem, &fin.x, &[]);
+    let (block_rms, block_dev, ev) = cross_validate(ctx, &blocks, &problem, &fin.x, &[], 0.0);
     evaluations += ev;
     let reference = Reference {
         ctx,

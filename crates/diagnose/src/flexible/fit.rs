@@ -270,7 +270,7 @@ pub(crate) fn fit_flexible(
         None
     };
     let (heldout_rms, heldout_dev, ev) = match folds {
-        Some(folds) => cross_validate(ctx, folds, &problem, &out.x, &cols),
+        Some(folds) => cross_validate(ctx, folds, &problem, &out.x, &cols, proj.smallest),
         None => (f64::NAN, f64::NAN, 0),
     };
     evaluations += ev;
@@ -298,18 +298,20 @@ pub(crate) fn fit_flexible(
 }
 
 /// Cross-validation of a model with flexible terms (none: the catalogued model alone) over
-/// `folds`: pooled held-out RMS, held-out deviance and the simulations.
+/// `folds`: pooled held-out RMS, held-out deviance and the simulations. `full_smallest`: the
+/// least singular value the fit on all samples keeps of the whitened `cols` (0 without
+/// columns), from which a fold's floor is set (`HELDOUT_MIN_SINGULAR_FRACTION`).
 pub(crate) fn cross_validate(
     ctx: &Context,
     folds: &Folds,
     problem: &muscle_model::Problem,
     x: &[f64],
     cols: &[&Vec<f64>],
+    full_smallest: f64,
 ) -> (f64, f64, usize) {
     let bounds = problem.bounds();
     let n = ctx.y.len();
-    let floor = HELDOUT_MIN_SINGULAR_FRACTION
-        * WhitenedBasisProjector::new(&ctx.plan, cols, n, 0.0).smallest;
+    let floor = HELDOUT_MIN_SINGULAR_FRACTION * full_smallest;
     let res: Vec<((f64, f64, usize), usize)> = folds
         .par_iter()
         .map(|(held, plan)| {

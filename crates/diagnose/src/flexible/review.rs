@@ -144,12 +144,12 @@ pub(crate) fn heldout_contest(
     let (with_dev, ev) = if model.heldout_dev.is_finite() {
         (model.heldout_dev, 0)
     } else {
-        let (_, dev, ev) = cross_validate(ctx, &ctx.folds, &problem, &model.x, &[]);
+        let (_, dev, ev) = cross_validate(ctx, &ctx.folds, &problem, &model.x, &[], 0.0);
         (dev, ev)
     };
     evaluations += ev;
     let blocks = time_folds(ctx);
-    let (_, with_block_dev, ev) = cross_validate(ctx, &blocks, &problem, &model.x, &[]);
+    let (_, with_block_dev, ev) = cross_validate(ctx, &blocks, &problem, &model.x, &[], 0.0);
     evaluations += ev;
     // a term in time is cross-validated on the time blocks, every other on the trial's folds,
     // and compared with the model with the cause cross-validated on the same
