@@ -18,6 +18,7 @@
 //! `cargo run --release -p diagnose --example generated_effects -- TRIALS BASE [--at-detection F,…]`
 //! (trial `i` has seed `BASE + i`; draw BASE afresh for a measurement).
 //!
+//! `SURAE_SHOW_SUMMARY=1` prints the diagnosis's summary under each trial;
 //! `SURAE_SHOW_RANKING=1` prints, under each trial, the flexible terms' ranking behind
 //! `depends_on` (held-out RMS and its fall, held-out deviance gain, ΔBIC, coefficients).
 //!
@@ -187,6 +188,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     ""
                 }
             );
+            // SURAE_SHOW_SUMMARY=1: the diagnosis's own summary
+            if std::env::var_os("SURAE_SHOW_SUMMARY").is_some() {
+                for line in d.summary_lines() {
+                    println!("    | {line}");
+                }
+            }
             // SURAE_SHOW_RANKING=1: the vocabulary's ranking behind `depends_on`
             if std::env::var_os("SURAE_SHOW_RANKING").is_some() {
                 for g in d.unexplained.iter().flat_map(|u| &u.ranking) {

@@ -77,24 +77,21 @@ impl Adequacy {
 
 /// The structure test of the model `params` + `effects` on a prepared trial (its inputs, raw
 /// torque and dynamometer correction, [`PreparedTrial`]), with the parameters `free`
-/// projected out. `bounds`: the identification's bounds of `free`, which set the difference
-/// step of the Jacobian of a parameter at zero (a range's 10⁻³; a point on a bound steps
-/// inward); the others take the diagnosis's step, a thousandth of their default bounds.
+/// projected out.
 ///
 /// # Errors
-/// Invalid settings, bounds that are not intervals or not one per free parameter, an
-/// unloaded run that does not match, a model that cannot be simulated at the point.
+/// Invalid settings, an unloaded run that does not match, a model that cannot be simulated
+/// at the point.
 pub fn adequacy(
     prepared: &PreparedTrial,
     params: &ModelParams,
     effects: &Effects,
     free: &[ParamId],
-    bounds: &[(f64, f64)],
     settings: &DiagnoseSettings,
 ) -> Result<Adequacy, DiagnoseError> {
     settings.validate()?;
     let (ctx, _) = context::prepared_context(prepared, *params, *effects, settings)?;
-    test_ctx(&ctx, free, bounds, settings)
+    test_ctx(&ctx, free, settings)
 }
 
 /// [`adequacy`] of a prepared recording (a session's trial, a CEINMS trial) at its model
@@ -106,7 +103,6 @@ pub fn adequacy_of_recording(
     recording: &DiagnosisRecording,
     unloaded: Option<&UnloadedCorrection>,
     free: &[ParamId],
-    bounds: &[(f64, f64)],
     settings: &DiagnoseSettings,
 ) -> Result<Adequacy, DiagnoseError> {
     settings.validate()?;
@@ -120,7 +116,7 @@ pub fn adequacy_of_recording(
         effects: recording.effects,
         emg: Default::default(),
     };
-    test_at(target, unloaded, inputs, seg, (free, bounds), settings)
+    test_at(target, unloaded, inputs, seg, free, settings)
 }
 
 fn test_at(
@@ -128,19 +124,17 @@ fn test_at(
     unloaded: Option<&UnloadedCorrection>,
     inputs: muscle_model::TrialInputs,
     seg: crate::Segmentation,
-    (free, bounds): (&[ParamId], &[(f64, f64)]),
+    free: &[ParamId],
     settings: &DiagnoseSettings,
 ) -> Result<Adequacy, DiagnoseError> {
     let (ctx, _) = context::trial_context(target, unloaded, inputs, seg, settings)?;
-    test_ctx(&ctx, free, bounds, settings)
+    test_ctx(&ctx, free, settings)
 }
 
-/// The structure test of `ctx`'s base model with the parameters `free` (in `bounds`)
-/// projected out.
+/// The structure test of `ctx`'s base model with the parameters `free` projected out.
 fn test_ctx(
     ctx: &crate::fit::Context,
     free: &[ParamId],
-    bounds: &[(f64, f64)],
     settings: &DiagnoseSettings,
 ) -> Result<Adequacy, DiagnoseError> {
     let fail = |reason: &str| DiagnoseError::Fit {
@@ -154,30 +148,12 @@ fn test_ctx(
         ctx.effects,
         free.to_vec(),
     )?;
-    // The diagnosis's step is a thousandth of the default bounds around the point, which are
-    // relative to the value and collapse to an empty interval where the calibration put a
-    // parameter at zero (the activation's shape or the delay on a recording): there the
-    // calibration's own bounds set it.
-    if bounds.len() != free.len() {
-        return Err(fail(&format!(
-            "{} bounds given for {} free parameters",
-            bounds.len(),
-            free.len()
-        )));
-    }
-    let steps: Vec<(f64, f64)> = problem
-        .bounds()
-        .iter()
-        .zip(bounds)
-        .map(|(&(lo, hi), &given)| if lo < hi { (lo, hi) } else { given })
-        .collect();
-    let problem = problem.with_bounds(steps)?;
     let x = problem.base_vector();
     let white = ctx.residual_fn(&problem, &ctx.plan)(&x)
         .ok_or_else(|| fail("the model cannot be simulated at the identified point"))?;
-    // the bounds only set the difference step (a range's 10⁻³); a point on a bound steps inward
-    let bounds = problem.bounds().to_vec();
-    let jac = whitened_jacobian(ctx, &problem, &x, &white, &bounds, &ctx.lm)
+    // the default bounds around the point only set the difference step (a range's 10⁻³; a
+    // point on a bound steps inward)
+    let jac = whitened_jacobian(ctx, &problem, &x, &white, problem.bounds(), &ctx.lm)
         .ok_or_else(|| fail("the model cannot be simulated near the identified point"))?;
     let white_ss = white.iter().map(|v| v * v).sum();
     let fit = Fit {

@@ -222,15 +222,22 @@ impl ParamId {
     }
 
     /// Default search bounds around the values in `base` (`docs/model.md` section 5): LST
-    /// ±5 %, F0 ±20 %, α0 ±20 %; other model parameters ±20 %, `shape_a` capped at 0.12 and
-    /// `flen` at ≥ 1; effect parameters: their documented bounds.
+    /// ±5 %, F0 ±20 %, α0 ±20 %; other model parameters ±20 %, `shape_a` by at least ±20 %
+    /// of its nominal value (0.016) inside [0, 0.12], and `flen` ≥ 1; effect parameters:
+    /// their documented bounds.
     pub fn default_bounds(&self, base: &ModelParams, base_effects: &Effects) -> (f64, f64) {
         let v = self.get(base, base_effects);
         let rel = |f: f64| (v * (1.0 - f), v * (1.0 + f));
         match *self {
             ParamId::Muscle(_, MuscleField::LstM) => rel(0.05),
             ParamId::Muscle(_, _) => rel(0.20),
-            ParamId::Activation(2) => (v * 0.8, (v * 1.2).min(0.12)),
+            ParamId::Activation(2) => {
+                // A = 0 (a linear activation, where CEINMS's calibrations often leave it) would
+                // get an empty interval from ±20 % of itself: the span is at least ±20 % of the
+                // nominal shape, which leaves every A from the nominal up as it was
+                let h = 0.2 * v.max(ModelParams::nominal().activation.shape_a);
+                ((v - h).max(0.0), (v + h).min(0.12))
+            }
             ParamId::Activation(_) => rel(0.20),
             ParamId::Curve(1) => ((v * 0.8).max(1.0), v * 1.2),
             ParamId::Curve(_) => rel(0.20),

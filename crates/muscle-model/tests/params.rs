@@ -247,6 +247,31 @@ fn param_ids_parse_get_set() {
 }
 
 #[test]
+fn the_activation_shape_has_an_interval_at_zero_and_keeps_its_relative_one_above_nominal() {
+    let shape = ParamId::parse("activation.shape_a").unwrap();
+    let at = |a: f64| {
+        let mut p = ModelParams::nominal();
+        p.activation.shape_a = a;
+        shape.default_bounds(&p, &Effects::none())
+    };
+    // a linear activation (A = 0) is searched over [0, 0.016], not the empty [0, 0]
+    let (lo, hi) = at(0.0);
+    assert!(lo == 0.0 && (hi - 0.016).abs() < 1e-15, "{lo} {hi}");
+    // below the nominal 0.08 the span is ±0.016
+    let (lo, hi) = at(0.05);
+    assert!(
+        (lo - 0.034).abs() < 1e-15 && (hi - 0.066).abs() < 1e-15,
+        "{lo} {hi}"
+    );
+    // from the nominal up, ±20 % of the value, capped at 0.12
+    for a in [0.08, 0.09, 0.11] {
+        let (lo, hi) = at(a);
+        assert!((lo - 0.8 * a).abs() < 1e-15, "{a}: {lo}");
+        assert!((hi - (1.2 * a).min(0.12)).abs() < 1e-15, "{a}: {hi}");
+    }
+}
+
+#[test]
 fn non_physiological_values_are_errors_naming_the_key() {
     for (json, key) in [
         (

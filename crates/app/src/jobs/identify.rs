@@ -433,7 +433,6 @@ fn identify_report(
         &point_params,
         &point_effects,
         prep.problem.free(),
-        prep.problem.bounds(),
         &extended::settings(prep.prepared.options),
     )
     .map_err(|e| e.to_string());

@@ -92,7 +92,7 @@ pub(super) fn run(
     let (params, effects) = set
         .params_from_vector(&fit.x)
         .map_err(|e| AppError::internal(e.to_string()))?;
-    let adequacy = trials_adequacy(&session, &params, &effects, (set.free(), set.bounds()));
+    let adequacy = trials_adequacy(&session, &params, &effects, set.free());
     let (trials, predictions) = sa_trials(&session, &set, &fit.x, &adequacy)?;
     let adequacy_lines = adequacy_lines(&session, &adequacy);
     let (errors_pct, truth_lines) = session_errors(&fit.params, truth.as_ref());
@@ -668,14 +668,13 @@ fn free_names(
 }
 
 /// The structure test of every trial at the identified model (`params`, `effects`), with the
-/// free parameters (in the fit's bounds) projected out: each trial as the session prepared it
-/// (its inputs, its torque as recorded corrected by its own unloaded run, a CEINMS trial where
-/// its moment has samples).
+/// free parameters projected out: each trial as the session prepared it (its inputs, its torque
+/// as recorded corrected by its own unloaded run, a CEINMS trial where its moment has samples).
 fn trials_adequacy(
     session: &LoadedSession,
     params: &ModelParams,
     effects: &Effects,
-    (free, bounds): (&[ParamId], &[(f64, f64)]),
+    free: &[ParamId],
 ) -> Vec<Result<diagnose::Adequacy, String>> {
     session
         .trials
@@ -692,7 +691,6 @@ fn trials_adequacy(
                 &rec,
                 t.correction(),
                 free,
-                bounds,
                 &diagnose::DiagnoseSettings::default(),
             )
             .map_err(|e| e.to_string())
@@ -783,7 +781,7 @@ fn run_mcmc(
     let (params, effects) = set
         .params_from_vector(&mean)
         .map_err(|e| AppError::internal(e.to_string()))?;
-    let adequacy = trials_adequacy(&session, &params, &effects, (set.free(), set.bounds()));
+    let adequacy = trials_adequacy(&session, &params, &effects, set.free());
     let (trials, fits, predictions) = mcmc_trials(&session, &m, (&mean, &start), &adequacy)?;
     let lines = super::mcmc::summary_lines(
         &format!("session {what}, {} trials", session.trials.len()),
