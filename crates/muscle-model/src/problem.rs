@@ -57,6 +57,9 @@ impl MuscleField {
 const ACTIVATION_FIELDS: [&str; 3] = ["tau_act_s", "tau_deact_s", "shape_a"];
 const CURVE_FIELDS: [&str; 7] = ["af", "flen", "gamma", "kpe", "e0m", "e0t", "damping"];
 
+/// Smallest half-width of α0's default interval (degrees): ±20 % of the value from 5° up.
+const ALPHA_MIN_HALF_WIDTH_DEG: f64 = 1.0;
+
 /// A named scalar parameter of the model or of an effect.
 ///
 /// Names: `sol.lst_m`, `gm.fom_n`, … (muscle fields), `activation.<field>`, `curves.<field>`,
@@ -222,22 +225,30 @@ impl ParamId {
     }
 
     /// Default search bounds around the values in `base` (`docs/model.md` section 5): LST
-    /// ±5 %, F0 ±20 %, α0 ±20 %; other model parameters ±20 %, `shape_a` by at least ±20 %
-    /// of its nominal value (0.016) inside [0, 0.12], and `flen` ≥ 1; effect parameters:
-    /// their documented bounds.
+    /// ±5 %, F0 ±20 %, α0 ±20 % but at least ±1° (never below 0°); other model parameters
+    /// ±20 %, `shape_a` by at least ±20 % of its nominal value (0.016) inside [0, 0.12], and
+    /// `flen` ≥ 1; effect parameters: their documented bounds.
     pub fn default_bounds(&self, base: &ModelParams, base_effects: &Effects) -> (f64, f64) {
         let v = self.get(base, base_effects);
         let rel = |f: f64| (v * (1.0 - f), v * (1.0 + f));
         match *self {
             ParamId::Muscle(_, MuscleField::LstM) => rel(0.05),
+            // a muscle without pennation (α0 = 0, as some musculoskeletal models give it) would
+            // get an empty interval from ±20 % of itself: at least ±1°, never below 0 (from 5°
+            // up the relative interval, computed as it always was)
+            ParamId::Muscle(_, MuscleField::AlphaDeg) if 0.2 * v < ALPHA_MIN_HALF_WIDTH_DEG => {
+                let h = ALPHA_MIN_HALF_WIDTH_DEG;
+                ((v - h).max(0.0), v + h)
+            }
             ParamId::Muscle(_, _) => rel(0.20),
-            ParamId::Activation(2) => {
-                // A = 0 (a linear activation, where CEINMS's calibrations often leave it) would
-                // get an empty interval from ±20 % of itself: the span is at least ±20 % of the
-                // nominal shape, which leaves every A from the nominal up as it was
-                let h = 0.2 * v.max(ModelParams::nominal().activation.shape_a);
+            // A = 0 (a linear activation, where CEINMS's calibrations often leave it) would get
+            // an empty interval from ±20 % of itself: below the nominal shape the span is ±20 %
+            // of the nominal one; from it up, ±20 % of the value as it always was
+            ParamId::Activation(2) if v < ModelParams::nominal().activation.shape_a => {
+                let h = 0.2 * ModelParams::nominal().activation.shape_a;
                 ((v - h).max(0.0), (v + h).min(0.12))
             }
+            ParamId::Activation(2) => (v * 0.8, (v * 1.2).min(0.12)),
             ParamId::Activation(_) => rel(0.20),
             ParamId::Curve(1) => ((v * 0.8).max(1.0), v * 1.2),
             ParamId::Curve(_) => rel(0.20),

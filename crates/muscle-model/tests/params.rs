@@ -247,6 +247,27 @@ fn param_ids_parse_get_set() {
 }
 
 #[test]
+fn a_muscle_without_pennation_has_an_interval_and_others_keep_their_twenty_percent() {
+    let alpha = ParamId::parse("gl.alpha_deg").unwrap();
+    let at = |a: f64| {
+        let mut p = ModelParams::nominal();
+        p.muscles[2].alpha_deg = a;
+        alpha.default_bounds(&p, &Effects::none())
+    };
+    // α0 = 0 (no pennation) is searched over [0°, 1°], not the empty [0°, 0°]
+    assert_eq!(at(0.0), (0.0, 1.0));
+    assert_eq!(at(2.0), (1.0, 3.0));
+    // from 5° up, ±20 % of the value
+    for a in [5.0, 8.0, 25.0] {
+        let (lo, hi) = at(a);
+        assert!(
+            (lo - 0.8 * a).abs() < 1e-12 && (hi - 1.2 * a).abs() < 1e-12,
+            "{a}: {lo} {hi}"
+        );
+    }
+}
+
+#[test]
 fn the_activation_shape_has_an_interval_at_zero_and_keeps_its_relative_one_above_nominal() {
     let shape = ParamId::parse("activation.shape_a").unwrap();
     let at = |a: f64| {

@@ -62,7 +62,7 @@ pub fn recording_free() -> Vec<ParamId> {
 ///   the muscle's strength and its envelope's gain, and a lab's normalisation reference is
 ///   not the muscle's maximum: walk36's soleus envelope peaks at 0.14 in walking, and its
 ///   calibrations held F0 at an upper bound of 2.5 and of 5 times;
-/// * α0 ±40 %, the shape `A` over [0, 0.12] (linear to strongly curved) and the delay over
+/// * α0 ±40 % (at least ±2°, never below 0°), the shape `A` over [0, 0.12] (linear to strongly curved) and the delay over
 ///   0–150 ms (a lab's envelopes are filtered with a delay of their own);
 /// * when freed (`--free +curves.e0t`, `validate --extensions`): the tendon strain at F0 from
 ///   half to three times its value (0.02–0.12 from 0.04: an Achilles tendon stretches by up to
@@ -84,6 +84,8 @@ pub fn recording_bounds(
             let f = reference_fom_n[m.index()];
             (0.5 * f, 10.0 * f)
         }
+        // at least ±2° (±40 % of 5°), so that a muscle without pennation keeps an interval
+        ParamId::Muscle(_, MuscleField::AlphaDeg) if 0.4 * v < 2.0 => ((v - 2.0).max(0.0), v + 2.0),
         ParamId::Muscle(_, MuscleField::AlphaDeg) => (0.6 * v, 1.4 * v),
         ParamId::Activation(2) => (0.0, 0.12),
         ParamId::Effect(muscle_model::EffectKind::ElectromechanicalDelay, _) => (0.0, 150.0),
@@ -109,4 +111,23 @@ pub(super) fn maps_say_envelopes(manifest: &SessionManifest) -> AppResult<bool> 
             .emg_is_envelope;
     }
     Ok(all)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_muscle_without_pennation_keeps_an_interval_in_a_recording() {
+        let alpha = ParamId::parse("gl.alpha_deg").unwrap();
+        let at = |a: f64| {
+            let mut p = ModelParams::nominal();
+            p.muscles[2].alpha_deg = a;
+            recording_bounds(alpha, &p, &Effects::none(), [3549.0, 1558.0, 683.0])
+        };
+        assert_eq!(at(0.0), (0.0, 2.0));
+        assert_eq!(at(3.0), (1.0, 5.0));
+        // from 5° up, ±40 % of the value
+        assert_eq!(at(8.0), (0.6 * 8.0, 1.4 * 8.0));
+    }
 }
