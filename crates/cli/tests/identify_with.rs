@@ -58,6 +58,7 @@ fn assert_adequacy_fields(a: &Value) {
         "vocabulary_lm",
         "vocabulary_df",
         "vocabulary_variable",
+        "vocabulary_by_direction",
         "warning",
     ] {
         assert!(a.get(k).is_some(), "adequacy.{k} missing in {a}");

@@ -54,6 +54,8 @@ pub struct Adequacy {
     pub vocabulary_df: usize,
     /// The variable of `vocabulary_lm` (`null` when no variable could be tested).
     pub vocabulary_variable: Option<crate::StateVariable>,
+    /// Whether `vocabulary_lm`'s basis was the variable's split by the direction of motion.
+    pub vocabulary_by_direction: bool,
 }
 
 impl Adequacy {
@@ -182,5 +184,6 @@ fn test_ctx(
         vocabulary_lm: t.vocabulary_lm,
         vocabulary_df: t.vocabulary_df,
         vocabulary_variable: t.vocabulary_variable,
+        vocabulary_by_direction: t.vocabulary_by_direction,
     })
 }

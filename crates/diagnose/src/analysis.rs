@@ -5,7 +5,10 @@
 //! sweep direction × 5° angle bin, and one per half of every hold), (b) step functions of
 //! time (blocks of [`TIME_BLOCK_S`]) and (c) the vocabulary: each state variable's flexible
 //! basis on its own (five hats over the angle, velocity, acceleration or activation, four over
-//! the TA's envelope, `sign(q̇)`, hats about every 2 s in time); `LM = rᵀP⊥B(BᵀP⊥B)⁻¹BᵀP⊥r/s²`
+//! the TA's envelope, `sign(q̇)`, hats about every 2 s in time), and the angle's, acceleration's
+//! and activation's hats times `sign(q̇)` (a function of one of them that differs between the
+//! directions of motion, which is odd in the direction and missed by the hats alone);
+//! `LM = rᵀP⊥B(BᵀP⊥B)⁻¹BᵀP⊥r/s²`
 //! is χ²(df) when the model and the noise model are right (df = rank of `P⊥B`). The motion
 //! and time bases have many columns and see any shape at any place; the vocabulary's have a
 //! few and see a smooth function of one variable with a fraction of their noise, which the
@@ -20,7 +23,7 @@
 //! `χ²(df)`, and its p-value is `P(F(df, ν) > LM/df)` ([`f_survival`]; the χ² tail when
 //! `ν = ∞`). The vocabulary's bases are slow functions of the record too and take the same
 //! `F(df, ν)` reference; `p_vocabulary` is the smallest of their p-values times the number of
-//! variables tested. The structure p-value is the Bonferroni minimum
+//! bases tested (up to ten). The structure p-value is the Bonferroni minimum
 //! `min(1, 3·min(p_motion, p_time, p_vocabulary))`;
 //! the structure evidence is `−log10 p`, and structure is *unexplained* when it exceeds the
 //! threshold (3 by default: a false-alarm rate of 10⁻³ per trial on a correct model).
@@ -123,13 +126,17 @@ pub struct ResidualAnalysis {
     /// Effective degrees of freedom of the noise model's low-frequency level, the `ν` of the
     /// time-block test's `F(df, ν)` reference (`null` in JSON when the level is known exactly).
     pub noise_level_dof: f64,
-    /// The vocabulary test on the final residual: `LM` against the flexible basis of the state
-    /// variable with the smallest p-value.
+    /// The vocabulary test on the final residual: `LM` against the basis with the smallest
+    /// p-value (a state variable's flexible basis, or the angle's, acceleration's or
+    /// activation's split by the direction of motion).
     pub vocabulary_structure_lm: f64,
     /// Degrees of freedom of the vocabulary test's `LM`.
     pub vocabulary_structure_df: usize,
     /// The variable whose basis gives it (`null` when no variable could be tested).
     pub vocabulary_structure_variable: Option<crate::StateVariable>,
+    /// Whether that basis was the variable's split by the direction of motion (the residual
+    /// is a function of the variable that differs between plantarflexion and dorsiflexion).
+    pub vocabulary_structure_by_direction: bool,
     /// Bonferroni p-value of the three structure tests on the final residual.
     pub structure_p_value: f64,
     /// `−log10` of `structure_p_value` (structure evidence; > threshold = unexplained).
@@ -417,43 +424,68 @@ pub(crate) struct StructureTest {
     pub time_df: usize,
     /// `ν` of the time test's `F(df, ν)` reference.
     pub noise_level_dof: f64,
-    /// The vocabulary test: `LM` against the flexible basis of the state variable with the
-    /// smallest p-value, its degrees of freedom and variable (`None` when none could be tested).
+    /// The vocabulary test: `LM` against the basis with the smallest p-value, its degrees of
+    /// freedom and variable (`None` when none could be tested), and whether that basis was the
+    /// variable's split by the direction of motion.
     pub vocabulary_lm: f64,
     pub vocabulary_df: usize,
     pub vocabulary_variable: Option<crate::StateVariable>,
+    pub vocabulary_by_direction: bool,
     /// Bonferroni p-value of the vocabulary test over the variables tested.
     pub vocabulary_p: f64,
     /// Bonferroni p-value `min(1, 3·min(p_motion, p_time, p_vocabulary))`.
     pub p_value: f64,
 }
 
-/// The vocabulary test (module docs): `LM` against each state variable's flexible basis, its
+/// The outcome of the vocabulary test.
+struct VocabularyTest {
+    lm: f64,
+    df: usize,
+    variable: Option<crate::StateVariable>,
+    by_direction: bool,
+    /// Bonferroni p-value over the bases tested.
+    p: f64,
+}
+
+/// The vocabulary test (module docs): `LM` against each state variable's flexible basis and
+/// against the angle's, acceleration's and activation's split by the direction of motion, its
 /// p-value from `F(df, ν)` as the time test's (the bases are slow functions of the record),
-/// and the Bonferroni minimum over the variables tested, with the test that gives it.
-fn vocabulary_test(
-    ctx: &Context,
-    proj: &Projector,
-) -> (f64, usize, Option<crate::StateVariable>, f64) {
+/// and the Bonferroni minimum over the bases tested, with the test that gives it.
+fn vocabulary_test(ctx: &Context, proj: &Projector) -> VocabularyTest {
     let nu = ctx.noise.level_dof;
     let mut tested = 0usize;
-    let mut best = (0.0, 0, None, 1.0);
-    for v in crate::StateVariable::ALL {
-        let Some(b) = crate::flexible::basis(ctx, v) else {
-            continue;
-        };
-        let (lm, df) = proj.lm(ctx, &b.cols);
+    let mut best = VocabularyTest {
+        lm: 0.0,
+        df: 0,
+        variable: None,
+        by_direction: false,
+        p: 1.0,
+    };
+    let plain = crate::StateVariable::ALL
+        .into_iter()
+        .filter_map(|v| crate::flexible::basis(ctx, v).map(|b| (v, false, b.cols)));
+    let split = crate::flexible::SPLIT_BY_DIRECTION
+        .into_iter()
+        .filter_map(|v| crate::flexible::by_direction(ctx, v).map(|c| (v, true, c)));
+    for (v, by_direction, cols) in plain.chain(split) {
+        let (lm, df) = proj.lm(ctx, &cols);
         if df == 0 {
             continue;
         }
         tested += 1;
         let p = f_survival(lm / df as f64, df, nu);
-        if p < best.3 {
-            best = (lm, df, Some(v), p);
+        if p < best.p {
+            best = VocabularyTest {
+                lm,
+                df,
+                variable: Some(v),
+                by_direction,
+                p,
+            };
         }
     }
-    let p = (tested.max(1) as f64 * best.3).min(1.0);
-    (best.0, best.1, best.2, p)
+    best.p = (tested.max(1) as f64 * best.p).min(1.0);
+    best
 }
 
 /// The structure tests of `fit`'s residual (module docs).
@@ -474,19 +506,19 @@ fn structure_test_with(
     let nu = ctx.noise.level_dof;
     let p_motion = chi2_survival(motion_lm, motion_df);
     let p_time = f_survival(time_lm / time_df.max(1) as f64, time_df, nu);
-    let (vocabulary_lm, vocabulary_df, vocabulary_variable, vocabulary_p) =
-        vocabulary_test(ctx, &proj);
+    let voc = vocabulary_test(ctx, &proj);
     StructureTest {
         motion_lm,
         motion_df,
         time_lm,
         time_df,
         noise_level_dof: nu,
-        vocabulary_lm,
-        vocabulary_df,
-        vocabulary_variable,
-        vocabulary_p,
-        p_value: (3.0 * p_motion.min(p_time).min(vocabulary_p)).min(1.0),
+        vocabulary_lm: voc.lm,
+        vocabulary_df: voc.df,
+        vocabulary_variable: voc.variable,
+        vocabulary_by_direction: voc.by_direction,
+        vocabulary_p: voc.p,
+        p_value: (3.0 * p_motion.min(p_time).min(voc.p)).min(1.0),
     }
 }
 
@@ -608,6 +640,7 @@ pub(crate) fn analyse(
         vocabulary_structure_lm: fin_test.vocabulary_lm,
         vocabulary_structure_df: fin_test.vocabulary_df,
         vocabulary_structure_variable: fin_test.vocabulary_variable,
+        vocabulary_structure_by_direction: fin_test.vocabulary_by_direction,
         structure_p_value: p,
         // −log10 of p = 1 is −0
         structure_evidence: -p.max(1e-300).log10() + 0.0,

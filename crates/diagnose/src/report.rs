@@ -466,7 +466,15 @@ impl Diagnosis {
             ra.vocabulary_structure_lm,
             ra.vocabulary_structure_df,
             ra.vocabulary_structure_variable
-                .map_or(String::new(), |v| format!(" in {}", v.name()))
+                .map_or(String::new(), |v| format!(
+                    " in {}{}",
+                    v.name(),
+                    if ra.vocabulary_structure_by_direction {
+                        " by direction"
+                    } else {
+                        ""
+                    }
+                ))
         ));
         l.extend(crate::crosstalk_summary_line(
             &self.emg_crosstalk,

@@ -414,14 +414,11 @@ fn a_smooth_step_in_the_angle_is_not_told_as_gravity() {
     );
 }
 
-/// A periodic function of the triceps activation (generated trial 61 813 641) at twice its
-/// detection size: the motion steps (48 columns) and the time blocks (9) spread it thin and
-/// together stay above 10⁻³; the activation's own flexible basis (four columns once centred)
-/// sees it, so the trial is not called adequate.
-#[test]
-fn a_function_of_the_activation_at_twice_its_detection_size_is_flagged_by_its_own_basis() {
+/// Generated trial `seed` with its disturbance rescaled to twice its detection size, its
+/// diagnosis, the p-value of the wide bases (the smaller of the motion steps' and the time
+/// blocks', Bonferroni-corrected over the two) and a context line for failures.
+fn at_twice_detection(seed: u64) -> (diagnose::Diagnosis, f64, String) {
     use diagnose::analysis::{chi2_survival, f_survival};
-    let seed = 61_813_641;
     let g = diagnose::scenarios::generated_trial(seed)
         .unwrap_or_else(|e| panic!("seed {seed}: synthesis failed: {e}"));
     let settings = DiagnoseSettings::default();
@@ -458,15 +455,51 @@ fn a_function_of_the_activation_at_twice_its_detection_size_is_flagged_by_its_ow
         ra.time_structure_df,
         ra.noise_level_dof,
     );
+    (d, 2.0 * p_motion.min(p_time), ctx)
+}
+
+/// A periodic function of the triceps activation (generated trial 61 813 641) at twice its
+/// detection size: the motion steps (48 columns) and the time blocks (9) spread it thin and
+/// together stay above 10⁻³; the activation's own flexible basis (four columns once centred)
+/// sees it, so the trial is not called adequate.
+#[test]
+fn a_function_of_the_activation_at_twice_its_detection_size_is_flagged_by_its_own_basis() {
+    let (d, p_wide, ctx) = at_twice_detection(61_813_641);
     assert!(
-        2.0 * p_motion.min(p_time) > 1e-3,
-        "the wide bases alone find it (p_motion {p_motion:.1e}, p_time {p_time:.1e}); {ctx}"
+        p_wide > 1e-3,
+        "the wide bases alone find it (p {p_wide:.1e}); {ctx}"
     );
+    let ra = &d.residual_analysis;
     assert_eq!(
         ra.vocabulary_structure_variable,
         Some(StateVariable::Activation),
         "{ctx}"
     );
+    assert!(!ra.vocabulary_structure_by_direction, "{ctx}");
+    assert!(ra.structure_p_value < 1e-3, "{ctx}");
+    assert_ne!(d.verdict, Verdict::Adequate, "{ctx}");
+    assert!(d.causes.is_empty(), "{ctx}");
+}
+
+/// A moment proportional to the acceleration with opposite signs in the two directions of
+/// motion (generated trial 60 607 068, a direction × acceleration product) at twice its
+/// detection size: it is odd in the direction, so the acceleration's hats (even in it) and the
+/// direction's single column miss it, and the wide bases spread it thin; the acceleration's
+/// hats split by the direction see it, and the trial is not called adequate.
+#[test]
+fn a_product_of_the_direction_and_the_acceleration_is_flagged_by_the_split_basis() {
+    let (d, p_wide, ctx) = at_twice_detection(60_607_068);
+    assert!(
+        p_wide > 1e-3,
+        "the wide bases alone find it (p {p_wide:.1e}); {ctx}"
+    );
+    let ra = &d.residual_analysis;
+    assert_eq!(
+        ra.vocabulary_structure_variable,
+        Some(StateVariable::Acceleration),
+        "{ctx}"
+    );
+    assert!(ra.vocabulary_structure_by_direction, "{ctx}");
     assert!(ra.structure_p_value < 1e-3, "{ctx}");
     assert_ne!(d.verdict, Verdict::Adequate, "{ctx}");
     assert!(d.causes.is_empty(), "{ctx}");

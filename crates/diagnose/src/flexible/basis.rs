@@ -147,6 +147,39 @@ pub(crate) fn basis(ctx: &Context, v: StateVariable) -> Option<FlexBasis> {
     ))
 }
 
+/// The variables whose basis the vocabulary test also splits by the direction of motion: a
+/// moment that depends on the angle, the acceleration or the activation differently while the
+/// ankle plantarflexes and while it dorsiflexes (a product of the direction with one of them)
+/// is odd in the direction, so each variable's own hats, which are even in it, miss it.
+/// The velocity's hats already tell the two directions apart, and time is not a state of the
+/// motion.
+pub(crate) const SPLIT_BY_DIRECTION: [StateVariable; 3] = [
+    StateVariable::Angle,
+    StateVariable::Acceleration,
+    StateVariable::Activation,
+];
+
+/// The columns of `v`'s basis split by the direction of motion: each centred hat times
+/// `sign(q̇)` (0 while the joint is still, as the direction's own term), `None` when the
+/// recording has no such variable or no motion. The direction's own column is not among
+/// them (the hats, centred, sum to zero), so the test sees how the function of `v` differs
+/// between the directions beyond a constant shift, which the direction's term tests.
+pub(crate) fn by_direction(ctx: &Context, v: StateVariable) -> Option<Vec<Vec<f64>>> {
+    let b = basis(ctx, v)?;
+    let q = series(ctx, StateVariable::Direction)?;
+    let (lo, hi) = observed_range(ctx, &q)?;
+    let sign = Functions::Sign {
+        still: STILL_FRACTION * lo.abs().max(hi.abs()),
+    };
+    let d: Vec<f64> = q.iter().map(|x| sign.eval(*x)[0]).collect();
+    Some(
+        b.cols
+            .iter()
+            .map(|c| c.iter().zip(&d).map(|(a, s)| a * s).collect())
+            .collect(),
+    )
+}
+
 /// The basis of `v` (series `s`, largest magnitude `amax`) made of `funcs`, its shape reported
 /// at `points` (for direction the two signs).
 pub(super) fn from_functions(

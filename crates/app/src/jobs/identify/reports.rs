@@ -215,6 +215,8 @@ pub enum AdequacyReport {
         vocabulary_df: usize,
         /// Its variable (`null` when no variable could be tested).
         vocabulary_variable: Option<diagnose::StateVariable>,
+        /// Whether its basis was the variable's split by the direction of motion.
+        vocabulary_by_direction: bool,
         /// What the structure suggests (`null` when none is left).
         warning: Option<String>,
     },
@@ -252,6 +254,7 @@ impl AdequacyReport {
                 vocabulary_lm: a.vocabulary_lm,
                 vocabulary_df: a.vocabulary_df,
                 vocabulary_variable: a.vocabulary_variable,
+                vocabulary_by_direction: a.vocabulary_by_direction,
                 warning: a.warning(),
             },
             Err(e) => Self::Failed {
