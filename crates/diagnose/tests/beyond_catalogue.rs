@@ -458,27 +458,31 @@ fn at_twice_detection(seed: u64) -> (diagnose::Diagnosis, f64, String) {
     (d, 2.0 * p_motion.min(p_time), ctx)
 }
 
+/// Generated trial `seed` at twice its detection size: the wide bases alone stay above 10⁻³,
+/// the vocabulary test's smallest p-value is on `variable`'s basis (split by the direction of
+/// motion or not, as `by_direction` says), the trial is not called adequate, and no cause is
+/// named.
+fn flagged_by_the_vocabulary_alone(seed: u64, variable: StateVariable, by_direction: bool) {
+    let (d, p_wide, ctx) = at_twice_detection(seed);
+    assert!(
+        p_wide > 1e-3,
+        "the wide bases alone find it (p {p_wide:.1e}); {ctx}"
+    );
+    let ra = &d.residual_analysis;
+    assert_eq!(ra.vocabulary_structure_variable, Some(variable), "{ctx}");
+    assert_eq!(ra.vocabulary_structure_by_direction, by_direction, "{ctx}");
+    assert!(ra.structure_p_value < 1e-3, "{ctx}");
+    assert_ne!(d.verdict, Verdict::Adequate, "{ctx}");
+    assert!(d.causes.is_empty(), "{ctx}");
+}
+
 /// A periodic function of the triceps activation (generated trial 61 813 641) at twice its
 /// detection size: the motion steps (48 columns) and the time blocks (9) spread it thin and
 /// together stay above 10⁻³; the activation's own flexible basis (four columns once centred)
 /// sees it, so the trial is not called adequate.
 #[test]
 fn a_function_of_the_activation_at_twice_its_detection_size_is_flagged_by_its_own_basis() {
-    let (d, p_wide, ctx) = at_twice_detection(61_813_641);
-    assert!(
-        p_wide > 1e-3,
-        "the wide bases alone find it (p {p_wide:.1e}); {ctx}"
-    );
-    let ra = &d.residual_analysis;
-    assert_eq!(
-        ra.vocabulary_structure_variable,
-        Some(StateVariable::Activation),
-        "{ctx}"
-    );
-    assert!(!ra.vocabulary_structure_by_direction, "{ctx}");
-    assert!(ra.structure_p_value < 1e-3, "{ctx}");
-    assert_ne!(d.verdict, Verdict::Adequate, "{ctx}");
-    assert!(d.causes.is_empty(), "{ctx}");
+    flagged_by_the_vocabulary_alone(61_813_641, StateVariable::Activation, false);
 }
 
 /// A moment proportional to the acceleration with opposite signs in the two directions of
@@ -488,21 +492,7 @@ fn a_function_of_the_activation_at_twice_its_detection_size_is_flagged_by_its_ow
 /// hats split by the direction see it, and the trial is not called adequate.
 #[test]
 fn a_product_of_the_direction_and_the_acceleration_is_flagged_by_the_split_basis() {
-    let (d, p_wide, ctx) = at_twice_detection(60_607_068);
-    assert!(
-        p_wide > 1e-3,
-        "the wide bases alone find it (p {p_wide:.1e}); {ctx}"
-    );
-    let ra = &d.residual_analysis;
-    assert_eq!(
-        ra.vocabulary_structure_variable,
-        Some(StateVariable::Acceleration),
-        "{ctx}"
-    );
-    assert!(ra.vocabulary_structure_by_direction, "{ctx}");
-    assert!(ra.structure_p_value < 1e-3, "{ctx}");
-    assert_ne!(d.verdict, Verdict::Adequate, "{ctx}");
-    assert!(d.causes.is_empty(), "{ctx}");
+    flagged_by_the_vocabulary_alone(60_607_068, StateVariable::Acceleration, true);
 }
 
 /// A step of −3.04 N·m at one angle (generated trial 20 737 421). Five hats over the angle's
