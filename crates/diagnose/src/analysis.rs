@@ -461,12 +461,21 @@ fn vocabulary_test(ctx: &Context, proj: &Projector) -> VocabularyTest {
         by_direction: false,
         p: 1.0,
     };
-    let plain = crate::StateVariable::ALL
+    let plain: Vec<_> = crate::StateVariable::ALL
         .into_iter()
-        .filter_map(|v| crate::flexible::basis(ctx, v).map(|b| (v, false, b.cols)));
-    let split = crate::flexible::SPLIT_BY_DIRECTION
-        .into_iter()
-        .filter_map(|v| crate::flexible::by_direction(ctx, v).map(|c| (v, true, c)));
+        .filter_map(|v| crate::flexible::basis(ctx, v))
+        .collect();
+    // the split bases come from the plain ones, after them (a tie keeps the plain basis)
+    let d = crate::flexible::direction_signs(ctx);
+    let split = plain
+        .iter()
+        .filter(|b| crate::flexible::SPLIT_BY_DIRECTION.contains(&b.variable))
+        .filter_map(|b| {
+            let cols = crate::flexible::split_by_direction(b, d.as_deref()?);
+            Some((b.variable, true, cols))
+        });
+    let split: Vec<_> = split.collect();
+    let plain = plain.into_iter().map(|b| (b.variable, false, b.cols));
     for (v, by_direction, cols) in plain.chain(split) {
         let (lm, df) = proj.lm(ctx, &cols);
         if df == 0 {

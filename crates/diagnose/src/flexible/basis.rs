@@ -117,10 +117,7 @@ pub(crate) fn basis(ctx: &Context, v: StateVariable) -> Option<FlexBasis> {
     let s = series(ctx, v)?;
     let (lo, hi) = observed_range(ctx, &s)?;
     let (funcs, points) = match v {
-        StateVariable::Direction => {
-            let still = STILL_FRACTION * lo.abs().max(hi.abs());
-            (Functions::Sign { still }, vec![-1.0, 1.0])
-        }
+        StateVariable::Direction => (sign_of_motion(lo, hi), vec![-1.0, 1.0]),
         StateVariable::Time => {
             // a knot every 2 s or so: local enough for a step, smooth over a 0.5 s block
             let k = (((hi - lo) / TIME_KNOT_S).round() as usize + 1).clamp(3, 12);
@@ -159,25 +156,31 @@ pub(crate) const SPLIT_BY_DIRECTION: [StateVariable; 3] = [
     StateVariable::Activation,
 ];
 
-/// The columns of `v`'s basis split by the direction of motion: each centred hat times
-/// `sign(q̇)` (0 while the joint is still, as the direction's own term), `None` when the
-/// recording has no such variable or no motion. The direction's own column is not among
-/// them (the hats, centred, sum to zero), so the test sees how the function of `v` differs
-/// between the directions beyond a constant shift, which the direction's term tests.
-pub(crate) fn by_direction(ctx: &Context, v: StateVariable) -> Option<Vec<Vec<f64>>> {
-    let b = basis(ctx, v)?;
+/// `sign(q̇)` outside the still band of a velocity observed over `[lo, hi]`, 0 inside it.
+fn sign_of_motion(lo: f64, hi: f64) -> Functions {
+    Functions::Sign {
+        still: STILL_FRACTION * lo.abs().max(hi.abs()),
+    }
+}
+
+/// The direction of motion at every sample (`sign(q̇)`, 0 while the joint is still, as the
+/// direction's own term), `None` when the recording has no motion.
+pub(crate) fn direction_signs(ctx: &Context) -> Option<Vec<f64>> {
     let q = series(ctx, StateVariable::Direction)?;
     let (lo, hi) = observed_range(ctx, &q)?;
-    let sign = Functions::Sign {
-        still: STILL_FRACTION * lo.abs().max(hi.abs()),
-    };
-    let d: Vec<f64> = q.iter().map(|x| sign.eval(*x)[0]).collect();
-    Some(
-        b.cols
-            .iter()
-            .map(|c| c.iter().zip(&d).map(|(a, s)| a * s).collect())
-            .collect(),
-    )
+    let sign = sign_of_motion(lo, hi);
+    Some(q.iter().map(|x| sign.eval(*x)[0]).collect())
+}
+
+/// The columns of a basis split by the direction of motion `d` ([`direction_signs`]): each
+/// centred column times `d`. The direction's own column is not among them (the hats, centred,
+/// sum to zero), so a test on them sees how the function differs between the directions
+/// beyond a constant shift, which the direction's term tests.
+pub(crate) fn split_by_direction(b: &FlexBasis, d: &[f64]) -> Vec<Vec<f64>> {
+    b.cols
+        .iter()
+        .map(|c| c.iter().zip(d).map(|(a, s)| a * s).collect())
+        .collect()
 }
 
 /// The basis of `v` (series `s`, largest magnitude `amax`) made of `funcs`, its shape reported

@@ -36,7 +36,7 @@ mod report;
 mod review;
 mod variable;
 
-pub(crate) use basis::{basis, by_direction, SPLIT_BY_DIRECTION};
+pub(crate) use basis::{basis, direction_signs, split_by_direction, SPLIT_BY_DIRECTION};
 pub(crate) use characterise::{characterise, Characterisation};
 pub(crate) use fit::without_effects;
 pub(crate) use forms::ramp_column;
