@@ -198,13 +198,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             if std::env::var_os("SURAE_SHOW_RANKING").is_some() {
                 for g in d.unexplained.iter().flat_map(|u| &u.ranking) {
                     println!(
-                        "    {:<12} held-out RMS {:.3} N·m (−{:>5.1} %)  deviance gain {:>8.1}  ΔBIC {:>8.1}  {} coefficients",
+                        "    {:<12} held-out RMS {:.3} N·m (−{:>5.1} %)  deviance gain {:>8.1}  ΔBIC {:>8.1}  {} coefficients{}",
                         g.variable.name(),
                         g.heldout_rms_nm,
                         g.heldout_rms_reduction_pct,
                         g.heldout_deviance_gain,
                         g.delta_bic,
-                        g.parameters
+                        g.parameters,
+                        if g.by_direction { ", by direction" } else { "" }
                     );
                 }
             }

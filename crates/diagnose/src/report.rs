@@ -535,7 +535,7 @@ impl Diagnosis {
 }
 
 /// A change with its sign, a fall with the minus sign (`−14.8 %`, `+2.2 %`).
-fn signed_change(v: f64, unit: &str) -> String {
+pub(crate) fn signed_change(v: f64, unit: &str) -> String {
     if v < 0.0 {
         format!("−{:.1}{unit}", -v)
     } else {

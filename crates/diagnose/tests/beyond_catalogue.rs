@@ -461,8 +461,12 @@ fn at_twice_detection(seed: u64) -> (diagnose::Diagnosis, f64, String) {
 /// Generated trial `seed` at twice its detection size: the wide bases alone stay above 10⁻³,
 /// the vocabulary test's smallest p-value is on `variable`'s basis (split by the direction of
 /// motion or not, as `by_direction` says), the trial is not called adequate, and no cause is
-/// named.
-fn flagged_by_the_vocabulary_alone(seed: u64, variable: StateVariable, by_direction: bool) {
+/// named. Returns the diagnosis and the trial's description.
+fn flagged_by_the_vocabulary_alone(
+    seed: u64,
+    variable: StateVariable,
+    by_direction: bool,
+) -> (diagnose::Diagnosis, String) {
     let (d, p_wide, ctx) = at_twice_detection(seed);
     assert!(
         p_wide > 1e-3,
@@ -474,6 +478,7 @@ fn flagged_by_the_vocabulary_alone(seed: u64, variable: StateVariable, by_direct
     assert!(ra.structure_p_value < 1e-3, "{ctx}");
     assert_ne!(d.verdict, Verdict::Adequate, "{ctx}");
     assert!(d.causes.is_empty(), "{ctx}");
+    (d, ctx)
 }
 
 /// A periodic function of the triceps activation (generated trial 61 813 641) at twice its
@@ -489,10 +494,34 @@ fn a_function_of_the_activation_at_twice_its_detection_size_is_flagged_by_its_ow
 /// motion (generated trial 60 607 068, a direction × acceleration product) at twice its
 /// detection size: it is odd in the direction, so the acceleration's hats (even in it) and the
 /// direction's single column miss it, and the wide bases spread it thin; the acceleration's
-/// hats split by the direction see it, and the trial is not called adequate.
+/// hats split by the direction see it, and the trial is not called adequate. The structure is
+/// told first by the acceleration's term fitted separately in each direction (the direction's
+/// own term led before that form existed), with one shape per direction, and the extension
+/// predicts the held-out samples better.
 #[test]
 fn a_product_of_the_direction_and_the_acceleration_is_flagged_by_the_split_basis() {
-    flagged_by_the_vocabulary_alone(60_607_068, StateVariable::Acceleration, true);
+    let (d, ctx) = flagged_by_the_vocabulary_alone(60_607_068, StateVariable::Acceleration, true);
+    let u = d.unexplained.as_ref().expect("unexplained");
+    assert_eq!(u.depends_on[0], StateVariable::Acceleration, "{ctx}");
+    assert!(u.depends_on.contains(&StateVariable::Direction), "{ctx}");
+    assert!(u.ranking[0].by_direction, "{ctx}");
+    assert_eq!(
+        u.told_variables()[0],
+        (StateVariable::Acceleration, true),
+        "{ctx}"
+    );
+    let e = u.extension.as_ref().expect("an extension");
+    let shapes: Vec<(StateVariable, Option<f64>)> =
+        e.terms.iter().map(|t| (t.variable, t.direction)).collect();
+    assert_eq!(
+        shapes[..2],
+        [
+            (StateVariable::Acceleration, Some(-1.0)),
+            (StateVariable::Acceleration, Some(1.0))
+        ],
+        "{ctx}"
+    );
+    assert!(e.heldout_deviance_gain > 0.0, "{ctx}");
 }
 
 /// A step of −3.04 N·m at one angle (generated trial 20 737 421). Five hats over the angle's

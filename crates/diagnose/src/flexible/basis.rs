@@ -24,6 +24,21 @@ pub(crate) struct FlexBasis {
     /// Values found by searching the data rather than fitted as coefficients (a step's
     /// change point, a change of direction's width), each counted as a parameter in the BIC.
     pub searched: Vec<SearchedValue>,
+    /// The hats fitted separately in the two directions of motion ([`by_direction`]): the
+    /// points are the knots twice, first while `q̇ < 0`, then while `q̇ > 0`.
+    pub by_direction: bool,
+}
+
+impl FlexBasis {
+    /// The variables the term is a function of: its own, and the direction when it is
+    /// fitted separately in each direction of motion.
+    pub fn variables(&self) -> Vec<StateVariable> {
+        if self.by_direction {
+            vec![self.variable, StateVariable::Direction]
+        } else {
+            vec![self.variable]
+        }
+    }
 }
 
 /// Fraction of the largest speed below which the joint counts as still for `direction`.
@@ -183,6 +198,42 @@ pub(crate) fn split_by_direction(b: &FlexBasis, d: &[f64]) -> Vec<Vec<f64>> {
         .collect()
 }
 
+/// The basis `b` of a variable in [`SPLIT_BY_DIRECTION`] fitted separately in the two
+/// directions of motion: its centred columns `h_j` and the same times the direction `d`
+/// ([`split_by_direction`]), so that the term is `Σ_j (β_j + d γ_j) h_j(v)`, a function of
+/// the variable while plantarflexing and another while dorsiflexing (while the joint is still,
+/// `d = 0`, their mean). A product of the direction with the variable lives here and in
+/// neither variable's own term. `None` for another variable, a form already searched (a
+/// level step) or a recording without motion.
+pub(crate) fn by_direction(ctx: &Context, b: &FlexBasis) -> Option<FlexBasis> {
+    if !SPLIT_BY_DIRECTION.contains(&b.variable) || b.by_direction || !b.searched.is_empty() {
+        return None;
+    }
+    let d = direction_signs(ctx)?;
+    let mut cols = b.cols.clone();
+    cols.extend(split_by_direction(b, &d));
+    let mut points = b.points.clone();
+    points.extend(b.points.iter().copied());
+    let rows = [-1.0, 1.0]
+        .iter()
+        .flat_map(|s| {
+            b.rows.iter().map(move |r| {
+                let mut row = r.clone();
+                row.extend(r.iter().map(|x| s * x));
+                row
+            })
+        })
+        .collect();
+    Some(FlexBasis {
+        variable: b.variable,
+        points,
+        rows,
+        cols,
+        searched: Vec::new(),
+        by_direction: true,
+    })
+}
+
 /// The basis of `v` (series `s`, largest magnitude `amax`) made of `funcs`, its shape reported
 /// at `points` (for direction the two signs).
 pub(super) fn from_functions(
@@ -241,12 +292,60 @@ pub(super) fn from_functions(
         rows,
         cols,
         searched: Vec::new(),
+        by_direction: false,
     }
 }
 
 #[cfg(test)]
 mod tests {
-    use super::Functions;
+    use super::{basis, by_direction, direction_signs, Functions};
+    use crate::flexible::{seed_context, StateVariable};
+
+    #[test]
+    fn a_basis_by_direction_adds_its_hats_times_the_direction_and_reports_both_shapes() {
+        let ctx = seed_context();
+        let d = direction_signs(&ctx).unwrap();
+        assert!(d.contains(&1.0) && d.contains(&-1.0) && d.contains(&0.0));
+        let b = basis(&ctx, StateVariable::Acceleration).unwrap();
+        let s = by_direction(&ctx, &b).unwrap();
+        let k = b.cols.len();
+        assert!(s.by_direction && s.variable == StateVariable::Acceleration);
+        assert_eq!(
+            s.variables(),
+            [StateVariable::Acceleration, StateVariable::Direction]
+        );
+        assert_eq!(s.cols.len(), 2 * k);
+        for j in 0..k {
+            assert_eq!(s.cols[j], b.cols[j]);
+            for i in 0..d.len() {
+                assert_eq!(s.cols[k + j][i], b.cols[j][i] * d[i]);
+            }
+        }
+        // the knots twice: the row while plantarflexing, then while dorsiflexing
+        let m = b.points.len();
+        assert_eq!(s.points.len(), 2 * m);
+        for p in 0..m {
+            assert_eq!(s.points[p], b.points[p]);
+            assert_eq!(s.points[m + p], b.points[p]);
+            for j in 0..k {
+                assert_eq!(s.rows[p][j], b.rows[p][j]);
+                assert_eq!(s.rows[p][k + j], -b.rows[p][j]);
+                assert_eq!(s.rows[m + p][k + j], b.rows[p][j]);
+            }
+        }
+        // neither the velocity, nor time, nor a basis already split
+        for v in [
+            StateVariable::Velocity,
+            StateVariable::Time,
+            StateVariable::Direction,
+        ] {
+            assert!(
+                by_direction(&ctx, &basis(&ctx, v).unwrap()).is_none(),
+                "{v:?}"
+            );
+        }
+        assert!(by_direction(&ctx, &s).is_none());
+    }
 
     #[test]
     fn hats_interpolate_their_knot_values() {

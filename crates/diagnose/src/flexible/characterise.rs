@@ -28,7 +28,7 @@ use rayon::prelude::*;
 use crate::fit::{Context, Fit};
 use crate::DiagnoseError;
 
-use super::basis::{basis, FlexBasis};
+use super::basis::{basis, by_direction, FlexBasis};
 use super::fit::{combine, cross_validate, fit_flexible, terms_of, time_folds, FlexFit, Folds};
 use super::forms::with_searched_forms;
 use super::report::{FlexibleExtension, Replacement, Unexplained, VariableGain};
@@ -57,10 +57,18 @@ pub(crate) fn characterise(
 ) -> Result<Characterisation, DiagnoseError> {
     let mut evaluations = 0;
     let resid: Vec<f64> = ctx.y.iter().zip(&fin.pred).map(|(a, b)| a - b).collect();
+    // each variable's forms, and the angle's, acceleration's and activation's hats fitted
+    // separately in the two directions of motion (a product with the direction, which the
+    // vocabulary test flags on the same split, is told by the variable it multiplies)
     let bases: Vec<FlexBasis> = StateVariable::ALL
         .iter()
         .filter_map(|v| basis(ctx, *v))
-        .flat_map(|b| with_searched_forms(ctx, b, &resid, Some(&fin.jac)))
+        .flat_map(|b| {
+            let split = by_direction(ctx, &b);
+            with_searched_forms(ctx, b, &resid, Some(&fin.jac))
+                .into_iter()
+                .chain(split)
+        })
         .collect();
     let blocks = time_folds(ctx);
     let problem = ctx.problem(&fin.kinds)?;
@@ -78,6 +86,7 @@ pub(crate) fn characterise(
         .iter()
         .map(|f| VariableGain {
             variable: f.bases[0].variable,
+            by_direction: f.bases[0].by_direction,
             heldout_deviance_gain: reference.ranked_gain(f),
             heldout_rms_nm: f.model.heldout_rms,
             heldout_rms_reduction_pct: 100.0 * reference.ranked_rms_fall(f),
@@ -127,9 +136,7 @@ pub(crate) fn characterise(
     };
     Ok(Characterisation {
         unexplained: Unexplained {
-            depends_on: chosen
-                .map(|c| c.iter().map(|b| b.variable).collect())
-                .unwrap_or_default(),
+            depends_on: chosen.map(|c| variables_of(&c)).unwrap_or_default(),
             ranking,
             extension,
             catalogued_shape,
@@ -193,6 +200,17 @@ fn rms_fall(with: f64, without: f64) -> f64 {
     } else {
         0.0
     }
+}
+
+/// The variables of the terms `b`, each once, in the terms' order.
+pub(super) fn variables_of(b: &[FlexBasis]) -> Vec<StateVariable> {
+    let mut out: Vec<StateVariable> = Vec::new();
+    for v in b.iter().flat_map(FlexBasis::variables) {
+        if !out.contains(&v) {
+            out.push(v);
+        }
+    }
+    out
 }
 
 fn uses_time(b: &[FlexBasis]) -> bool {

@@ -186,7 +186,7 @@ impl FlexFit {
     }
 
     pub fn variables(&self) -> Vec<StateVariable> {
-        self.bases.iter().map(|b| b.variable).collect()
+        super::characterise::variables_of(&self.bases)
     }
 }
 
@@ -357,7 +357,7 @@ pub(super) fn terms_of(ff: &FlexFit) -> Vec<FlexibleTerm> {
     for b in &ff.bases {
         let m = b.cols.len();
         let beta = &ff.beta[j..j + m];
-        let (value_nm, band_nm) = b
+        let (value_nm, band_nm): (Vec<f64>, Vec<f64>) = b
             .rows
             .iter()
             .map(|row| {
@@ -374,14 +374,23 @@ pub(super) fn terms_of(ff: &FlexFit) -> Vec<FlexibleTerm> {
                 (v, 1.96 * var.max(0.0).sqrt())
             })
             .unzip();
-        out.push(FlexibleTerm {
+        let term = |range: std::ops::Range<usize>, direction: Option<f64>| FlexibleTerm {
             variable: b.variable,
+            direction,
             unit: b.variable.unit().to_string(),
-            points: b.points.clone(),
-            value_nm,
-            band_nm,
+            points: b.points[range.clone()].to_vec(),
+            value_nm: value_nm[range.clone()].to_vec(),
+            band_nm: band_nm[range].to_vec(),
             searched: b.searched.clone(),
-        });
+        };
+        if b.by_direction {
+            // the points are the knots twice: while q̇ < 0, then while q̇ > 0
+            let half = b.points.len() / 2;
+            out.push(term(0..half, Some(-1.0)));
+            out.push(term(half..b.points.len(), Some(1.0)));
+        } else {
+            out.push(term(0..b.points.len(), None));
+        }
         j += m;
     }
     out

@@ -321,6 +321,7 @@ pub(super) fn simplest_in_time(ctx: &Context) -> Vec<FlexBasis> {
         rows: vec![vec![0.0], vec![t1 - t0]],
         cols: vec![ramp],
         searched: Vec::new(),
+        by_direction: false,
     }]
 }
 
@@ -624,27 +625,9 @@ pub(super) fn with_searched_forms(
 #[cfg(test)]
 mod tests {
     use super::{with_level_step, with_period, FlexBasis};
-    use crate::context::prepared_context;
     use crate::flexible::basis::{basis, series};
-    use crate::flexible::StateVariable;
-    use crate::DiagnoseSettings;
+    use crate::flexible::{seed_context, StateVariable};
     use nalgebra::DMatrix;
-
-    /// The bundled trial's context (its unloaded run's noise model).
-    fn seed_context() -> crate::fit::Context {
-        let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/seed");
-        let trial = experiment::read_trial(format!("{root}/trial.csv")).unwrap();
-        let unloaded = experiment::read_unloaded(format!("{root}/unloaded.csv")).unwrap();
-        let settings = DiagnoseSettings::default();
-        let prepared = settings.prepare(&trial, Some(&unloaded)).unwrap();
-        let (nominal, none) = (
-            muscle_model::ModelParams::nominal(),
-            muscle_model::Effects::none(),
-        );
-        prepared_context(&prepared, nominal, none, &settings)
-            .unwrap()
-            .0
-    }
 
     fn empty_time_basis() -> FlexBasis {
         FlexBasis {
@@ -653,6 +636,7 @@ mod tests {
             rows: vec![vec![], vec![]],
             cols: Vec::new(),
             searched: Vec::new(),
+            by_direction: false,
         }
     }
 

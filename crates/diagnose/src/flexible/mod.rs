@@ -45,3 +45,20 @@ pub use report::{
 };
 pub(crate) use review::{heldout_contest, review_causes};
 pub use variable::StateVariable;
+
+/// The bundled trial's context (its unloaded run's noise model), for the stages' tests.
+#[cfg(test)]
+fn seed_context() -> crate::fit::Context {
+    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/seed");
+    let trial = experiment::read_trial(format!("{root}/trial.csv")).unwrap();
+    let unloaded = experiment::read_unloaded(format!("{root}/unloaded.csv")).unwrap();
+    let settings = crate::DiagnoseSettings::default();
+    let prepared = settings.prepare(&trial, Some(&unloaded)).unwrap();
+    let (nominal, none) = (
+        muscle_model::ModelParams::nominal(),
+        muscle_model::Effects::none(),
+    );
+    crate::context::prepared_context(&prepared, nominal, none, &settings)
+        .unwrap()
+        .0
+}

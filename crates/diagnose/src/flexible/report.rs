@@ -4,6 +4,7 @@
 use serde::Serialize;
 
 use super::variable::StateVariable;
+use crate::report::signed_change;
 
 /// A variable's flexible term added to the final model.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -11,6 +12,10 @@ use super::variable::StateVariable;
 pub struct VariableGain {
     /// State variable.
     pub variable: StateVariable,
+    /// The variable's term fitted separately in the two directions of motion was its best
+    /// form (the variable's function differs between plantarflexing and dorsiflexing).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub by_direction: bool,
     /// Held-out deviance of the final model minus that of the model with the term (χ² units;
     /// positive: the term predicts held-out data better), both cross-validated on 0.5 s
     /// blocks. The ranking's order.
@@ -33,6 +38,11 @@ pub struct VariableGain {
 pub struct FlexibleTerm {
     /// State variable.
     pub variable: StateVariable,
+    /// For a term fitted separately in the two directions of motion, the sign of the velocity
+    /// over which this shape holds (−1 plantarflexing, +1 dorsiflexing; the other direction's
+    /// shape is the next term); absent for a term of the variable alone.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub direction: Option<f64>,
     /// Unit of `points` (empty: dimensionless).
     pub unit: String,
     /// Points of the variable (for `direction`: −1 and +1, the sign of the velocity).
@@ -145,6 +155,32 @@ pub struct Unexplained {
 }
 
 impl Unexplained {
+    /// `depends_on` as the terms that tell it: each variable with whether its term was fitted
+    /// separately in the two directions of motion (from the extension's terms). The
+    /// `direction` such a term brings into `depends_on` is not told again unless the
+    /// direction has a term of its own.
+    pub fn told_variables(&self) -> Vec<(StateVariable, bool)> {
+        let terms: Vec<(StateVariable, bool)> = self
+            .extension
+            .iter()
+            .flat_map(|e| &e.terms)
+            .map(|t| (t.variable, t.direction.is_some()))
+            .collect();
+        let any_split = terms.iter().any(|t| t.1);
+        let mut out: Vec<(StateVariable, bool)> = Vec::new();
+        for v in &self.depends_on {
+            let told = match terms.iter().find(|t| t.0 == *v) {
+                Some(t) => *t,
+                None if *v == StateVariable::Direction && any_split => continue,
+                None => (*v, false),
+            };
+            if !out.contains(&told) {
+                out.push(told);
+            }
+        }
+        out
+    }
+
     /// Lines of the terminal summary.
     pub fn summary_lines(&self) -> Vec<String> {
         let mut l = Vec::new();
@@ -157,15 +193,28 @@ impl Unexplained {
                  activation, activation_ta"
                     .to_string(),
             ),
-            (vars, Some(e)) => {
-                let names: Vec<&str> = vars.iter().map(|v| v.name()).collect();
+            (_, Some(e)) => {
+                let names: Vec<String> = self
+                    .told_variables()
+                    .iter()
+                    .map(|(v, split)| {
+                        format!("{}{}", v.name(), if *split { " by direction" } else { "" })
+                    })
+                    .collect();
+                // the RMS can rise while the deviance falls (the whitening weighs fast
+                // structure more than the RMS does): say which way each moved
                 l.push(format!(
-                    "depends on   {}: a flexible term lowers the held-out RMS to {:.2} N·m \
-                     (−{:.1} %, held-out deviance −{:.0})",
+                    "depends on   {}: a flexible term {} the held-out RMS to {:.2} N·m ({}, \
+                     held-out deviance {})",
                     names.join(" and "),
+                    if e.heldout_rms_reduction_pct >= 0.0 {
+                        "lowers"
+                    } else {
+                        "raises"
+                    },
                     e.heldout_rms_nm,
-                    e.heldout_rms_reduction_pct,
-                    e.heldout_deviance_gain
+                    signed_change(-e.heldout_rms_reduction_pct, " %"),
+                    signed_change(-e.heldout_deviance_gain, "")
                 ));
             }
         }

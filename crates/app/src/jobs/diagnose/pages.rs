@@ -299,36 +299,42 @@ fn beyond_the_catalogue(
 ) -> AppResult {
     let page = set.page();
     page.heading("Beyond the catalogue");
-    let gain_of = |v: diagnose::StateVariable| {
-        u.ranking
-            .iter()
-            .find(|r| r.variable == v)
-            .map(|r| r.heldout_deviance_gain)
-    };
     let named: Vec<String> = u
-        .depends_on
+        .told_variables()
         .iter()
-        .map(|v| match gain_of(*v) {
-            Some(g) => format!("{} (held-out deviance gain {g:.1})", v.name()),
-            None => v.name().to_string(),
+        .map(|(v, split)| {
+            let words = format!(
+                "{}{}",
+                v.name(),
+                if *split {
+                    ", differently in each direction of motion"
+                } else {
+                    ""
+                }
+            );
+            match u.ranking.iter().find(|r| r.variable == *v) {
+                Some(r) => format!(
+                    "{words} (held-out deviance gain {:.1})",
+                    r.heldout_deviance_gain
+                ),
+                None => words,
+            }
         })
         .collect();
     match (&u.extension, named.is_empty()) {
         (Some(e), false) => {
+            let fall = e.heldout_rms_reduction_pct;
             page.paragraph(format!(
                 "The structure left in the residual depends on {}: a flexible term in {} \
-                 lowers the held-out RMS from {:.3} to {:.3} N·m (−{:.1} %, held-out deviance \
-                 −{:.1}, ΔBIC {:.1}).",
+                 {} the held-out RMS from {:.3} to {:.3} N·m ({} %, held-out deviance {}, \
+                 ΔBIC {:.1}).",
                 named.join(", then "),
-                if u.depends_on.len() == 1 {
-                    "it"
-                } else {
-                    "each"
-                },
+                if named.len() == 1 { "it" } else { "each" },
+                if fall >= 0.0 { "lowers" } else { "raises" },
                 d.extended.heldout_rms_nm,
                 e.heldout_rms_nm,
-                e.heldout_rms_reduction_pct,
-                e.heldout_deviance_gain,
+                format!("{:+.1}", -fall).replace('-', "−"),
+                format!("{:+.1}", -e.heldout_deviance_gain).replace('-', "−"),
                 e.delta_bic
             ));
         }
@@ -427,18 +433,29 @@ fn beyond_the_catalogue(
         }
     }
     if !e.terms.is_empty() {
+        // a term fitted in each direction of motion is drawn as two panels, named by it
+        let labels: Vec<String> = e
+            .terms
+            .iter()
+            .map(|t| match t.direction {
+                None => t.variable.name().to_string(),
+                Some(d) if d < 0.0 => format!("{}, plantarflexing", t.variable.name()),
+                Some(_) => format!("{}, dorsiflexing", t.variable.name()),
+            })
+            .collect();
         let views: Vec<report::figures::FlexibleTermView<'_>> = e
             .terms
             .iter()
-            .map(|t| report::figures::FlexibleTermView {
-                variable: t.variable.name(),
+            .zip(&labels)
+            .map(|(t, label)| report::figures::FlexibleTermView {
+                variable: label,
                 unit: &t.unit,
                 points: &t.points,
                 value_nm: &t.value_nm,
                 band_nm: &t.band_nm,
             })
             .collect();
-        let vars: Vec<&str> = e.terms.iter().map(|t| t.variable.name()).collect();
+        let vars: Vec<&str> = e.variables.iter().map(|v| v.name()).collect();
         set.add(
             "flexible_terms",
             &format!(
