@@ -14,7 +14,9 @@
 //! `sin, cos(2πft)` at the residual's strongest frequency (`with_period`), and direction as
 //! `tanh(q̇/w)` with the transition width `w` searched on the residual (`with_width`); in the
 //! characterisation the angle and the activations are also tried with a step `1{v ≥ c}` at
-//! the level the residual asks for (`with_level_step`). The
+//! the level the residual asks for (`with_level_step`), and the angle, the acceleration and
+//! the activation fitted separately in each direction of motion, `Σ_j (β_j + d γ_j) h_j(v)`
+//! with `d = sign(q̇)` (`by_direction`). The
 //! best of a variable's forms (held-out gain in the ranking, BIC in the review) stands for
 //! the variable, a searched value counting as one parameter in the BIC. Columns are centred on
 //! their mean over the trial except in time (a constant is a function of time only). The vocabulary: `angle` (°),
