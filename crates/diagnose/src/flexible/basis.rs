@@ -41,6 +41,17 @@ impl FlexBasis {
     }
 }
 
+/// The variables of the terms `b`, each once, in the terms' order.
+pub(super) fn variables_of(b: &[FlexBasis]) -> Vec<StateVariable> {
+    let mut out: Vec<StateVariable> = Vec::new();
+    for v in b.iter().flat_map(FlexBasis::variables) {
+        if !out.contains(&v) {
+            out.push(v);
+        }
+    }
+    out
+}
+
 /// Fraction of the largest speed below which the joint counts as still for `direction`.
 pub(super) const STILL_FRACTION: f64 = 0.05;
 

@@ -28,7 +28,7 @@ use rayon::prelude::*;
 use crate::fit::{Context, Fit};
 use crate::DiagnoseError;
 
-use super::basis::{basis, by_direction, FlexBasis};
+use super::basis::{basis, by_direction, variables_of, FlexBasis};
 use super::fit::{combine, cross_validate, fit_flexible, terms_of, time_folds, FlexFit, Folds};
 use super::forms::with_searched_forms;
 use super::report::{FlexibleExtension, Replacement, Unexplained, VariableGain};
@@ -200,17 +200,6 @@ fn rms_fall(with: f64, without: f64) -> f64 {
     } else {
         0.0
     }
-}
-
-/// The variables of the terms `b`, each once, in the terms' order.
-pub(super) fn variables_of(b: &[FlexBasis]) -> Vec<StateVariable> {
-    let mut out: Vec<StateVariable> = Vec::new();
-    for v in b.iter().flat_map(FlexBasis::variables) {
-        if !out.contains(&v) {
-            out.push(v);
-        }
-    }
-    out
 }
 
 fn uses_time(b: &[FlexBasis]) -> bool {

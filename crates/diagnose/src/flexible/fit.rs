@@ -23,7 +23,7 @@ use rayon::prelude::*;
 use crate::fit::{minimise_fold, minimise_model, pool_heldout, Context, Fit};
 use crate::DiagnoseError;
 
-use super::basis::FlexBasis;
+use super::basis::{variables_of, FlexBasis};
 use super::report::FlexibleTerm;
 use super::variable::StateVariable;
 
@@ -186,7 +186,7 @@ impl FlexFit {
     }
 
     pub fn variables(&self) -> Vec<StateVariable> {
-        super::characterise::variables_of(&self.bases)
+        variables_of(&self.bases)
     }
 }
 

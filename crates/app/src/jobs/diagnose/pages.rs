@@ -324,6 +324,8 @@ fn beyond_the_catalogue(
     match (&u.extension, named.is_empty()) {
         (Some(e), false) => {
             let fall = e.heldout_rms_reduction_pct;
+            // a change with its sign, a fall with the minus sign
+            let signed = |x: f64| format!("{x:+.1}").replace('-', "−");
             page.paragraph(format!(
                 "The structure left in the residual depends on {}: a flexible term in {} \
                  {} the held-out RMS from {:.3} to {:.3} N·m ({} %, held-out deviance {}, \
@@ -333,8 +335,8 @@ fn beyond_the_catalogue(
                 if fall >= 0.0 { "lowers" } else { "raises" },
                 d.extended.heldout_rms_nm,
                 e.heldout_rms_nm,
-                format!("{:+.1}", -fall).replace('-', "−"),
-                format!("{:+.1}", -e.heldout_deviance_gain).replace('-', "−"),
+                signed(-fall),
+                signed(-e.heldout_deviance_gain),
                 e.delta_bic
             ));
         }
