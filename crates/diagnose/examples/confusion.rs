@@ -1,6 +1,6 @@
 //! Confusion table and detection limits over random hidden-effect trials.
 //!
-//! `cargo run --release -p diagnose --example confusion -- [N] [BASE_SEED] [--above-limits] [--limits [--effects a,b:size] [--protocol P] [--null]] [--max-delta-bic X]`
+//! `cargo run --release -p diagnose --example confusion -- [N] [BASE_SEED] [--above-limits] [--limits [--effects a,b:size] [--protocol P] [--null]] [--max-delta-bic X] [--exact-jacobian]`
 //! prints, per scenario, how often the named causes equal the hidden ones, what was named
 //! instead, the magnitude error, the time and how often the true effect parameters fall inside the
 //! reported 68 % profile intervals (and within ±1 Laplace standard error), for the effect and
@@ -61,7 +61,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     let n: u64 = args.get(1).map_or(Ok(10), |s| s.parse())?;
     let base: u64 = args.get(2).map_or(Ok(10_000), |s| s.parse())?;
-    let mut settings = DiagnoseSettings::default();
+    let mut settings = DiagnoseSettings {
+        exact_jacobian: args.iter().any(|a| a == "--exact-jacobian"),
+        ..DiagnoseSettings::default()
+    };
     if let Some(i) = args.iter().position(|a| a == "--max-delta-bic") {
         settings.max_delta_bic = args
             .get(i + 1)

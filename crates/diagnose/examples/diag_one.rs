@@ -1,5 +1,5 @@
 //! Diagnoses one synthetic trial (relaxed+2 unless `--protocol NAME`):
-//! `diag_one SEED [EFFECTS_JSON] [--ta] [--hidden kind+kind [--above-limits]] [--protocol seed]`
+//! `diag_one SEED [EFFECTS_JSON] [--ta] [--hidden kind+kind [--above-limits]] [--protocol seed] [--exact-jacobian]`
 //! (`--above-limits`: the hidden effects drawn at or above their documented detection limits,
 //! as `confusion --above-limits` draws them).
 //!
@@ -49,7 +49,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     } else {
         synthesize(&cfg)?
     };
-    let mut settings = diagnose::DiagnoseSettings::default();
+    let mut settings = diagnose::DiagnoseSettings {
+        exact_jacobian: args.iter().any(|a| a == "--exact-jacobian"),
+        ..diagnose::DiagnoseSettings::default()
+    };
     if std::env::var("SURAE_CV").is_ok_and(|v| v == "cycles") {
         settings.cv_folds = diagnose::CvFolds::Cycles;
     }

@@ -143,6 +143,7 @@ pub(crate) fn trial_context(
             params,
             effects,
             observed: observed.clone(),
+            exact_jacobian: settings.exact_jacobian,
         }
     };
     let noise = match unloaded {

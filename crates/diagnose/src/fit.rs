@@ -1,15 +1,17 @@
 //! Fitting a model (the 9 muscle parameters plus the parameters of a set of effects) by whitened least squares, and its cycle-wise cross-validation.
 
-use muscle_model::{EffectKind, Effects, ModelParams, ParamId, Problem, TrialInputs};
+use muscle_model::{
+    EffectKind, Effects, ModelParams, ParamId, Problem, ProblemWorkspace, TrialInputs,
+};
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
-use crate::lm::{minimise, LmOutcome};
+use crate::lm::{minimise, minimise_residuals, LmOutcome};
 use crate::noise::{TrialNoiseModel, WhitenPlan};
 use crate::profile::{profile_interval, ProfileInterval, ProfileSettings};
 use crate::segment::Segmentation;
 use crate::DiagnoseError;
-use numerics::LevenbergMarquardtSettings;
+use numerics::{LevenbergMarquardtSettings, Residuals};
 
 /// Everything a fit needs that does not change between models.
 pub(crate) struct Context {
@@ -35,6 +37,9 @@ pub(crate) struct Context {
     /// Which samples are compared with the model (`None`: every sample). Unobserved samples
     /// are skipped by every whitening plan, so no fit, score, test or held-out error sees them.
     pub observed: Option<Vec<bool>>,
+    /// Fits, score tests, Laplace errors and profiles take the model's exact Jacobian where it
+    /// has one ([`crate::DiagnoseSettings::exact_jacobian`]); otherwise forward differences.
+    pub exact_jacobian: bool,
 }
 
 /// A fitted model.
@@ -124,6 +129,7 @@ impl Context {
             params: self.params,
             effects: self.effects,
             observed: self.observed.clone(),
+            exact_jacobian: self.exact_jacobian,
         }
     }
 
@@ -165,6 +171,21 @@ impl Context {
                 None
             }
         }
+    }
+
+    /// The whitened residual of `problem` under `plan` with its exact Jacobian where the model
+    /// has one ([`ModelResiduals`]).
+    pub(crate) fn model_residuals<'a>(
+        &'a self,
+        problem: &'a Problem,
+        plan: &'a WhitenPlan,
+    ) -> ModelResiduals<'a, impl Fn(&[f64], &mut [f64]) + Sync + 'a> {
+        ModelResiduals::new(
+            problem,
+            &self.y,
+            move |e: &[f64], w: &mut [f64]| plan.whiten(e, w),
+            self.exact_jacobian,
+        )
     }
 
     /// Fits `kinds` from `x0` (full vector: 9 muscle params then effect params).
@@ -218,10 +239,10 @@ impl Context {
         let name = model_name(kinds);
         let problem = self.problem(kinds)?;
         let bounds = problem.bounds().to_vec();
-        let f = self.residual_fn(&problem, &self.plan);
+        let r = self.model_residuals(&problem, &self.plan);
         let outcomes: Vec<_> = starts
             .par_iter()
-            .map(|x0| minimise_model(problem.free(), &f, x0, &bounds, &self.lm))
+            .map(|x0| minimise_model(problem.free(), &r, x0, &bounds, &self.lm))
             .collect();
         let evaluations: usize = outcomes.iter().flatten().map(|o| o.evaluations).sum();
         let mut out = outcomes
@@ -271,7 +292,7 @@ impl Context {
         settings: &ProfileSettings,
     ) -> Result<Vec<(usize, ProfileInterval)>, DiagnoseError> {
         let problem = self.problem(&fit.kinds)?;
-        let f = self.residual_fn(&problem, &self.plan);
+        let f = self.model_residuals(&problem, &self.plan);
         let lm = LevenbergMarquardtSettings {
             max_iterations: settings.lm_iterations,
             ftol_rel: settings.ftol_rel,
@@ -301,11 +322,7 @@ impl Context {
                 // around ±180° is not cut there. Its ends are reported unwrapped.
                 let mut b = bounds.to_vec();
                 b[k] = (fit.x[k] - 180.0, fit.x[k] + 180.0);
-                let wrapped = |x: &[f64]| {
-                    let mut v = x.to_vec();
-                    v[k] = wrap_degrees(v[k]);
-                    f(&v)
-                };
+                let wrapped = WrappedPhase { r: &f, k };
                 profile_interval(
                     &wrapped,
                     &fit.x,
@@ -336,8 +353,8 @@ impl Context {
             .folds
             .par_iter()
             .map(|(held, plan)| {
-                let f = self.residual_fn(problem, plan);
-                let (xf, ev) = minimise_fold(problem.free(), &f, x, bounds, &self.cv_lm)
+                let r = self.model_residuals(problem, plan);
+                let (xf, ev) = minimise_fold(problem.free(), &r, x, bounds, &self.cv_lm)
                     .unwrap_or_else(|| (x.to_vec(), 0));
                 let pred = problem
                     .predict(&xf)
@@ -390,19 +407,19 @@ pub(crate) fn pool_heldout(res: &[((f64, f64, usize), usize)]) -> (f64, f64, usi
 /// inside the moment's bounds) and the result is returned in `(m, φ)` with `φ ∈ [−90°, 90°]`,
 /// its Jacobian columns transformed by the chain rule. Without a gravity term this is
 /// [`minimise`].
-pub(crate) fn minimise_model<F>(
+pub(crate) fn minimise_model<R: Residuals + ?Sized>(
     free: &[ParamId],
-    f: &F,
+    r: &R,
     x0: &[f64],
     bounds: &[(f64, f64)],
     lm: &LevenbergMarquardtSettings,
-) -> Option<LmOutcome>
-where
-    F: Fn(&[f64]) -> Option<Vec<f64>> + Sync,
-{
+) -> Option<LmOutcome> {
     let Some(g) = GravitySlots::find(free) else {
-        return minimise(f, x0, bounds, lm);
+        return minimise_residuals(r, x0, bounds, lm);
     };
+    // in (A, B) the model's Jacobian would need the chain rule through the clamp below; these
+    // fits difference the residual instead
+    let f = |x: &[f64]| evaluate(r, x);
     let mut lin_bounds = bounds.to_vec();
     lin_bounds[g.phase] = bounds[g.moment];
     let z0 = g.to_linear(x0);
@@ -435,19 +452,17 @@ where
 /// phase held, 1.261.
 /// The phase is a property of the attachment, not of a cycle; the BIC of the full fit still
 /// pays for it.
-pub(crate) fn minimise_fold<F>(
+pub(crate) fn minimise_fold<R: Residuals + ?Sized>(
     free: &[ParamId],
-    f: &F,
+    r: &R,
     x0: &[f64],
     bounds: &[(f64, f64)],
     lm: &LevenbergMarquardtSettings,
-) -> Option<(Vec<f64>, usize)>
-where
-    F: Fn(&[f64]) -> Option<Vec<f64>> + Sync,
-{
+) -> Option<(Vec<f64>, usize)> {
     let Some(g) = GravitySlots::find(free) else {
-        return minimise(f, x0, bounds, lm).map(|o| (o.x, o.evaluations));
+        return minimise_residuals(r, x0, bounds, lm).map(|o| (o.x, o.evaluations));
     };
+    let f = |x: &[f64]| evaluate(r, x);
     let k = g.phase;
     let put = |r: &[f64]| {
         let mut v = r.to_vec();
@@ -462,29 +477,141 @@ where
     minimise(&held, &xr, &br, lm).map(|o| (put(&o.x), o.evaluations))
 }
 
-/// The whitened residual `W(y − τ̂(x))` of `problem` under the trial's plan, as residuals for
-/// the finite-difference Jacobian.
-struct WhitenedResiduals<'a> {
-    ctx: &'a Context,
-    problem: &'a Problem,
+/// `r(x)` as a new vector, `None` where it cannot be evaluated.
+pub(crate) fn evaluate<R: Residuals + ?Sized>(r: &R, x: &[f64]) -> Option<Vec<f64>> {
+    let mut out = Vec::new();
+    r.residuals(x, &mut r.workspace(), &mut out).then_some(out)
 }
 
-impl numerics::Residuals for WhitenedResiduals<'_> {
-    type Workspace = ();
-    fn workspace(&self) {}
-    fn residuals(&self, x: &[f64], _: &mut (), out: &mut Vec<f64>) -> bool {
-        match self.ctx.residual_fn(self.problem, &self.ctx.plan)(x) {
-            Some(w) => {
-                *out = w;
-                true
-            }
-            None => false,
+/// A model's residual `r(x) = L(y − τ̂(x))` for a linear map `L` (the noise model's
+/// whitening, then possibly the projection off flexible columns), with its exact Jacobian
+/// `∂r/∂x = −L(∂τ̂/∂x)`, `L` applied column by column, where the model has one
+/// (`Problem::jacobian_with`, forward sensitivities): a Jacobian then costs one integration of
+/// the states and their sensitivities instead of one simulation per free parameter, and does not
+/// carry the adaptive integration's jitter. Where the model has none (a free parameter it does
+/// not cover) the fits difference the residual.
+pub(crate) struct ModelResiduals<'a, L> {
+    problem: &'a Problem,
+    y: &'a [f64],
+    map: L,
+    exact: bool,
+}
+
+/// A thread's scratch for [`ModelResiduals`]: the simulation's workspace, the torque error
+/// and the torque's Jacobian.
+#[derive(Default)]
+pub(crate) struct ModelScratch {
+    sim: ProblemWorkspace,
+    e: Vec<f64>,
+    jac: Vec<f64>,
+}
+
+impl<'a, L: Fn(&[f64], &mut [f64]) + Sync> ModelResiduals<'a, L> {
+    /// `map` must be linear: `L(a·u) = a·L(u)`. Without `exact` (or where the model has no
+    /// exact Jacobian) the fits difference the residual.
+    pub(crate) fn new(problem: &'a Problem, y: &'a [f64], map: L, exact: bool) -> Self {
+        ModelResiduals {
+            problem,
+            y,
+            map,
+            exact: exact && problem.exact_jacobian_available().is_ok(),
+        }
+    }
+
+    /// The same residual followed by a second linear map `then`.
+    pub(crate) fn then<M: Fn(&[f64], &mut [f64]) + Sync>(
+        self,
+        then: M,
+    ) -> ModelResiduals<'a, impl Fn(&[f64], &mut [f64]) + Sync> {
+        let first = self.map;
+        ModelResiduals {
+            problem: self.problem,
+            y: self.y,
+            exact: self.exact,
+            map: move |e: &[f64], out: &mut [f64]| {
+                let mut w = vec![0.0; out.len()];
+                first(e, &mut w);
+                then(&w, out);
+            },
         }
     }
 }
 
-/// The forward-difference Jacobian (steps of `lm`) of the whitened residual `w` at `x`;
-/// `None` when the model cannot be simulated near `x`.
+impl<L: Fn(&[f64], &mut [f64]) + Sync> Residuals for ModelResiduals<'_, L> {
+    type Workspace = ModelScratch;
+    fn workspace(&self) -> ModelScratch {
+        ModelScratch::default()
+    }
+    fn residuals(&self, x: &[f64], ws: &mut ModelScratch, out: &mut Vec<f64>) -> bool {
+        let n = self.y.len();
+        ws.e.resize(n, 0.0);
+        if self
+            .problem
+            .predict_with(x, &mut ws.sim, &mut ws.e)
+            .is_err()
+        {
+            return false;
+        }
+        for (e, y) in ws.e.iter_mut().zip(self.y) {
+            *e = y - *e;
+        }
+        out.resize(n, 0.0);
+        (self.map)(&ws.e, out);
+        out.iter().all(|v| v.is_finite())
+    }
+    fn jacobian(&self, x: &[f64], ws: &mut ModelScratch, jac: &mut [f64]) -> Option<bool> {
+        if !self.exact {
+            return None;
+        }
+        if self
+            .problem
+            .jacobian_with(x, &mut ws.sim, &mut ws.jac)
+            .is_err()
+        {
+            return Some(false);
+        }
+        let n = self.y.len();
+        for (col, dtau) in jac.chunks_mut(n).zip(ws.jac.chunks(n)) {
+            (self.map)(dtau, col);
+            col.iter_mut().for_each(|v| *v = -*v);
+        }
+        Some(true)
+    }
+}
+
+/// Residuals read with their `k`-th parameter, an angle in degrees, wrapped into
+/// `[−180°, 180°)`: the gravity phase's profile runs past ±180° while the model reads the
+/// phase wrapped. The wrap's derivative is 1, so the Jacobian is the residuals' own at the
+/// wrapped point.
+struct WrappedPhase<'a, R: ?Sized> {
+    r: &'a R,
+    k: usize,
+}
+
+impl<R: Residuals + ?Sized> WrappedPhase<'_, R> {
+    fn wrapped(&self, x: &[f64]) -> Vec<f64> {
+        let mut v = x.to_vec();
+        v[self.k] = wrap_degrees(v[self.k]);
+        v
+    }
+}
+
+impl<R: Residuals + ?Sized> Residuals for WrappedPhase<'_, R> {
+    type Workspace = R::Workspace;
+    fn workspace(&self) -> R::Workspace {
+        self.r.workspace()
+    }
+    fn residuals(&self, x: &[f64], ws: &mut R::Workspace, out: &mut Vec<f64>) -> bool {
+        self.r.residuals(&self.wrapped(x), ws, out)
+    }
+    fn jacobian(&self, x: &[f64], ws: &mut R::Workspace, jac: &mut [f64]) -> Option<bool> {
+        self.r.jacobian(&self.wrapped(x), ws, jac)
+    }
+}
+
+/// The Jacobian of the whitened residual `w` of `problem` at `x`: exact where the model has
+/// one, otherwise forward differences (steps of `lm`); `None` when the model cannot be
+/// simulated near `x`.
 pub(crate) fn whitened_jacobian(
     ctx: &Context,
     problem: &Problem,
@@ -493,7 +620,7 @@ pub(crate) fn whitened_jacobian(
     bounds: &[(f64, f64)],
     lm: &LevenbergMarquardtSettings,
 ) -> Option<DMatrix<f64>> {
-    let res = WhitenedResiduals { ctx, problem };
+    let res = ctx.model_residuals(problem, &ctx.plan);
     let (jac, _) = numerics::lm::residual_jacobian(&res, x, w, bounds, lm).ok()?;
     Some(DMatrix::from_vec(w.len(), x.len(), jac?))
 }
@@ -577,11 +704,63 @@ fn wrap_degrees(deg: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::{minimise_model, wrap_degrees, GravitySlots};
-    use crate::lm::minimise;
+    use crate::lm::{minimise, VecResiduals};
     use muscle_model::{EffectKind, Muscle, MuscleField, ParamId};
     use numerics::LevenbergMarquardtSettings;
 
     const ANGLES: [f64; 7] = [-0.35, -0.25, -0.1, 0.0, 0.08, 0.17, 0.26];
+
+    /// The model's whitened residual is the one the fits always used; without the setting it
+    /// carries no Jacobian (the fits difference it), with it the exact one, `−W·∂τ̂/∂x`: its
+    /// F0 columns (the torque is linear in F0, so differences are exact there) agree with
+    /// central differences to the 0.1 % of the default integration's error (the sensitivities
+    /// are integrated beside their own copy of the states), and the LST columns to the
+    /// differences' own error at the default settings (docs/model.md, "Finite-difference
+    /// Jacobians").
+    #[test]
+    fn the_whitened_residual_carries_the_exact_jacobian_only_when_asked() {
+        use numerics::Residuals;
+        let mut ctx = crate::flexible::seed_context();
+        let problem = ctx.problem(&[]).unwrap();
+        let x = problem.base_vector();
+        let (m, k) = (ctx.y.len(), x.len());
+        let mut jac = vec![0.0; m * k];
+        {
+            let r = ctx.model_residuals(&problem, &ctx.plan);
+            let mut w = Vec::new();
+            assert!(r.residuals(&x, &mut r.workspace(), &mut w));
+            assert_eq!(Some(w), ctx.residual_fn(&problem, &ctx.plan)(&x));
+            assert_eq!(r.jacobian(&x, &mut r.workspace(), &mut jac), None);
+        }
+
+        ctx.exact_jacobian = true;
+        let r = ctx.model_residuals(&problem, &ctx.plan);
+        assert_eq!(r.jacobian(&x, &mut r.workspace(), &mut jac), Some(true));
+        let f = ctx.residual_fn(&problem, &ctx.plan);
+        for (j, id) in problem.free().iter().enumerate() {
+            // (tolerance, step as a fraction of the range): the whitening amplifies the
+            // integration's jitter, so the LST columns are differenced with a longer step
+            let (tol, s) = match id {
+                ParamId::Muscle(_, MuscleField::FomN) => (1e-3, 1e-3),
+                ParamId::Muscle(_, MuscleField::LstM) => (0.03, 1e-2),
+                _ => continue,
+            };
+            let h = s * (problem.bounds()[j].1 - problem.bounds()[j].0);
+            let (mut xp, mut xm) = (x.clone(), x.clone());
+            xp[j] += h;
+            xm[j] -= h;
+            let (rp, rm) = (f(&xp).unwrap(), f(&xm).unwrap());
+            let col = &jac[j * m..(j + 1) * m];
+            let (mut dd, mut ref2) = (0.0, 0.0);
+            for ((c, p), q) in col.iter().zip(&rp).zip(&rm) {
+                let d = (p - q) / (2.0 * h);
+                dd += (c - d) * (c - d);
+                ref2 += d * d;
+            }
+            let rel = (dd / ref2).sqrt();
+            assert!(rel < tol, "{}: exact column off by {rel:.2e}", id.name());
+        }
+    }
 
     fn gravity_torque(x: &[f64], q: f64) -> f64 {
         x[1] * (q - x[2].to_radians()).sin()
@@ -651,7 +830,7 @@ mod tests {
         let bounds = [(-1.0, 1.0), (-30.0, 30.0), (-180.0, 180.0)];
         let x0 = [0.5, 4.0, 170.0];
         let lm = LevenbergMarquardtSettings::default();
-        let ours = minimise_model(&free(), &f, &x0, &bounds, &lm).expect("fit");
+        let ours = minimise_model(&free(), &VecResiduals(&f), &x0, &bounds, &lm).expect("fit");
         assert!(ours.cost < 1e-12, "cost {}", ours.cost);
         assert!((ours.x[1] + 5.0).abs() < 1e-5 && (ours.x[2] - 20.0).abs() < 1e-4);
         let polar = minimise(&f, &x0, &bounds, &lm).expect("fit");
@@ -681,7 +860,8 @@ mod tests {
         // a moment just inside its bound: a forward step in A or B would leave it
         let x0 = [0.2, 29.99, 68.8];
         let lm = LevenbergMarquardtSettings::default();
-        let ours = minimise_model(&free(), &f, &x0, &bounds, &lm).expect("a fit from the edge");
+        let ours = minimise_model(&free(), &VecResiduals(&f), &x0, &bounds, &lm)
+            .expect("a fit from the edge");
         assert!(ours.cost < 1e-10, "cost {}", ours.cost);
         assert!((ours.x[1] - 12.0).abs() < 1e-4 && (ours.x[2] + 35.0).abs() < 1e-3);
         assert!(ours.x[1].abs() <= 30.0);

@@ -1,8 +1,9 @@
 //! The diagnosis's use of the bounded Levenberg–Marquardt of `numerics::lm`: residual functions
 //! that return a new vector, and fits that carry their Jacobian as a matrix.
 //!
-//! Minimises `‖r(x)‖²` over a box with forward-difference Jacobians (`h = 10⁻³` of each range,
-//! backwards at the upper bound) by default; the algorithm and its stopping rules are those of
+//! Minimises `‖r(x)‖²` over a box with the residuals' exact Jacobian when they carry one (a
+//! model's residual, `crate::fit::ModelResiduals`) and forward-difference Jacobians (`h = 10⁻³`
+//! of each range, backwards at the upper bound) otherwise; the algorithm and its stopping rules are those of
 //! `numerics::lm`. The inference that follows a fit (score tests, Laplace errors, the structure
 //! tests) uses the Jacobian at the fitted point, so when the iteration budget ends right after
 //! an accepted step the Jacobian is evaluated once more there.
@@ -38,7 +39,7 @@ pub struct LmOutcome {
 }
 
 /// A residual function returning a new vector, `None` on failure.
-struct VecResiduals<'a, F>(&'a F);
+pub(crate) struct VecResiduals<'a, F>(pub &'a F);
 
 impl<F> Residuals for VecResiduals<'_, F>
 where
@@ -68,12 +69,22 @@ pub fn minimise<F>(
 where
     F: Fn(&[f64]) -> Option<Vec<f64>> + Sync,
 {
-    let residuals = VecResiduals(f);
-    let o = levenberg_marquardt(&residuals, x0, bounds, s, |_| {}).ok()?;
+    minimise_residuals(&VecResiduals(f), x0, bounds, s)
+}
+
+/// [`minimise`] of residuals that may carry their exact Jacobian ([`Residuals::jacobian`]),
+/// which then replaces the differences at every iteration.
+pub(crate) fn minimise_residuals<R: Residuals + ?Sized>(
+    residuals: &R,
+    x0: &[f64],
+    bounds: &[(f64, f64)],
+    s: &LevenbergMarquardtSettings,
+) -> Option<LmOutcome> {
+    let o = levenberg_marquardt(residuals, x0, bounds, s, |_| {}).ok()?;
     let mut evaluations = o.evaluations;
     let mut jacobian = o.jacobian;
     if o.stop == LevenbergMarquardtStop::MaxIterations && !o.jacobian_at_x {
-        let (fresh, used) = residual_jacobian(&residuals, &o.x, &o.residuals, bounds, s).ok()?;
+        let (fresh, used) = residual_jacobian(residuals, &o.x, &o.residuals, bounds, s).ok()?;
         evaluations += used;
         jacobian = fresh.or(jacobian);
     }

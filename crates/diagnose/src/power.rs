@@ -131,6 +131,7 @@ pub fn noncentrality(
         params: muscle_model::ModelParams::nominal(),
         effects: muscle_model::Effects::none(),
         observed: None,
+        exact_jacobian: settings.exact_jacobian,
     };
     let mut x0 = ctx.base_muscles().to_vec();
     for k in null {

@@ -21,8 +21,8 @@
 //! bracketed, then interpolate linearly in `√d` inside the bracket. Every refit starts from
 //! the last refit inside the interval (the fit itself first).
 
-use crate::lm::minimise;
-use numerics::LevenbergMarquardtSettings;
+use crate::lm::minimise_residuals;
+use numerics::{LevenbergMarquardtSettings, Residuals};
 
 /// Settings of the profile-likelihood intervals of the final model's parameters
 /// (docs/diagnosis.md).
@@ -79,14 +79,14 @@ impl ProfileInterval {
 }
 
 /// The profile interval of parameter `k` of the fit `x̂` (cost `cost = ‖f(x̂)‖²`) of the
-/// residual function `f` inside `bounds`; `s2` scales the cost differences (see the module
+/// residuals `f` inside `bounds` (each refit takes their exact Jacobian when they carry one); `s2` scales the cost differences (see the module
 /// docs), `step0 > 0` is the first step out (e.g. the Laplace standard error). The two sides
 /// are searched in parallel; the result does not depend on the number of threads.
 ///
 /// Returns `None` when `k` is out of range or `step0`, `s2` or `cost` is not finite and positive
 /// (`cost` may be 0).
 #[allow(clippy::too_many_arguments)]
-pub fn profile_interval<F>(
+pub fn profile_interval<F: Residuals + ?Sized>(
     f: &F,
     x: &[f64],
     cost: f64,
@@ -96,10 +96,7 @@ pub fn profile_interval<F>(
     step0: f64,
     lm: &LevenbergMarquardtSettings,
     settings: &ProfileSettings,
-) -> Option<ProfileInterval>
-where
-    F: Fn(&[f64]) -> Option<Vec<f64>> + Sync,
-{
+) -> Option<ProfileInterval> {
     if k >= x.len()
         || x.len() != bounds.len()
         || !(step0.is_finite() && step0 > 0.0)
@@ -132,7 +129,7 @@ where
 }
 
 /// The arguments of [`profile_interval`], shared by its two sides.
-struct Search<'a, F> {
+struct Search<'a, F: ?Sized> {
     f: &'a F,
     x: &'a [f64],
     cost: f64,
@@ -151,10 +148,7 @@ struct Side {
     evaluations: usize,
 }
 
-impl<F> Search<'_, F>
-where
-    F: Fn(&[f64]) -> Option<Vec<f64>> + Sync,
-{
+impl<F: Residuals + ?Sized> Search<'_, F> {
     /// One side (`dir = ±1`) of the interval.
     fn side(&self, dir: f64) -> Side {
         let (f, x, k, bounds) = (self.f, self.x, self.k, self.bounds);
@@ -179,13 +173,6 @@ where
             .filter(|&(j, _)| j != k)
             .map(|(_, b)| *b)
             .collect();
-        let full = |z: &[f64], theta: f64| -> Vec<f64> {
-            let mut v = Vec::with_capacity(x.len());
-            v.extend_from_slice(&z[..k]);
-            v.push(theta);
-            v.extend_from_slice(&z[k..]);
-            v
-        };
         let mut warm: Vec<f64> = x
             .iter()
             .enumerate()
@@ -198,8 +185,8 @@ where
         let mut delta = (self.step0 * target).min(room);
         for _ in 0..settings.max_refits {
             let theta = theta0 + dir * delta;
-            let g = |z: &[f64]| f(&full(z, theta));
-            let Some(o) = minimise(&g, &warm, &others, self.lm) else {
+            let g = Pinned { r: f, k, theta };
+            let Some(o) = minimise_residuals(&g, &warm, &others, self.lm) else {
                 // the model cannot be simulated here: treat as far outside
                 outside = Some((delta, f64::INFINITY));
                 break;
@@ -248,9 +235,146 @@ where
     }
 }
 
+/// The residuals with parameter `k` held at `theta`, as a function of the others: `z` is `x`
+/// without its `k`-th entry, and the exact Jacobian (when the residuals carry one) is theirs
+/// without its `k`-th column.
+struct Pinned<'a, R: ?Sized> {
+    r: &'a R,
+    k: usize,
+    theta: f64,
+}
+
+/// A thread's scratch for [`Pinned`]: the residuals' own, the full point and the full Jacobian.
+struct PinnedScratch<W> {
+    inner: W,
+    x: Vec<f64>,
+    jac: Vec<f64>,
+}
+
+impl<R: Residuals + ?Sized> Pinned<'_, R> {
+    fn full(&self, z: &[f64], x: &mut Vec<f64>) {
+        x.clear();
+        x.extend_from_slice(&z[..self.k]);
+        x.push(self.theta);
+        x.extend_from_slice(&z[self.k..]);
+    }
+}
+
+impl<R: Residuals + ?Sized> Residuals for Pinned<'_, R> {
+    type Workspace = PinnedScratch<R::Workspace>;
+    fn workspace(&self) -> Self::Workspace {
+        PinnedScratch {
+            inner: self.r.workspace(),
+            x: Vec::new(),
+            jac: Vec::new(),
+        }
+    }
+    fn residuals(&self, z: &[f64], ws: &mut Self::Workspace, out: &mut Vec<f64>) -> bool {
+        self.full(z, &mut ws.x);
+        self.r.residuals(&ws.x, &mut ws.inner, out)
+    }
+    fn jacobian(&self, z: &[f64], ws: &mut Self::Workspace, jac: &mut [f64]) -> Option<bool> {
+        if z.is_empty() {
+            return None;
+        }
+        let m = jac.len() / z.len();
+        self.full(z, &mut ws.x);
+        ws.jac.resize(m * ws.x.len(), 0.0);
+        if !self.r.jacobian(&ws.x, &mut ws.inner, &mut ws.jac)? {
+            return Some(false);
+        }
+        for (j, col) in jac.chunks_mut(m).enumerate() {
+            let from = if j < self.k { j } else { j + 1 };
+            col.copy_from_slice(&ws.jac[from * m..(from + 1) * m]);
+        }
+        Some(true)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::lm::{minimise, VecResiduals};
+
+    /// `r(x) = y − a·e^{−b·t}` with its exact Jacobian: each refit of the profile holds one
+    /// parameter and takes the other's column of that Jacobian; the interval equals the one
+    /// found by differences.
+    #[test]
+    fn a_profile_with_the_exact_jacobian_matches_the_differenced_one() {
+        struct Decay {
+            t: Vec<f64>,
+            y: Vec<f64>,
+        }
+        impl Residuals for Decay {
+            type Workspace = ();
+            fn workspace(&self) {}
+            fn residuals(&self, x: &[f64], _: &mut (), out: &mut Vec<f64>) -> bool {
+                out.clear();
+                out.extend(
+                    self.t
+                        .iter()
+                        .zip(&self.y)
+                        .map(|(t, y)| y - x[0] * (-x[1] * t).exp()),
+                );
+                true
+            }
+            fn jacobian(&self, x: &[f64], _: &mut (), jac: &mut [f64]) -> Option<bool> {
+                let m = self.t.len();
+                for (i, t) in self.t.iter().enumerate() {
+                    let e = (-x[1] * t).exp();
+                    jac[i] = -e;
+                    jac[m + i] = x[0] * t * e;
+                }
+                Some(true)
+            }
+        }
+        let t: Vec<f64> = (0..40).map(|i| i as f64 / 8.0).collect();
+        let y: Vec<f64> = t
+            .iter()
+            .enumerate()
+            .map(|(i, ti)| 3.0 * (-0.7 * ti).exp() + ((i * 29 % 13) as f64 - 6.0) / 20.0)
+            .collect();
+        let exact = Decay { t, y };
+        let differenced = |x: &[f64]| {
+            let mut out = Vec::new();
+            exact.residuals(x, &mut (), &mut out).then_some(out)
+        };
+        let bounds = [(0.1, 10.0), (0.01, 5.0)];
+        let lm = LevenbergMarquardtSettings::default();
+        let fit = minimise_residuals(&exact, &[1.0, 0.3], &bounds, &lm).expect("a fit");
+        let cost: f64 = differenced(&fit.x).unwrap().iter().map(|r| r * r).sum();
+        let ps = ProfileSettings {
+            tol: 0.01,
+            ..Default::default()
+        };
+        for k in 0..2 {
+            let a = profile_interval(&exact, &fit.x, cost, k, &bounds, 1.0, 0.05, &lm, &ps)
+                .expect("exact");
+            let b = profile_interval(
+                &VecResiduals(&differenced),
+                &fit.x,
+                cost,
+                k,
+                &bounds,
+                1.0,
+                0.05,
+                &lm,
+                &ps,
+            )
+            .expect("differenced");
+            let width = b.upper - b.lower;
+            assert!(width > 0.0 && !a.lower_at_bound && !a.upper_at_bound);
+            assert!(
+                (a.lower - b.lower).abs() < 0.02 * width
+                    && (a.upper - b.upper).abs() < 0.02 * width,
+                "k {k}: exact [{}, {}] differenced [{}, {}]",
+                a.lower,
+                a.upper,
+                b.lower,
+                b.upper
+            );
+        }
+    }
 
     /// Linear model `y = a + b·t` with known unit noise: the profile interval of each
     /// coefficient is exactly `θ̂ ± σ̂` (and `± 1.96σ̂` at level 3.84).
@@ -292,8 +416,18 @@ mod tests {
                 ..Default::default()
             };
             for k in 0..2 {
-                let iv = profile_interval(&f, &xhat, cost, k, &bounds, 1.0, 0.3 * se[k], &lm, &ps)
-                    .unwrap();
+                let iv = profile_interval(
+                    &VecResiduals(&f),
+                    &xhat,
+                    cost,
+                    k,
+                    &bounds,
+                    1.0,
+                    0.3 * se[k],
+                    &lm,
+                    &ps,
+                )
+                .unwrap();
                 assert!(!iv.lower_at_bound && !iv.upper_at_bound);
                 for end in [iv.lower, iv.upper] {
                     let rel = ((end - xhat[k]).abs() - z * se[k]).abs() / (z * se[k]);
@@ -318,25 +452,30 @@ mod tests {
             tol: 0.01,
             ..Default::default()
         };
-        let cost = |f: &dyn Fn(&[f64]) -> Option<Vec<f64>>, x: &[f64]| {
-            f(x).unwrap().iter().map(|r| r * r).sum::<f64>()
-        };
         // minimum near x0 = 0.99 with σ(x0) ≈ 1: both bounds lie inside the 68 % level
         let f = |x: &[f64]| -> Option<Vec<f64>> { Some(vec![x[0] - 1.0, x[1] - x[0], 0.1 * x[1]]) };
         let bounds = [(0.5, 1.2), (-5.0, 5.0)];
-        let o = minimise(&f, &[0.8, 0.0], &bounds, &lm).unwrap();
-        let iv =
-            profile_interval(&f, &o.x, cost(&f, &o.x), 0, &bounds, 1.0, 0.1, &lm, &ps).unwrap();
+        // the first parameter's interval from the fit of `f` inside `bounds`
+        fn first<F: Fn(&[f64]) -> Option<Vec<f64>> + Sync>(
+            f: &F,
+            bounds: &[(f64, f64)],
+            lm: &LevenbergMarquardtSettings,
+            ps: &ProfileSettings,
+        ) -> (Vec<f64>, ProfileInterval) {
+            let o = minimise(f, &[0.8, 0.0], bounds, lm).unwrap();
+            let cost = f(&o.x).unwrap().iter().map(|r| r * r).sum::<f64>();
+            let iv = profile_interval(&VecResiduals(f), &o.x, cost, 0, bounds, 1.0, 0.1, lm, ps);
+            (o.x, iv.unwrap())
+        }
+        let (_, iv) = first(&f, &bounds, &lm, &ps);
         assert!(iv.lower_at_bound && iv.upper_at_bound, "{iv:?}");
         assert_eq!((iv.lower, iv.upper), (0.5, 1.2));
         // unconstrained minimum near x0 = 1.98, outside the box: the fit sits at x0 = 1, where
         // d(θ) ≈ (θ − 2)² − 1, so the lower end is near 2 − √2
         let f = |x: &[f64]| -> Option<Vec<f64>> { Some(vec![x[0] - 2.0, x[1] - x[0], 0.1 * x[1]]) };
         let bounds = [(0.0, 1.0), (-5.0, 5.0)];
-        let o = minimise(&f, &[0.8, 0.0], &bounds, &lm).unwrap();
-        assert_eq!(o.x[0], 1.0);
-        let iv =
-            profile_interval(&f, &o.x, cost(&f, &o.x), 0, &bounds, 1.0, 0.1, &lm, &ps).unwrap();
+        let (x, iv) = first(&f, &bounds, &lm, &ps);
+        assert_eq!(x[0], 1.0);
         assert!(iv.upper_at_bound && iv.upper == 1.0, "{iv:?}");
         assert!(
             !iv.lower_at_bound && (iv.lower - 0.584).abs() < 0.03,
@@ -350,8 +489,23 @@ mod tests {
         let lm = LevenbergMarquardtSettings::default();
         let ps = ProfileSettings::default();
         let b = [(-1.0, 1.0)];
-        assert!(profile_interval(&f, &[0.0], 0.0, 1, &b, 1.0, 0.1, &lm, &ps).is_none());
-        assert!(profile_interval(&f, &[0.0], 0.0, 0, &b, 1.0, 0.0, &lm, &ps).is_none());
-        assert!(profile_interval(&f, &[0.0], 0.0, 0, &b, f64::NAN, 0.1, &lm, &ps).is_none());
+        assert!(
+            profile_interval(&VecResiduals(&f), &[0.0], 0.0, 1, &b, 1.0, 0.1, &lm, &ps).is_none()
+        );
+        assert!(
+            profile_interval(&VecResiduals(&f), &[0.0], 0.0, 0, &b, 1.0, 0.0, &lm, &ps).is_none()
+        );
+        assert!(profile_interval(
+            &VecResiduals(&f),
+            &[0.0],
+            0.0,
+            0,
+            &b,
+            f64::NAN,
+            0.1,
+            &lm,
+            &ps
+        )
+        .is_none());
     }
 }

@@ -396,7 +396,7 @@ pub(crate) fn detection_limits_with_shapes(
         .and_then(|m| crate::flexible::ramp_column(ctx).map(|c| (m, whitened_perp(&c))))
         .filter(|(_, r)| r.norm() > 0.0);
     let jobs = limit_jobs(ctx, fit, &todo, &whitened_perp);
-    // (limit, job index, linear size, λ₉₅) of every shape
+    // (limit, job index, size refitted, λ₉₅) of every shape
     let per_shape: Vec<(DetectionLimit, usize, f64, f64)> = jobs
         .par_iter()
         .enumerate()
@@ -419,9 +419,10 @@ pub(crate) fn detection_limits_with_shapes(
                 }
             }
             let linear = (lambda / info).sqrt() * per_unit;
-            let (refitted, evaluations) = absorbed(ctx, fit, *kind, values(linear), false)?;
+            let probe = inside_bounds(*kind, values, linear)?;
+            let (refitted, evaluations) = absorbed(ctx, fit, *kind, values(probe), false)?;
             let limit = if refitted > 0.0 && refitted.is_finite() {
-                linear * (lambda / refitted).sqrt()
+                probe * (lambda / refitted).sqrt()
             } else {
                 linear
             };
@@ -431,7 +432,7 @@ pub(crate) fn detection_limits_with_shapes(
                 shape: *shape,
                 evaluations,
             };
-            Some((d, j, linear, lambda))
+            Some((d, j, probe, lambda))
         })
         .collect();
     // the worst shape of each effect; the simulations of all its shapes
@@ -453,13 +454,13 @@ pub(crate) fn detection_limits_with_shapes(
     // shapes from another start than from the fit's own optimum)
     out.par_iter_mut()
         .filter(|o| o.0.shape.is_some())
-        .for_each(|(d, j, linear, lambda)| {
+        .for_each(|(d, j, probe, lambda)| {
             let values = &jobs[*j].4;
-            if let Some((refitted, evaluations)) = absorbed(ctx, fit, d.kind, values(*linear), true)
+            if let Some((refitted, evaluations)) = absorbed(ctx, fit, d.kind, values(*probe), true)
             {
                 d.evaluations += evaluations;
                 if refitted > 0.0 && refitted.is_finite() {
-                    d.limit = d.limit.max(*linear * (*lambda / refitted).sqrt());
+                    d.limit = d.limit.max(*probe * (*lambda / refitted).sqrt());
                 }
             }
         });
@@ -468,6 +469,24 @@ pub(crate) fn detection_limits_with_shapes(
 
 /// The parameters of an effect at a headline size, for one shape.
 type ShapeValues = Box<dyn Fn(f64) -> [f64; 2] + Sync + Send>;
+
+/// The largest of `size`, `size/2`, `size/4`, … (at most eight halvings) at which the effect's
+/// parameters `values(size)` lie inside their bounds, where the model can simulate it. A
+/// linearised limit beyond the bounds (gravity's worst phase on a trial whose muscles absorb
+/// most of it) is then refitted inside them and carried out with `λ ∝ θ²`, as every refitted
+/// limit is, instead of leaving the effect without a limit.
+fn inside_bounds(kind: EffectKind, values: &ShapeValues, size: f64) -> Option<f64> {
+    let specs = kind.params();
+    let inside = |s: f64| {
+        specs
+            .iter()
+            .zip(values(s))
+            .all(|(p, v)| v >= p.lower && v <= p.upper)
+    };
+    std::iter::successors(Some(size), |s| Some(0.5 * s))
+        .take(9)
+        .find(|&s| inside(s))
+}
 
 /// One (effect, shape) pair of the detection limits: the effect, its shape (gravity's phase,
 /// the passive torque's stiffness), the raw column of that direction, the headline per unit of
@@ -605,6 +624,7 @@ pub(crate) fn refit_absorbs(
         params: ctx.params,
         effects: ctx.effects,
         observed: ctx.observed.clone(),
+        exact_jacobian: ctx.exact_jacobian,
     };
     let mut starts = vec![fit.x.clone()];
     if multi {
@@ -630,4 +650,31 @@ pub(crate) fn refit_absorbs(
     }
     let refit = clean.fit_from(&fit.kinds, &starts, false).ok()?;
     Some((refit.white_ss, refit.evaluations + 1))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{inside_bounds, ShapeValues};
+    use muscle_model::EffectKind;
+
+    /// A linearised limit beyond the moment's bound (±30 N·m) is halved until the effect can be
+    /// simulated; one inside is kept as it is; one that no halving brings inside has none.
+    #[test]
+    fn a_size_beyond_the_bounds_is_halved_into_them() {
+        let phase = 40.0;
+        let gravity: ShapeValues = Box::new(move |m| [m, phase]);
+        assert_eq!(
+            inside_bounds(EffectKind::Gravity, &gravity, 100.0),
+            Some(25.0)
+        );
+        assert_eq!(
+            inside_bounds(EffectKind::Gravity, &gravity, 12.5),
+            Some(12.5)
+        );
+        let outside_phase: ShapeValues = Box::new(|m| [m, 400.0]);
+        assert_eq!(
+            inside_bounds(EffectKind::Gravity, &outside_phase, 10.0),
+            None
+        );
+    }
 }

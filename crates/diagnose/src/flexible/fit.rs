@@ -214,7 +214,9 @@ pub(crate) fn fit_flexible(
     let n = ctx.y.len();
     let proj = WhitenedBasisProjector::new(&ctx.plan, &cols, n, 0.0);
     let f = ctx.residual_fn(&problem, &ctx.plan);
-    let g = |x: &[f64]| f(x).map(|w| proj.residual(&w));
+    let g = ctx
+        .model_residuals(&problem, &ctx.plan)
+        .then(|w: &[f64], out: &mut [f64]| out.copy_from_slice(&proj.residual(w)));
     let name = || {
         let vars: Vec<&str> = bases.iter().map(|b| b.variable.name()).collect();
         format!(
@@ -244,7 +246,7 @@ pub(crate) fn fit_flexible(
     let rms = ctx.observed_rms(&ctx.y, &total);
     let k = out.x.len() + proj.rank();
 
-    // Gauss–Newton covariance of (x, β): J = [J_w, −WB]; J_w by forward differences
+    // Gauss–Newton covariance of (x, β): J = [J_w, −WB]; J_w exact where the model has it
     let beta_cov = if band {
         evaluations += out.x.len();
         crate::fit::whitened_jacobian(ctx, &problem, &out.x, &w, &bounds, &ctx.lm).and_then(|jw| {
@@ -317,7 +319,9 @@ pub(crate) fn cross_validate(
         .map(|(held, plan)| {
             let proj = WhitenedBasisProjector::new(plan, cols, n, floor);
             let f = ctx.residual_fn(problem, plan);
-            let g = |x: &[f64]| f(x).map(|w| proj.residual(&w));
+            let g = ctx
+                .model_residuals(problem, plan)
+                .then(|w: &[f64], out: &mut [f64]| out.copy_from_slice(&proj.residual(w)));
             let (xf, ev) = minimise_fold(problem.free(), &g, x, bounds, &ctx.cv_lm)
                 .unwrap_or_else(|| (x.to_vec(), 0));
             let beta = f(&xf)

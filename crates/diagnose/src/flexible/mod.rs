@@ -50,7 +50,7 @@ pub use variable::StateVariable;
 
 /// The bundled trial's context (its unloaded run's noise model), for the stages' tests.
 #[cfg(test)]
-fn seed_context() -> crate::fit::Context {
+pub(crate) fn seed_context() -> crate::fit::Context {
     let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/seed");
     let trial = experiment::read_trial(format!("{root}/trial.csv")).unwrap();
     let unloaded = experiment::read_unloaded(format!("{root}/unloaded.csv")).unwrap();
