@@ -536,9 +536,5 @@ impl Diagnosis {
 
 /// A change with its sign, a fall with the minus sign (`−14.8 %`, `+2.2 %`).
 pub(crate) fn signed_change(v: f64, unit: &str) -> String {
-    if v < 0.0 {
-        format!("−{:.1}{unit}", -v)
-    } else {
-        format!("+{v:.1}{unit}")
-    }
+    format!("{}{unit}", numerics::text::signed(v, 1))
 }

@@ -10,7 +10,8 @@
 //! * [`latin_hypercube`]: Latin-hypercube designs from a caller's random stream;
 //! * [`special`]: the normal distribution, the gamma function and the χ², F and incomplete
 //!   gamma / beta functions built on it;
-//! * [`rms()`] and [`rms_diff`]: the root mean square of a slice and of a difference.
+//! * [`rms()`] and [`rms_diff`]: the root mean square of a slice and of a difference;
+//! * [`text`]: numbers written for a reader, with the typographic minus.
 //!
 //! Bad input gives a [`NumericsError`] (or NaN from a special function), never a panic —
 //! except [`rms_diff`] of slices of different lengths, a caller's bug.
@@ -40,6 +41,7 @@ pub mod nelder_mead;
 mod objective;
 mod rms;
 pub mod special;
+pub mod text;
 
 pub use error::NumericsError;
 pub use lm::{

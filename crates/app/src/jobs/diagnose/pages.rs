@@ -324,8 +324,7 @@ fn beyond_the_catalogue(
     match (&u.extension, named.is_empty()) {
         (Some(e), false) => {
             let fall = e.heldout_rms_reduction_pct;
-            // a change with its sign, a fall with the minus sign
-            let signed = |x: f64| format!("{x:+.1}").replace('-', "−");
+            let signed = |x: f64| numerics::text::signed(x, 1);
             page.paragraph(format!(
                 "The structure left in the residual depends on {}: a flexible term in {} \
                  {} the held-out RMS from {:.3} to {:.3} N·m ({} %, held-out deviance {}, \
