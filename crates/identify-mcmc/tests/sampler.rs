@@ -566,3 +566,113 @@ fn mixture_proposal_crosses_between_separated_modes() {
         "jump acceptance {jump:?}"
     );
 }
+
+/// A target whose second coordinate `u` is a cheap block: `log π(x, u) = −2(x − 1)² − ½u² +
+/// 0.3·x·u`, a Gaussian with precision `[[4, −0.3], [−0.3, 1]]` (means 4/3.91 and 1.2/3.91,
+/// variances 1/3.91 and 4/3.91), truncated to `u > −1.5`. `u`'s conditional needs only `x`'s
+/// cached value; the counters tell full evaluations from cheap ones.
+struct WithCheapBlock {
+    full: std::sync::atomic::AtomicU64,
+    cheap: std::sync::atomic::AtomicU64,
+}
+
+impl WithCheapBlock {
+    fn log_pi(x: f64, u: f64) -> f64 {
+        if u <= -1.5 {
+            return f64::NEG_INFINITY;
+        }
+        -2.0 * (x - 1.0) * (x - 1.0) - 0.5 * u * u + 0.3 * x * u
+    }
+}
+
+impl LogDensity for WithCheapBlock {
+    fn dim(&self) -> usize {
+        2
+    }
+    fn bounds(&self) -> &[(f64, f64)] {
+        &[(-10.0, 10.0), (-10.0, 10.0)]
+    }
+    fn log_density(&self, v: &[f64]) -> Option<f64> {
+        use std::sync::atomic::Ordering;
+        self.full.fetch_add(1, Ordering::Relaxed);
+        Some(Self::log_pi(v[0], v[1]))
+    }
+    fn cheap_block(&self) -> &[usize] {
+        &[1]
+    }
+    fn evaluate_cached(
+        &self,
+        v: &[f64],
+        report: &mut [f64],
+        cache: &mut Vec<f64>,
+    ) -> Option<(f64, f64)> {
+        cache.clear();
+        cache.push(v[0]);
+        self.evaluate(v, report)
+    }
+    fn evaluate_in_block(
+        &self,
+        v: &[f64],
+        report: &mut [f64],
+        cache: &[f64],
+    ) -> Option<(f64, f64)> {
+        use std::sync::atomic::Ordering;
+        // The cache is the state's x: a step of the block never moves x.
+        assert_eq!(cache, &v[..1]);
+        self.cheap.fetch_add(1, Ordering::Relaxed);
+        report.copy_from_slice(v);
+        let l = Self::log_pi(cache[0], v[1]);
+        Some((l, l))
+    }
+}
+
+#[test]
+fn a_cheap_block_is_sampled_without_model_evaluations() {
+    use std::sync::atomic::Ordering;
+    let target = WithCheapBlock {
+        full: 0.into(),
+        cheap: 0.into(),
+    };
+    let settings = McmcSettings {
+        seed: 17,
+        ess_target: 2000.0,
+        ..McmcSettings::default()
+    };
+    let r = run(&target, &settings, None).unwrap();
+    assert!(r.converged, "stop = {:?}", r.stop);
+    // The moments of the truncated Gaussian by quadrature on a fine grid.
+    let (mut z, mut mx, mut mu, mut vx, mut vu) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    let h = 0.01;
+    for i in 0..1200 {
+        let x = -5.0 + h * i as f64;
+        for j in 0..1000 {
+            let u = -1.5 + h * (j as f64 + 0.5);
+            let p = WithCheapBlock::log_pi(x, u).exp();
+            z += p;
+            mx += p * x;
+            mu += p * u;
+            vx += p * x * x;
+            vu += p * u * u;
+        }
+    }
+    let (mx, mu) = (mx / z, mu / z);
+    let (vx, vu) = (vx / z - mx * mx, vu / z - mu * mu);
+    check_moment(&r, "mean x", mx, |v| v[0]);
+    check_moment(&r, "mean u", mu, |v| v[1]);
+    check_moment(&r, "var x", vx, |v| (v[0] - mx).powi(2));
+    check_moment(&r, "var u", vu, |v| (v[1] - mu).powi(2));
+    // One full evaluation per random-walk step (the walk moves x only), one cheap one per
+    // iteration; only the full ones are the run's evaluations.
+    let iterations = (r.warmup_iterations + r.sampling_iterations) as u64 * 4;
+    let full = target.full.load(Ordering::Relaxed);
+    let cheap = target.cheap.load(Ordering::Relaxed);
+    assert_eq!(full, r.evaluations);
+    assert!(
+        cheap > iterations * 95 / 100 && cheap <= iterations,
+        "{cheap} of {iterations}"
+    );
+    // u is redrawn at every iteration: it mixes several times faster than the walk's x.
+    let (ess_x, ess_u) = (r.summary[0].ess_bulk, r.summary[1].ess_bulk);
+    eprintln!("ESS x {ess_x:.0}, u {ess_u:.0}");
+    assert!(ess_u > 2.0 * ess_x, "ESS x {ess_x}, u {ess_u}");
+}
