@@ -155,22 +155,15 @@ impl Context {
         (ss / cnt.max(1) as f64).sqrt()
     }
 
+    /// The whitened residual of `problem` under `plan` as a closure of `x` (`None`: the
+    /// simulation failed): [`ModelResiduals`] evaluated with a workspace of its own.
     pub(crate) fn residual_fn<'a>(
         &'a self,
         problem: &'a Problem,
         plan: &'a WhitenPlan,
     ) -> impl Fn(&[f64]) -> Option<Vec<f64>> + Sync + 'a {
-        move |x: &[f64]| {
-            let pred = problem.predict(x).ok()?;
-            let e: Vec<f64> = self.y.iter().zip(&pred).map(|(a, b)| a - b).collect();
-            let mut w = vec![0.0; e.len()];
-            plan.whiten(&e, &mut w);
-            if w.iter().all(|v| v.is_finite()) {
-                Some(w)
-            } else {
-                None
-            }
-        }
+        let r = self.model_residuals(problem, plan);
+        move |x: &[f64]| evaluate(&r, x)
     }
 
     /// The whitened residual of `problem` under `plan` with its exact Jacobian where the model
@@ -729,6 +722,12 @@ mod tests {
             let r = ctx.model_residuals(&problem, &ctx.plan);
             let mut w = Vec::new();
             assert!(r.residuals(&x, &mut r.workspace(), &mut w));
+            // the whitened error of the prediction, computed here step by step
+            let pred = problem.predict(&x).unwrap();
+            let e: Vec<f64> = ctx.y.iter().zip(&pred).map(|(a, b)| a - b).collect();
+            let mut direct = vec![0.0; e.len()];
+            ctx.plan.whiten(&e, &mut direct);
+            assert_eq!(w, direct);
             assert_eq!(Some(w), ctx.residual_fn(&problem, &ctx.plan)(&x));
             assert_eq!(r.jacobian(&x, &mut r.workspace(), &mut jac), None);
         }
