@@ -626,35 +626,6 @@ impl LogDensity for WithCheapBlock {
     }
 }
 
-/// A target whose cheap block is given by the caller, to check that a malformed block is an
-/// error, not a panic.
-struct BadBlock(Vec<usize>);
-
-impl LogDensity for BadBlock {
-    fn dim(&self) -> usize {
-        2
-    }
-    fn bounds(&self) -> &[(f64, f64)] {
-        &[(-1.0, 1.0), (-1.0, 1.0)]
-    }
-    fn log_density(&self, _: &[f64]) -> Option<f64> {
-        Some(0.0)
-    }
-    fn cheap_block(&self) -> &[usize] {
-        &self.0
-    }
-}
-
-#[test]
-fn a_malformed_cheap_block_is_an_error() {
-    for block in [vec![2], vec![1, 1], vec![0, 1]] {
-        match run(&BadBlock(block.clone()), &McmcSettings::default(), None) {
-            Err(McmcError::InvalidSetting { name, .. }) => assert_eq!(name, "cheap_block"),
-            other => panic!("{block:?}: {:?}", other.map(|r| r.stop)),
-        }
-    }
-}
-
 #[test]
 fn a_cheap_block_is_sampled_without_model_evaluations() {
     use std::sync::atomic::Ordering;

@@ -259,24 +259,6 @@ fn check_run<T: LogDensity + ?Sized>(
             }
         }
     }
-    let cheap = target.cheap_block();
-    let mut seen = vec![false; d];
-    for &i in cheap {
-        if i >= d || std::mem::replace(&mut seen[i], true) {
-            return Err(McmcError::InvalidSetting {
-                name: "cheap_block",
-                value: i.to_string(),
-                reason: "coordinates must be distinct and below the target's dimension",
-            });
-        }
-    }
-    if !cheap.is_empty() && cheap.len() == d {
-        return Err(McmcError::InvalidSetting {
-            name: "cheap_block",
-            value: d.to_string(),
-            reason: "the random walk needs at least one coordinate outside the cheap block",
-        });
-    }
     let report_bounds = target.report_bounds();
     if report_bounds.len() != d {
         return Err(McmcError::BoundsLength {
