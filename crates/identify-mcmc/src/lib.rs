@@ -125,11 +125,9 @@
 //! cycle-locked systematic error estimated from the unloaded run ([`NoiseSpec::from_unloaded`]).
 //! Before sampling, a multi-start Nelder–Mead search (module `modes`) finds the modes of the
 //! posterior of the nonlinear parameters (F0 integrated out exactly). The chains then run in
-//! coordinates without walls (module `sampling_coordinates`): LST and α0 on the probit scale of their
+//! coordinates without walls (module `sampling_coordinates`): LST and α0 on the logit scale of their
 //! bounds, whitened by the best mode's Laplace fit, and F0 on its exact truncated Gaussian
-//! conditional through the GHK map, which removes the curved F0–length ridge; F0's
-//! coordinates are redrawn at every iteration without a simulation
-//! ([`LogDensity::cheap_block`]), and the walk moves the others. Each step is,
+//! conditional through the GHK map, which removes the curved F0–length ridge. Each step is,
 //! with probability `jump_probability`, an independence proposal from a Student-t mixture on
 //! the modes (refitted by k-means to the pooled warm-up states; [`MixtureProposal`]) and
 //! otherwise the adaptive random walk; the chains start from draws of that mixture. Every step also yields the model's parameters

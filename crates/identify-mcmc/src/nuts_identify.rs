@@ -408,7 +408,7 @@ mod curvature_study {
     }
 
     /// The same measure in the random walk's coordinates: F0 integrated out (its exact
-    /// Gaussian conditional), the other parameters on the probit scale whitened by the Laplace
+    /// Gaussian conditional), the other parameters on the logit scale whitened by the Laplace
     /// factor at the posterior mean. A sampler on the collapsed posterior of θ alone (NUTS in
     /// these coordinates, F0 drawn from its conditional after each draw) would see this
     /// curvature.
@@ -436,7 +436,7 @@ mod curvature_study {
             .map(|k| pooled.iter().map(|x| x[k]).sum::<f64>() / n)
             .collect();
         let (laplace, _) = Conditional::new(&models, &mean, 20.0);
-        let target = Conditional::with_chol_probit(&models, &mean, laplace.chol_nl(), 20.0);
+        let target = Conditional::with_chol_logit(&models, &mean, laplace.chol_nl(), 20.0);
         let nl = target.nl().to_vec();
         let m = nl.len();
         let zs: Vec<Vec<f64>> = pooled.iter().map(|x| target.z_of(x)).collect();

@@ -1,5 +1,5 @@
 //! The sampling coordinates: no walls, F0 on its exact truncated Gaussian conditional, the rest
-//! on the probit scale of their bounds and whitened by a Laplace fit.
+//! on the logit scale and whitened by a Laplace fit.
 //!
 //! The joint torque is linear in every muscle's F0 (the normalised tendon force does not depend
 //! on it): `τ = Σ_j F0_j·g_j(t; θ) + c(t; θ)`, `θ` the other parameters. With the whitening
@@ -10,14 +10,9 @@
 //!
 //! so `f | θ ~ N(f̂, Σ)`, `Σ = A⁻¹ = LLᵀ`, truncated to the F0 box.
 //!
-//! **θ** (LST and α0 of every muscle): `θ_i = lo_i + w_i·Φ(φ_i/s)`, `Φ` the standard normal
-//! distribution function and `s = 4/√(2π)` (the slope in the middle of the box is the logistic
-//! map's), `φ = φ_c + L_φ·z` with `L_φ` the Laplace factor of the best mode carried to that
-//! scale ([`Conditional::with_chol_probit`]); the Jacobian `Σ ln(w_i ϕ(φ_i/s)/s)` is added.
-//! A uniform prior becomes a Gaussian in `φ`: a parameter the data leave spread up to a bound
-//! (gl's tendon slack length on the bundled trial) has light tails to walk, where the logistic
-//! map gave it an exponential tail several units long (median model evaluations to
-//! convergence over 12 seeds 38 223 with the logistic map, 33 225 with this one).
+//! **θ** (LST and α0 of every muscle): `θ_i = lo_i + w_i·σ(φ_i)`, `σ` the logistic function,
+//! `φ = φ_c + L_φ·z` with `L_φ` the Laplace factor of the best mode carried to the logit scale
+//! ([`Conditional::with_chol_logit`]); the Jacobian `Σ ln(w_i σ(1 − σ))` is added.
 //!
 //! **f** (F0): `f = f̂ + L·ω`, where `ω` comes from `u ∈ ℝ^p` by the GHK map (Geweke,
 //! Hajivassiliou, Keane): in turn for `k = 1..p`, `ω_k` is the standard normal truncated to the
@@ -25,7 +20,7 @@
 //! level `Φ(u_k)`: `ω_k = Φ⁻¹(Φ(l_k) + Φ(u_k)·(Φ(h_k) − Φ(l_k)))`. The map is a bijection of
 //! `ℝ^p` onto the part of the F0 box, and its Jacobian gives
 //!
-//! `log π(z, u) = N − ½RSS − ln det R + Σ_k ln(Φ(h_k) − Φ(l_k)) − ½|u|² + Σ ln(w_i ϕ(φ_i/s)/s)`.
+//! `log π(z, u) = N − ½RSS − ln det R + Σ_k ln(Φ(h_k) − Φ(l_k)) − ½|u|² + Σ ln(w_i σ(1 − σ))`.
 //!
 //! Without truncation `u` is exactly standard normal and independent of θ; with it, the mass
 //! terms make the density smooth where the box cuts the conditional. Either way the sampler
@@ -33,13 +28,6 @@
 //! the simpler choice: sampling θ linearly with F0 at `f̂` clamped plus `R⁻ᵀu` puts about 28 %
 //! of the random-walk proposals outside the box, and on random truths its chains mix five to
 //! ten times more slowly.
-//!
-//! **The cheap block.** Everything above but the GHK map depends on θ only: at a fixed θ, a
-//! new `u` costs no simulation ([`LogDensity::evaluate_in_block`] from the cache that
-//! [`LogDensity::evaluate_cached`] wrote). The random walk therefore moves `z` alone and
-//! redraws `u` from a standard normal at every iteration as an independence proposal, always
-//! accepted where the box does not cut the conditional: F0 is drawn exactly and the walk works
-//! in the dimension of θ (6 on the triceps instead of 9).
 
 //!
 //! **Sessions.** Several trials sharing the parameters contribute independent likelihood terms:
@@ -61,12 +49,9 @@ use numerics::cholesky::{
 };
 use numerics::special::{normal_cdf, normal_quantile};
 
-use crate::transform::{probit_coordinate, probit_map, probit_slope};
+use crate::transform::{logistic_log_jacobian, logistic_map};
 use crate::trial_term::{TrialModel, TrialTerm};
 use crate::LogDensity;
-
-/// Standard deviations beyond which a GHK interval is the whole line (see `finish`).
-const WHOLE_LINE: f64 = 8.5;
 
 /// Largest dimension handled with stack buffers.
 const STACK_DIM: usize = 32;
@@ -99,13 +84,11 @@ pub(crate) struct Conditional<'a> {
     nl: Vec<usize>,
     /// `(free index, muscle index)` of the F0 parameters.
     lin: Vec<(usize, usize)>,
-    /// The free indices of `lin`.
-    lin_free: Vec<usize>,
     center: Vec<f64>,
-    /// Whether the nonlinear parameters are sampled on the probit scale (see
-    /// [`Conditional::with_chol_probit`]).
-    probit: bool,
-    /// Centre of the probit-scale coordinates `φ` (one per nonlinear parameter).
+    /// Whether the nonlinear parameters are sampled on the logit scale (see
+    /// [`Conditional::with_chol_logit`]).
+    logit: bool,
+    /// Centre of the logit-scale coordinates `φ` (one per nonlinear parameter).
     phi_center: Vec<f64>,
     /// Lower Cholesky factor of θ's Laplace covariance, row-major |nl|×|nl|.
     chol_nl: Vec<f64>,
@@ -141,25 +124,24 @@ impl<'a> Conditional<'a> {
             trials: trials.iter().map(TrialTerm::new).collect(),
             model_bounds: problem.bounds().to_vec(),
             nl,
-            lin_free: lin.iter().map(|l| l.0).collect(),
             lin,
             center: center.to_vec(),
-            probit: false,
+            logit: false,
             phi_center: Vec::new(),
             chol_nl: Vec::new(),
             zbounds: vec![(-k, k); d],
         }
     }
 
-    /// The target on the probit scale: every nonlinear parameter `θ_i ∈ (lo_i, hi_i)` is
-    /// `θ_i = lo_i + w_i·Φ(φ_i/s)` (module documentation), and `φ = φ_c + L_φ·z` with
-    /// `φ_c` the probit coordinate of `center` (each fraction clamped into [0.03, 0.97]) and
-    /// `L_φ = D⁻¹·chol_nl`, `D = diag(w_i·ϕ(φ_c/s)/s)` (the Laplace factor carried to the new
-    /// scale). The log target gains the Jacobian `Σ ln(w_i·ϕ(φ_i/s)/s)`, so the posterior is
-    /// the same, but the prior box has no walls for `θ`: a uniform prior becomes a Gaussian,
-    /// and a random walk no longer wastes proposals outside the box in the directions the data
-    /// do not constrain.
-    pub fn with_chol_probit(
+    /// The target on the logit scale: every nonlinear parameter `θ_i ∈ (lo_i, hi_i)` is
+    /// `θ_i = lo_i + w_i·σ(φ_i)`, `σ` the logistic function, and `φ = φ_c + L_φ·z` with
+    /// `φ_c` the logit of `center` (each fraction clamped into [0.03, 0.97]) and
+    /// `L_φ = D⁻¹·chol_nl`, `D = diag(w_i·σ(1 − σ))` at `φ_c` (the Laplace factor carried
+    /// to the new scale). The log target gains the Jacobian `Σ ln(w_i·σ(φ_i)(1 − σ(φ_i)))`,
+    /// so the posterior is the same, but the prior box has no walls for `θ`: a uniform prior
+    /// becomes a smooth logistic density, and a random walk no longer wastes proposals
+    /// outside the box in the directions the data do not constrain.
+    pub fn with_chol_logit(
         trials: &[TrialModel<'a>],
         center: &[f64],
         chol_nl: &[f64],
@@ -171,16 +153,16 @@ impl<'a> Conditional<'a> {
                 .map(|&i| {
                     let (lo, hi) = t.model_bounds[i];
                     let f = ((center[i] - lo) / (hi - lo)).clamp(0.03, 0.97);
-                    probit_coordinate(f)
+                    (f / (1.0 - f)).ln()
                 })
                 .collect();
         t.chol_nl = t.phi_factor(center, chol_nl);
-        t.probit = true;
+        t.logit = true;
         t
     }
 
-    /// A factor `L` of θ's covariance at `x` carried to the probit scale: `D⁻¹L`,
-    /// `D = diag(w_i·ϕ(Φ⁻¹(f_i))/s)`, `f_i` the fraction of θ_i in its bounds clamped into
+    /// A factor `L` of θ's covariance at `x` carried to the logit scale: `D⁻¹L`,
+    /// `D = diag(w_i·f_i(1 − f_i))`, `f_i` the fraction of θ_i in its bounds clamped into
     /// [0.03, 0.97].
     pub fn phi_factor(&self, x: &[f64], chol_nl: &[f64]) -> Vec<f64> {
         let m = self.nl.len();
@@ -188,7 +170,7 @@ impl<'a> Conditional<'a> {
         for (a, &i) in self.nl.iter().enumerate() {
             let (lo, hi) = self.model_bounds[i];
             let f = ((x[i] - lo) / (hi - lo)).clamp(0.03, 0.97);
-            let dd = (hi - lo) * probit_slope(f);
+            let dd = (hi - lo) * f * (1.0 - f);
             for v in &mut out[a * m..(a + 1) * m] {
                 *v /= dd;
             }
@@ -228,17 +210,17 @@ impl<'a> Conditional<'a> {
     }
 
     /// Whitened coordinates of the nonlinear parameters of `x` (model vector):
-    /// `z = L⁻¹(θ − θ_centre)`, or `L⁻¹(φ(θ) − φ_c)` on the probit scale.
+    /// `z = L⁻¹(θ − θ_centre)`, or `L⁻¹(φ(θ) − φ_c)` on the logit scale.
     pub fn z_of(&self, x: &[f64]) -> Vec<f64> {
         let mut z: Vec<f64> = self
             .nl
             .iter()
             .enumerate()
             .map(|(a, &i)| {
-                if self.probit {
+                if self.logit {
                     let (lo, hi) = self.model_bounds[i];
                     let f = ((x[i] - lo) / (hi - lo)).clamp(1e-12, 1.0 - 1e-12);
-                    probit_coordinate(f) - self.phi_center[a]
+                    (f / (1.0 - f)).ln() - self.phi_center[a]
                 } else {
                     x[i] - self.center[i]
                 }
@@ -363,16 +345,10 @@ impl<'a> Conditional<'a> {
     /// Evaluate at `v`, writing the model parameters into `x`. `None`: failed simulation;
     /// `log_target = −∞`: outside the bounds.
     pub fn eval(&self, v: &[f64], x: &mut [f64]) -> Option<Point> {
-        let Some(log_jac) = self.map_theta(v, x) else {
-            return Some(Point::OUTSIDE);
-        };
-        let part = self.theta_part(x, log_jac)?;
-        self.finish(v, x, &part)
-    }
-
-    /// θ at `v`, written into `x` (its other entries set to the centre), and the log-Jacobian
-    /// of the probit scale; `None` outside the bounds.
-    fn map_theta(&self, v: &[f64], x: &mut [f64]) -> Option<f64> {
+        let outside = Some(Point {
+            log_target: f64::NEG_INFINITY,
+            log_likelihood: f64::NEG_INFINITY,
+        });
         let m = self.nl.len();
         x.copy_from_slice(&self.center);
         let mut log_jac = 0.0;
@@ -384,27 +360,21 @@ impl<'a> Conditional<'a> {
                 .map(|(l, &j)| l * v[j])
                 .sum::<f64>();
             let (lo, hi) = self.model_bounds[i];
-            if self.probit {
+            if self.logit {
+                // θ = lo + w·σ(φ); ln σ = −softplus(−φ), ln(1 − σ) = −softplus(φ).
                 let phi = self.phi_center[a] + lz;
-                let (xi, lj) = probit_map(lo, hi - lo, phi);
-                x[i] = xi;
-                log_jac += lj;
+                x[i] = logistic_map(lo, hi - lo, phi);
+                log_jac += logistic_log_jacobian(hi - lo, phi);
                 if !(x[i] > lo && x[i] < hi) {
-                    return None;
+                    return outside;
                 }
             } else {
                 x[i] += lz;
                 if !(x[i] >= lo && x[i] <= hi) {
-                    return None;
+                    return outside;
                 }
             }
         }
-        Some(log_jac)
-    }
-
-    /// Everything at θ (in `x`) that does not depend on `u`: one simulation of every trial.
-    /// `None`: a simulation or a factorisation failed.
-    fn theta_part(&self, x: &[f64], log_jac: f64) -> Option<ThetaPart> {
         let p = self.lin.len();
         let (a, b, yy, norm) = self.session_gram(x)?;
         let r = cholesky(&a[..p * p], p).ok()?;
@@ -424,20 +394,6 @@ impl<'a> Conditional<'a> {
         fh[..p].copy_from_slice(&w[..p]);
         solve_lower_transpose_in_place(&r, &mut fh[..p]);
         let sigma_l = conditional_factor(&r, p)?;
-        let log_det_r: f64 = (0..p).map(|k| r[k * p + k].ln()).sum();
-        Some(ThetaPart {
-            base_likelihood: norm - 0.5 * rss.max(0.0),
-            base_target: norm - 0.5 * rss.max(0.0) - log_det_r + log_jac,
-            fh,
-            sigma_l,
-        })
-    }
-
-    /// F0 from `u` by the GHK map (written into `x`), and the point's log target and
-    /// log-likelihood.
-    fn finish(&self, v: &[f64], x: &mut [f64], part: &ThetaPart) -> Option<Point> {
-        let p = self.lin.len();
-        let (fh, sigma_l) = (&part.fh, &part.sigma_l);
         let mut omega = [0.0; 3];
         let mut log_mass = 0.0;
         let mut uu = 0.0;
@@ -448,79 +404,20 @@ impl<'a> Conditional<'a> {
             let (wl, wh) = ((lo - shift) / lkk, (hi - shift) / lkk);
             let u = v[i];
             uu += u * u;
-            // Beyond ±8.5 sd, Φ is 0 or 1 to within 10⁻¹⁷, less than half an ulp of 1: the
-            // interval holds the whole normal in double precision, its mass is 1 and the map
-            // is the identity (this skips three distribution functions and a quantile, most
-            // of the cost of F0's redraws, where the box does not cut the conditional).
-            let (om, lm) = if wl < -WHOLE_LINE && wh > WHOLE_LINE && u.abs() < WHOLE_LINE {
-                (u, 0.0)
-            } else {
-                ghk_step(wl, wh, normal_cdf(u))?
-            };
+            let (om, lm) = ghk_step(wl, wh, normal_cdf(u))?;
             omega[k] = om;
             log_mass += lm;
             x[i] = (shift + lkk * om).clamp(lo, hi);
         }
         let ww: f64 = omega[..p].iter().map(|v| v * v).sum();
-        let ll = part.base_likelihood - 0.5 * ww;
-        let log_target = part.base_target + log_mass - 0.5 * uu;
+        let log_det_r: f64 = (0..p).map(|k| r[k * p + k].ln()).sum();
+        let ll = norm - 0.5 * (rss.max(0.0) + ww);
+        let log_target = norm - 0.5 * rss.max(0.0) - log_det_r + log_mass - 0.5 * uu + log_jac;
         (ll.is_finite() && !log_target.is_nan()).then_some(Point {
             log_target,
             log_likelihood: ll,
         })
     }
-}
-
-/// The part of a point of the sampling coordinates that depends on θ only: what
-/// [`Conditional::finish`] needs to evaluate any `u` at the same θ without a simulation.
-struct ThetaPart {
-    /// `N − ½·RSS`.
-    base_likelihood: f64,
-    /// `N − ½·RSS − ln det R + Σ ln(w_i ϕ(φ_i/s)/s)`.
-    base_target: f64,
-    /// `f̂` (first `p` entries).
-    fh: [f64; 3],
-    /// Lower Cholesky factor of `Σ = A⁻¹`, row-major `p×p`.
-    sigma_l: [f64; 9],
-}
-
-impl ThetaPart {
-    const LEN: usize = 14;
-
-    /// The part, then the model vector with θ in place (`x`), into `cache`.
-    fn write(&self, x: &[f64], cache: &mut Vec<f64>) {
-        cache.clear();
-        cache.extend_from_slice(&[self.base_likelihood, self.base_target]);
-        cache.extend_from_slice(&self.fh);
-        cache.extend_from_slice(&self.sigma_l);
-        cache.extend_from_slice(x);
-    }
-
-    /// The part and the model vector of a cache written for `d` parameters; `None` for a
-    /// cache that holds no part (written at a point outside the bounds or at a failed
-    /// evaluation).
-    fn read(cache: &[f64], d: usize) -> Option<(Self, &[f64])> {
-        (cache.len() == Self::LEN + d).then(|| {
-            let mut fh = [0.0; 3];
-            let mut sigma_l = [0.0; 9];
-            fh.copy_from_slice(&cache[2..5]);
-            sigma_l.copy_from_slice(&cache[5..14]);
-            let part = Self {
-                base_likelihood: cache[0],
-                base_target: cache[1],
-                fh,
-                sigma_l,
-            };
-            (part, &cache[Self::LEN..])
-        })
-    }
-}
-
-impl Point {
-    const OUTSIDE: Point = Point {
-        log_target: f64::NEG_INFINITY,
-        log_likelihood: f64::NEG_INFINITY,
-    };
 }
 
 impl LogDensity for Conditional<'_> {
@@ -548,39 +445,6 @@ impl LogDensity for Conditional<'_> {
     /// `log π(v)`, the model parameters at `v` and the log-likelihood `ℓ(x)` stored with a draw.
     fn evaluate(&self, v: &[f64], report: &mut [f64]) -> Option<(f64, f64)> {
         self.eval(v, report)
-            .map(|p| (p.log_target, p.log_likelihood))
-    }
-    /// F0's coordinates `u`: standard normal and independent of θ where the box does not cut
-    /// the conditional, and a function of the Gram quantities at θ otherwise.
-    fn cheap_block(&self) -> &[usize] {
-        &self.lin_free
-    }
-    fn evaluate_cached(
-        &self,
-        v: &[f64],
-        report: &mut [f64],
-        cache: &mut Vec<f64>,
-    ) -> Option<(f64, f64)> {
-        cache.clear();
-        let Some(log_jac) = self.map_theta(v, report) else {
-            return Some((f64::NEG_INFINITY, f64::NEG_INFINITY));
-        };
-        let part = self.theta_part(report, log_jac)?;
-        part.write(report, cache);
-        self.finish(v, report, &part)
-            .map(|p| (p.log_target, p.log_likelihood))
-    }
-    fn evaluate_in_block(
-        &self,
-        v: &[f64],
-        report: &mut [f64],
-        cache: &[f64],
-    ) -> Option<(f64, f64)> {
-        let Some((part, x)) = ThetaPart::read(cache, report.len()) else {
-            return self.evaluate(v, report);
-        };
-        report.copy_from_slice(x);
-        self.finish(v, report, &part)
             .map(|p| (p.log_target, p.log_likelihood))
     }
 }
@@ -682,71 +546,6 @@ fn ghk_step(lo: f64, hi: f64, q: f64) -> Option<(f64, f64)> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// A step of the cheap block evaluated from the cache is the full evaluation, bit for bit,
-    /// on the bundled trial, at the centre and at random points.
-    #[test]
-    fn the_cheap_block_from_the_cache_is_the_full_evaluation() {
-        use crate::session_identify::{corrected_problem, noise_models, trial_models};
-        use crate::{McmcIdentifySettings, NoiseKind, NoiseSpec, SessionTrialLikelihood};
-        use rand::{Rng, SeedableRng};
-        let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/seed");
-        let trial = experiment::read_trial(format!("{root}/trial.csv")).unwrap();
-        let unloaded = experiment::read_unloaded(format!("{root}/unloaded.csv")).unwrap();
-        let inputs = experiment::model_inputs(&trial, &Default::default()).unwrap();
-        let problem = muscle_model::Problem::standard(inputs, trial.torque_nm.clone()).unwrap();
-        let noise = NoiseSpec::from_unloaded(&trial, &unloaded, NoiseKind::Ar1White).unwrap();
-        let trials = [SessionTrialLikelihood {
-            problem: &problem,
-            noise: &noise,
-        }];
-        let corrected = vec![corrected_problem(&trials[0]).unwrap()];
-        let (noise_params, _, _) =
-            noise_models(&trials, &corrected, &McmcIdentifySettings::default()).unwrap();
-        let models = trial_models(&trials, &corrected, &noise_params).unwrap();
-        let centre: Vec<f64> = problem
-            .bounds()
-            .iter()
-            .map(|(lo, hi)| lo + 0.55 * (hi - lo))
-            .collect();
-        let (laplace, _) = Conditional::new(&models, &centre, 20.0);
-        let target = Conditional::with_chol_probit(&models, &centre, laplace.chol_nl(), 20.0);
-        let d = target.dim();
-        let cheap = target.cheap_block().to_vec();
-        assert_eq!(cheap.len(), 3);
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-        let (mut full, mut from_cache) = (vec![0.0; d], vec![0.0; d]);
-        let mut cache = Vec::new();
-        for k in 0..6 {
-            let v: Vec<f64> = (0..d)
-                .map(|_| {
-                    if k == 0 {
-                        0.0
-                    } else {
-                        rng.random::<f64>() * 2.0 - 1.0
-                    }
-                })
-                .collect();
-            let at_v = target.evaluate_cached(&v, &mut full, &mut cache).unwrap();
-            assert!(at_v.0.is_finite());
-            let mut w = v.clone();
-            for &i in &cheap {
-                w[i] = 3.0 * rng.random::<f64>() - 1.5;
-            }
-            let expected = target.evaluate(&w, &mut full).unwrap();
-            let got = target
-                .evaluate_in_block(&w, &mut from_cache, &cache)
-                .unwrap();
-            assert_eq!(got.0.to_bits(), expected.0.to_bits(), "log π at point {k}");
-            assert_eq!(got.1.to_bits(), expected.1.to_bits(), "ℓ at point {k}");
-            assert_eq!(from_cache, full, "parameters at point {k}");
-        }
-        // An empty cache (a point outside the box) falls back to the full evaluation.
-        let v = vec![0.0; d];
-        let expected = target.evaluate(&v, &mut full).unwrap();
-        let got = target.evaluate_in_block(&v, &mut from_cache, &[]).unwrap();
-        assert_eq!(got.0.to_bits(), expected.0.to_bits());
-    }
 
     #[test]
     fn upper_tail_series_joins_erfc() {

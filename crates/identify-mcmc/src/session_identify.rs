@@ -256,7 +256,7 @@ where
 
     // Sampling coordinates: F0 on its exact conditional, the rest whitened by the best mode's
     // Laplace factor; the mixture of all modes proposes the jumps.
-    let target = Conditional::with_chol_probit(&models, &best.x, &best.chol_nl, k);
+    let target = Conditional::with_chol_logit(&models, &best.x, &best.chol_nl, k);
     let (mixture, mode_info) = mode_mixture(&target, &modes, settings)?;
 
     let inits = dispersed_starts(

@@ -36,37 +36,6 @@ pub trait LogDensity: Sync {
         report.copy_from_slice(x);
         self.log_density(x).map(|v| (v, v))
     }
-    /// Coordinates whose conditional, given the others, the target can evaluate without a
-    /// model evaluation ([`LogDensity::evaluate_in_block`]). After every step the random walk
-    /// redraws them together from a standard normal as an independence proposal and moves
-    /// the others only, so they should be close to standard normal and independent of the
-    /// rest a priori (as F0's coordinates of the sampling coordinates are). Default: none.
-    fn cheap_block(&self) -> &[usize] {
-        &[]
-    }
-    /// [`LogDensity::evaluate`], also writing into `cache` what
-    /// [`LogDensity::evaluate_in_block`] needs to evaluate points that differ from `x` only
-    /// in the cheap block. Default: `evaluate` (and nothing cached).
-    fn evaluate_cached(
-        &self,
-        x: &[f64],
-        report: &mut [f64],
-        cache: &mut Vec<f64>,
-    ) -> Option<(f64, f64)> {
-        let _ = cache;
-        self.evaluate(x, report)
-    }
-    /// [`LogDensity::evaluate`] at `x`, which differs only in the cheap block from the point
-    /// at which `cache` was written by [`LogDensity::evaluate_cached`]. Default: `evaluate`.
-    fn evaluate_in_block(
-        &self,
-        x: &[f64],
-        report: &mut [f64],
-        cache: &[f64],
-    ) -> Option<(f64, f64)> {
-        let _ = cache;
-        self.evaluate(x, report)
-    }
 }
 
 impl<T: LogDensity + ?Sized> LogDensity for &T {
@@ -84,25 +53,6 @@ impl<T: LogDensity + ?Sized> LogDensity for &T {
     }
     fn evaluate(&self, x: &[f64], report: &mut [f64]) -> Option<(f64, f64)> {
         (**self).evaluate(x, report)
-    }
-    fn cheap_block(&self) -> &[usize] {
-        (**self).cheap_block()
-    }
-    fn evaluate_cached(
-        &self,
-        x: &[f64],
-        report: &mut [f64],
-        cache: &mut Vec<f64>,
-    ) -> Option<(f64, f64)> {
-        (**self).evaluate_cached(x, report, cache)
-    }
-    fn evaluate_in_block(
-        &self,
-        x: &[f64],
-        report: &mut [f64],
-        cache: &[f64],
-    ) -> Option<(f64, f64)> {
-        (**self).evaluate_in_block(x, report, cache)
     }
 }
 

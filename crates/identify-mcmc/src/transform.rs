@@ -1,5 +1,5 @@
 //! The logistic map from unconstrained coordinates onto a box, its log-Jacobian and the chain
-//! rule for gradients (NUTS), and the probit map of the random walk's coordinates.
+//! rule for gradients.
 //!
 //! For a bound `(lo, hi)` and `u ∈ ℝ`:
 //!
@@ -13,8 +13,6 @@
 //!
 //! A density `π(x)` on the box becomes `p(u) = π(x(u))·Π J_i(u_i)` on `ℝᵈ`, and
 //! `∂ log p/∂u_i = ∂ log π/∂x_i · dx_i/du_i + 1 − 2σ(u_i)`.
-
-use numerics::special::{normal_cdf, normal_quantile};
 
 /// The logistic transform of every coordinate of a box onto `ℝᵈ`: `x = lo + (hi − lo)·σ(u)`,
 /// `log J(u) = Σ log(hiᵢ − loᵢ) + log σ(uᵢ) + log(1 − σ(uᵢ))`, and the chain rule that turns
@@ -52,39 +50,6 @@ pub(crate) fn logistic_map(lo: f64, w: f64, u: f64) -> f64 {
 /// `log(dx/du) = log w + log σ(u) + log(1 − σ(u)) = log w − softplus(−u) − softplus(u)`.
 pub(crate) fn logistic_log_jacobian(w: f64, u: f64) -> f64 {
     w.ln() - softplus(-u) - softplus(u)
-}
-
-/// The scale `s = 4/√(2π)` of the probit map: its slope at the middle of the box,
-/// `w·ϕ(0)/s = w/4`, is the logistic map's.
-pub(crate) const PROBIT_SCALE: f64 = 1.595_769_121_605_730_7;
-
-/// The probit map `x = lo + w·Φ(u/s)` of `u ∈ ℝ` onto `(lo, lo + w)` and its log-Jacobian
-/// `log(dx/du) = log w − ½(u/s)² − ½ log 2π − log s`. Its tails are Gaussian where the logistic
-/// map's are exponential: a posterior that is flat up to a bound, which the logistic map
-/// spreads over an exponential tail several units long, stays within two or three units of
-/// the middle. The upper half is computed from the upper bound (`hi − w·Φ(−u/s)`), so that
-/// points near either bound keep their precision.
-pub(crate) fn probit_map(lo: f64, w: f64, u: f64) -> (f64, f64) {
-    let t = u / PROBIT_SCALE;
-    let x = if t <= 0.0 {
-        lo + w * normal_cdf(t)
-    } else {
-        lo + w - w * normal_cdf(-t)
-    };
-    let log_jacobian =
-        w.ln() - 0.5 * t * t - 0.5 * (2.0 * std::f64::consts::PI).ln() - PROBIT_SCALE.ln();
-    (x, log_jacobian)
-}
-
-/// The inverse of [`probit_map`] for the fraction `f = (x − lo)/w ∈ (0, 1)`: `u = s·Φ⁻¹(f)`.
-pub(crate) fn probit_coordinate(f: f64) -> f64 {
-    PROBIT_SCALE * normal_quantile(f)
-}
-
-/// `dx/du / w` of [`probit_map`] at the fraction `f`: `ϕ(Φ⁻¹(f))/s`.
-pub(crate) fn probit_slope(f: f64) -> f64 {
-    let q = normal_quantile(f);
-    (-0.5 * q * q).exp() / ((2.0 * std::f64::consts::PI).sqrt() * PROBIT_SCALE)
 }
 
 impl LogisticBox {
@@ -144,33 +109,6 @@ mod tests {
 
     fn bounds() -> Vec<(f64, f64)> {
         vec![(-3.0, 5.0), (0.0, 1.0), (1e-3, 2e-3)]
-    }
-
-    #[test]
-    fn the_probit_map_inverts_and_its_jacobian_matches_differences() {
-        let (lo, w) = (0.361, 0.038);
-        for &u in &[-9.0, -2.5, -0.3, 0.0, 0.7, 3.1, 9.0] {
-            let (x, lj) = probit_map(lo, w, u);
-            assert!(x > lo && x < lo + w, "{u}: {x}");
-            let f = (x - lo) / w;
-            assert!(
-                (probit_coordinate(f) - u).abs() < 1e-7 * (1.0 + u.abs()),
-                "{u}"
-            );
-            assert!(((w * probit_slope(f)).ln() - lj).abs() < 1e-6, "{u}");
-            // Far out, x − lo is too small for a difference of x to resolve the slope.
-            if u.abs() < 4.0 {
-                let h = 1e-6;
-                let slope = (probit_map(lo, w, u + h).0 - probit_map(lo, w, u - h).0) / (2.0 * h);
-                assert!(
-                    (slope.ln() - lj).abs() < 1e-5,
-                    "{u}: {} vs {lj}",
-                    slope.ln()
-                );
-            }
-        }
-        // The slope in the middle is the logistic map's, w/4.
-        assert!((probit_map(lo, w, 0.0).1 - (w / 4.0).ln()).abs() < 1e-15);
     }
 
     #[test]

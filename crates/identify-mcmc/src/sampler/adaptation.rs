@@ -18,24 +18,19 @@ pub(super) struct Adaptation {
     win_mean: Vec<f64>,
     win_m2: Vec<f64>,
     cov: Vec<f64>,
-    /// Coordinates the random walk leaves to the cheap-block steps: their rows and columns of
-    /// the factor are zero, and the scale is that of the walk's own dimension.
-    cheap: Vec<usize>,
 }
 
 impl Adaptation {
-    pub(super) fn new(widths: &[f64], cheap: &[usize]) -> Self {
+    pub(super) fn new(widths: &[f64]) -> Self {
         let d = widths.len();
         let mut chol = vec![0.0; d * d];
         for (i, w) in widths.iter().enumerate() {
-            if !cheap.contains(&i) {
-                chol[i * d + i] = 0.1 * w;
-            }
+            chol[i * d + i] = 0.1 * w;
         }
         let base = (10 * d).max(100);
         Self {
             chol,
-            log_lambda: default_log_lambda(d - cheap.len()),
+            log_lambda: default_log_lambda(d),
             rm_count: 0.0,
             window_len: base,
             window_max: base << 7,
@@ -44,7 +39,6 @@ impl Adaptation {
             win_mean: vec![0.0; d],
             win_m2: vec![0.0; d * d],
             cov: vec![0.0; d * d],
-            cheap: cheap.to_vec(),
         }
     }
 
@@ -92,20 +86,12 @@ impl Adaptation {
                     if i == j {
                         c += ((1.0 - shrink) * 1e-6 + 1e-12) * w * w;
                     }
-                    // The walk's covariance is the marginal of its own coordinates: a
-                    // cheap coordinate is a unit of its own, factored apart and then zeroed.
-                    if self.cheap.contains(&i) || self.cheap.contains(&j) {
-                        c = if i == j { 1.0 } else { 0.0 };
-                    }
                     self.cov[i * d + j] = c;
                 }
             }
             if cholesky_in_place(&mut self.cov, d).is_ok() {
-                for &i in &self.cheap {
-                    self.cov[i * d + i] = 0.0;
-                }
                 self.chol.copy_from_slice(&self.cov);
-                self.log_lambda = default_log_lambda(d - self.cheap.len());
+                self.log_lambda = default_log_lambda(d);
             }
         }
         self.rm_count = 0.0;

@@ -40,9 +40,6 @@ pub(super) struct Context<'a> {
     pub(super) widths: Vec<f64>,
     pub(super) settings: &'a McmcSettings,
     pub(super) mixture: Option<MixtureProposal>,
-    /// The target's cheap block ([`LogDensity::cheap_block`]) when the proposal is the
-    /// adaptive random walk; empty otherwise.
-    pub(super) cheap: Vec<usize>,
 }
 
 #[derive(Default, Clone, Copy)]
@@ -72,9 +69,6 @@ pub(super) struct Chain {
     rx: Vec<f64>,
     ry: Vec<f64>,
     stored: f64,
-    /// What the target cached at the current state / the proposal (cheap-block steps).
-    cache_x: Vec<f64>,
-    cache_y: Vec<f64>,
     /// Largest `|x_i|` (sampler coordinates) over the sampling phase's states.
     pub(super) max_abs: f64,
     adapt: Adaptation,
@@ -109,7 +103,6 @@ impl Chain {
         let mut evaluations = 0u64;
         let mut failed = 0u64;
         let mut rx = vec![0.0; d];
-        let mut cache_x = Vec::new();
         let (x, (lp, stored)) = match init {
             Some(x0) => {
                 if x0.len() != d {
@@ -129,7 +122,7 @@ impl Chain {
                     }
                 }
                 evaluations += 1;
-                match target.evaluate_cached(x0, &mut rx, &mut cache_x) {
+                match target.evaluate(x0, &mut rx) {
                     Some(v) if v.0.is_finite() => (x0.to_vec(), v),
                     _ => return Err(McmcError::InitNotFinite { chain }),
                 }
@@ -142,7 +135,7 @@ impl Chain {
                         *xi = lo + w * rng.random::<f64>();
                     }
                     evaluations += 1;
-                    match target.evaluate_cached(&x, &mut rx, &mut cache_x) {
+                    match target.evaluate(&x, &mut rx) {
                         Some(v) if v.0.is_finite() => {
                             found = Some(v);
                             break;
@@ -170,10 +163,8 @@ impl Chain {
             rx,
             ry: vec![0.0; d],
             stored,
-            cache_x,
-            cache_y: Vec::new(),
             max_abs: 0.0,
-            adapt: Adaptation::new(&ctx.widths, &ctx.cheap),
+            adapt: Adaptation::new(&ctx.widths),
             warm: vec![Vec::new(); d],
             warm_x: Vec::new(),
             samp: vec![Vec::new(); d],
@@ -205,43 +196,7 @@ impl Chain {
             self.random_walk(ctx);
         }
         let (alpha, accepted) = self.accept(target, ctx, log_q_ratio);
-        if !ctx.cheap.is_empty() {
-            self.refresh_cheap_block(target, ctx);
-        }
         (alpha, accepted, jump)
-    }
-
-    /// An independence step on the cheap block: its coordinates redrawn from a standard
-    /// normal `q`, accepted with `π(y)q(x)/(π(x)q(y))`, evaluated from the current state's
-    /// cache (no model evaluation). When the block is standard normal and independent of the
-    /// rest, as F0's coordinates are where the box does not cut their conditional, every
-    /// such step is accepted and the block is drawn exactly at each iteration.
-    fn refresh_cheap_block<T: LogDensity + ?Sized>(&mut self, target: &T, ctx: &Context<'_>) {
-        self.y.copy_from_slice(&self.x);
-        let mut log_q_ratio = 0.0;
-        let mut inside = true;
-        for &i in &ctx.cheap {
-            let u: f64 = self.rng.sample(StandardNormal);
-            log_q_ratio += 0.5 * (u * u - self.x[i] * self.x[i]);
-            self.y[i] = u;
-            inside &= u >= ctx.lower[i] && u <= ctx.upper[i];
-        }
-        // Drawn before the evaluation so that every step uses the same number of draws.
-        let level: f64 = self.rng.random();
-        if !inside {
-            return;
-        }
-        let Some((v, stored)) = target.evaluate_in_block(&self.y, &mut self.ry, &self.cache_x)
-        else {
-            return;
-        };
-        let log_ratio = v - self.lp + log_q_ratio;
-        if log_ratio >= 0.0 || level < log_ratio.exp() {
-            std::mem::swap(&mut self.x, &mut self.y);
-            std::mem::swap(&mut self.rx, &mut self.ry);
-            self.lp = v;
-            self.stored = stored;
-        }
     }
 
     /// Write the random-walk proposal into `y`.
@@ -264,10 +219,6 @@ impl Chain {
                     let lz: f64 = row.iter().zip(&self.z).map(|(l, z)| l * z).sum();
                     self.y[i] = self.x[i] + s * lz;
                 }
-                // The cheap block moves by its own steps (the factor's rows there are zero).
-                for &i in &ctx.cheap {
-                    self.y[i] = self.x[i];
-                }
             }
         }
     }
@@ -289,7 +240,7 @@ impl Chain {
             return (0.0, false);
         }
         self.evaluations += 1;
-        match target.evaluate_cached(&self.y, &mut self.ry, &mut self.cache_y) {
+        match target.evaluate(&self.y, &mut self.ry) {
             Some((v, stored)) if v.is_finite() => {
                 let log_ratio = v - self.lp + log_q_ratio;
                 let alpha = if log_ratio.is_nan() {
@@ -303,7 +254,6 @@ impl Chain {
                 if u < alpha {
                     std::mem::swap(&mut self.x, &mut self.y);
                     std::mem::swap(&mut self.rx, &mut self.ry);
-                    std::mem::swap(&mut self.cache_x, &mut self.cache_y);
                     self.lp = v;
                     self.stored = stored;
                     (alpha, true)

@@ -12,7 +12,7 @@ use crate::mixture::MixtureProposal;
 use crate::summary::{
     correlation_matrix, strongest_correlations, summaries, CorrelationPair, Summary,
 };
-use crate::{LogDensity, McmcError, McmcSettings, Proposal};
+use crate::{LogDensity, McmcError, McmcSettings};
 
 mod adaptation;
 mod chain;
@@ -206,10 +206,6 @@ where
         widths: bounds.iter().map(|b| b.1 - b.0).collect(),
         settings,
         mixture: mixture.cloned(),
-        cheap: match settings.proposal {
-            Proposal::Adaptive => target.cheap_block().to_vec(),
-            Proposal::Dissertation { .. } => Vec::new(),
-        },
     };
     let built: Vec<Result<Chain, McmcError>> = (0..settings.n_chains)
         .into_par_iter()
