@@ -156,14 +156,22 @@ impl Context {
     }
 
     /// The whitened residual of `problem` under `plan` as a closure of `x` (`None`: the
-    /// simulation failed): [`ModelResiduals`] evaluated with a workspace of its own.
+    /// simulation failed): [`ModelResiduals`] evaluated with the thread's workspace, whose
+    /// cache keeps the simulation of every muscle a step did not move (a fresh workspace per
+    /// call would integrate all three at every difference step).
     pub(crate) fn residual_fn<'a>(
         &'a self,
         problem: &'a Problem,
         plan: &'a WhitenPlan,
     ) -> impl Fn(&[f64]) -> Option<Vec<f64>> + Sync + 'a {
         let r = self.model_residuals(problem, plan);
-        move |x: &[f64]| evaluate(&r, x)
+        move |x: &[f64]| {
+            RESIDUAL_SCRATCH.with(|ws| {
+                let mut out = Vec::new();
+                r.residuals(x, &mut ws.borrow_mut(), &mut out)
+                    .then_some(out)
+            })
+        }
     }
 
     /// The whitened residual of `problem` under `plan` with its exact Jacobian where the model
@@ -488,6 +496,11 @@ pub(crate) struct ModelResiduals<'a, L> {
     y: &'a [f64],
     map: L,
     exact: bool,
+}
+
+thread_local! {
+    /// The workspace of [`Context::residual_fn`]'s evaluations on this thread.
+    static RESIDUAL_SCRATCH: std::cell::RefCell<ModelScratch> = std::cell::RefCell::default();
 }
 
 /// A thread's scratch for [`ModelResiduals`]: the simulation's workspace, the torque error
